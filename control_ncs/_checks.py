@@ -1,0 +1,79 @@
+"""Argument checks done once, at the public boundary (STYLE: scipy)."""
+
+from __future__ import annotations
+
+from typing import Any, Iterable
+
+import numpy as np
+from control.exception import ControlArgument, ControlDimension
+
+__all__: list[str] = []
+
+
+def real_array(value: Any, name: str, ndim: int | Iterable[int] | None = None
+               ) -> np.ndarray:
+    """``value`` as a finite float array, with a message naming ``name``."""
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a real numeric array, "
+                         f"got {type(value).__name__}") from None
+    if ndim is not None:
+        allowed = (ndim,) if isinstance(ndim, int) else tuple(ndim)
+        if arr.ndim not in allowed:
+            raise ControlDimension(f"{name}: expected an array with "
+                                   f"{' or '.join(map(str, allowed))} dimensions, "
+                                   f"got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: entries must be finite (no nan or inf)")
+    return arr
+
+
+def matrix(value: Any, name: str, shape: tuple[int | None, int | None]
+           ) -> np.ndarray:
+    """A 2-D finite matrix whose shape matches ``shape`` (None = any)."""
+    arr = real_array(value, name)
+    if arr.ndim == 0 and shape == (1, 1):
+        arr = arr.reshape(1, 1)
+    if arr.ndim != 2:
+        raise ControlDimension(f"{name}: expected a matrix, got shape {arr.shape}")
+    for got, want, what in zip(arr.shape, shape, ("rows", "columns")):
+        if want is not None and got != want:
+            raise ControlDimension(f"{name}: expected {want} {what}, got shape "
+                                   f"{arr.shape}")
+    return arr
+
+
+def discrete_dt(dt: Any, name: str = "dt") -> float | bool:
+    """A discrete-time sampling period: True (unspecified) or a number > 0."""
+    if dt is True:
+        return True
+    if dt is None or dt is False or dt == 0:
+        raise ValueError(
+            f"{name}: control_ncs works in discrete time; got a continuous-time "
+            f"system (dt={dt!r}). Discretize first, e.g. "
+            f"control.sample_system(sys, Ts)")
+    try:
+        value = float(dt)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected True or a sampling period > 0, "
+                         f"got {dt!r}") from None
+    if not np.isfinite(value) or value <= 0:
+        raise ValueError(f"{name}: expected True or a sampling period > 0, "
+                         f"got {dt!r}")
+    return value
+
+
+def no_extra_kwargs(func: str, kwargs: dict) -> None:
+    """python-control's convention: unknown keywords raise TypeError."""
+    if kwargs:
+        raise TypeError(f"{func}() got unexpected keyword argument(s): "
+                        f"{', '.join(sorted(kwargs))}")
+
+
+def choice(value: Any, name: str, allowed: Iterable[str]) -> str:
+    """One of a few named options, else ControlArgument naming them."""
+    allowed = tuple(allowed)
+    if value not in allowed:
+        raise ControlArgument(f"{name}: expected one of {allowed}, got {value!r}")
+    return value

@@ -1,0 +1,84 @@
+"""A periodic state-feedback gain and the controller it belongs to."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ._checks import choice, real_array
+
+__all__ = ["PeriodicGain", "CONTROLLERS", "ACTUATORS"]
+
+#: Controller kinds: the paper's memoryless gain on the received measurement,
+#: and the model-based predictor of MATH §8b.
+CONTROLLERS = ("static", "predictor")
+#: Actuator strategies on a lost or unaddressed message: apply zero, or hold.
+ACTUATORS = ("zero", "hold")
+
+
+class PeriodicGain:
+    """Per-phase gains ``K_k`` of a networked controller.
+
+    Parameters
+    ----------
+    gains : array_like, shape (N, m2, nk) or (m2, nk)
+        ``K_k`` for ``k = 0..N-1``. What ``K_k`` multiplies depends on the
+        controller: the received measurement ``ŷ`` (``'static'``), the
+        estimate ``x̂`` (``'predictor'``), with the last applied input
+        appended (``[ŷ; u⁻]`` or ``[x̂; u⁻]``) for the ``'predictor'`` with a
+        ``'hold'`` actuator.
+    controller : {'static', 'predictor'}
+    actuator : {'zero', 'hold'}
+    result : object, optional
+        The synthesis result that produced the gain (certificate and
+        verification figures), if any.
+
+    Attributes
+    ----------
+    gains : ndarray, shape (N, m2, nk)
+    period : int
+
+    Notes
+    -----
+    ``numpy.asarray(K)`` is the ``(m2, nk)`` matrix when ``N = 1`` (as
+    :func:`control.lqr` returns) and the ``(N, m2, nk)`` stack otherwise.
+    """
+
+    def __init__(self, gains: Any, controller: str = "static",
+                 actuator: str = "zero", result: Any = None):
+        K = real_array(gains, "gains", ndim=(2, 3))
+        self.gains = K[None] if K.ndim == 2 else K
+        self.gains.flags.writeable = False
+        self.controller = choice(controller, "controller", CONTROLLERS)
+        self.actuator = choice(actuator, "actuator", ACTUATORS)
+        self.result = result
+
+    @property
+    def period(self) -> int:
+        return self.gains.shape[0]
+
+    def __getitem__(self, k: int) -> np.ndarray:
+        """``K_k`` for any time ``k`` (taken mod N)."""
+        return self.gains[k % self.period]
+
+    def __array__(self, dtype=None, copy=None):
+        out = self.gains[0] if self.period == 1 else self.gains
+        return np.array(out, dtype=dtype)
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, PeriodicGain)
+                and np.array_equal(self.gains, other.gains)
+                and self.controller == other.controller
+                and self.actuator == other.actuator)
+
+    __hash__ = None
+
+    def __reduce__(self):
+        return (PeriodicGain, (np.array(self.gains), self.controller,
+                               self.actuator, self.result))
+
+    def __repr__(self) -> str:
+        g = np.array2string(np.asarray(self), precision=4)
+        return (f"PeriodicGain(controller={self.controller!r}, "
+                f"actuator={self.actuator!r}, period={self.period},\n{g})")

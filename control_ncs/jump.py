@@ -1,0 +1,581 @@
+"""The generic periodic jump linear system (MATH §10), written once.
+
+Two objects share one shape, indexed by phase ``k = 0..N-1`` and mode ``i``
+(probability ``p[k, i]``, modes i.i.d. from step to step):
+
+* :class:`JumpPlant` -- the system before the gain is chosen::
+
+      ξ⁺ = (A_ki + Bu_ki K_k E_k) ξ + Bw_ki w
+      z  = (Cz_ki + Du_ki K_k E_k) ξ + Dw_ki w
+
+  Network strategies (``strategies.py``) build it, synthesis consumes it.
+
+* :class:`JumpStateSpace` -- the closed loop ``ξ⁺ = A_ki ξ + B_ki w``,
+  ``z = C_ki ξ + D_ki w``. It *is* a :class:`control.StateSpace`: its own
+  ``A, B, C, D`` are the exact mean (first-moment) system of MATH §7, lifted
+  over one period when ``N > 1``. Analysis and simulation consume it.
+
+Markov-driven modes (Gilbert–Elliott losses) would add a transition array of
+shape ``(N, M, M)`` beside ``probabilities``; i.i.d. modes are the case where
+every row of it equals the next phase's ``probabilities``. Everything that
+reads modes goes through :class:`Modes`, so that addition stays local.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+import control as ct
+from control.exception import ControlDimension
+
+from ._checks import discrete_dt, no_extra_kwargs, real_array
+
+__all__ = ["Modes", "JumpStateSpace", "JumpPlant", "jss", "lift"]
+
+_PROB_TOL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class Modes:
+    """Per-phase, per-mode matrices of a closed-loop jump system.
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray, shapes (N, M, n, n), (N, M, n, m), (N, M, p, n), (N, M, p, m)
+        ``ξ⁺ = A[k, i] ξ + B[k, i] w``, ``z = C[k, i] ξ + D[k, i] w`` in mode
+        ``i`` at phase ``k``.
+    probabilities : ndarray, shape (N, M)
+        ``P(mode i at phase k)``; rows sum to one. Modes are i.i.d. in time.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    probabilities: np.ndarray
+
+    @property
+    def period(self) -> int:
+        return self.probabilities.shape[0]
+
+    @property
+    def count(self) -> int:
+        return self.probabilities.shape[1]
+
+    def mean(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per-phase mean matrices ``Σ_i p_ki M_ki``, each shape (N, ., .)."""
+        p = self.probabilities
+        return tuple(np.einsum("km,kmij->kij", p, M)
+                     for M in (self.A, self.B, self.C, self.D))
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Modes) and all(
+            np.array_equal(getattr(self, f), getattr(other, f))
+            for f in ("A", "B", "C", "D", "probabilities"))
+
+    __hash__ = None  # mutable numpy content
+
+
+def _phase_mode_array(value: Any, name: str, N: int, M: int, shape: tuple
+                      ) -> np.ndarray:
+    """Broadcast a matrix, a per-mode stack or a per-phase-per-mode stack."""
+    arr = real_array(value, name, ndim=(0, 1, 2, 3, 4))
+    if arr.ndim < 2:
+        arr = arr.reshape(1, 1) if arr.size == 1 else arr
+    if arr.ndim < 2:
+        raise ControlDimension(f"{name}: expected a matrix of shape {shape}, "
+                               f"a stack (M, ...) or (N, M, ...), got {arr.shape}")
+    if arr.ndim == 3:
+        arr = arr[None]
+    try:
+        return np.array(np.broadcast_to(arr, (N, M) + shape))
+    except ValueError:
+        raise ControlDimension(
+            f"{name}: expected shape {shape} per mode, for N={N} phases and "
+            f"M={M} modes (a matrix, an (M, ...) or an (N, M, ...) stack), "
+            f"got {arr.shape}") from None
+
+
+def _probabilities(value: Any, name: str = "probabilities") -> np.ndarray:
+    p = real_array(value, name, ndim=(1, 2))
+    if p.ndim == 1:
+        p = p[None]
+    if np.any(p < 0) or np.any(p > 1):
+        raise ValueError(f"{name}: probabilities must lie in [0, 1]")
+    if not np.allclose(p.sum(axis=1), 1.0, atol=_PROB_TOL, rtol=0):
+        raise ValueError(f"{name}: the mode probabilities of each phase must "
+                         f"sum to 1, got sums {p.sum(axis=1).tolist()}")
+    return p
+
+
+def lift(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
+         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Lift an N-periodic linear system over one period.
+
+    Parameters
+    ----------
+    A, B, C, D : ndarray, shapes (N, n, n), (N, n, m), (N, p, n), (N, p, m)
+        ``x[t+1] = A[k] x[t] + B[k] w[t]``, ``z[t] = C[k] x[t] + D[k] w[t]``,
+        ``k = t mod N``.
+
+    Returns
+    -------
+    AL, BL, CL, DL : ndarray
+        The time-invariant system from ``x[jN]`` and the stacked inputs
+        ``[w[jN]; w[jN+1]; …; w[jN+N-1]]`` (time-major: all channels of
+        phase 0 first) to ``x[(j+1)N]`` and the stacked outputs
+        ``[z[jN]; …; z[jN+N-1]]``. Shapes (n, n), (n, N m), (N p, n),
+        (N p, N m); ``DL`` is block lower triangular.
+    """
+    N, n = A.shape[0], A.shape[1]
+    m, p = B.shape[2], C.shape[1]
+    # phi[j] = A[N-1] ... A[j]  (state transition from phase j to the period end)
+    BL = np.zeros((n, N * m))
+    CL = np.zeros((N * p, n))
+    DL = np.zeros((N * p, N * m))
+    phi = np.eye(n)
+    for j in range(N - 1, -1, -1):
+        BL[:, j * m:(j + 1) * m] = phi @ B[j]
+        phi = phi @ A[j]
+    AL = phi
+    forward = np.eye(n)  # A[k-1] ... A[0]
+    for k in range(N):
+        CL[k * p:(k + 1) * p] = C[k] @ forward
+        DL[k * p:(k + 1) * p, k * m:(k + 1) * m] = D[k]
+        to_k = C[k]  # C[k] A[k-1] ... A[j+1]
+        for j in range(k - 1, -1, -1):
+            DL[k * p:(k + 1) * p, j * m:(j + 1) * m] = to_k @ B[j]
+            to_k = to_k @ A[j]
+        forward = A[k] @ forward
+    return AL, BL, CL, DL
+
+
+def _lifted_names(names: Sequence[str], N: int) -> list[str]:
+    if N == 1:
+        return list(names)
+    return [f"{s}[{k}]" for k in range(N) for s in names]
+
+
+class JumpStateSpace(ct.StateSpace):
+    """Periodic jump linear system whose StateSpace face is its exact mean.
+
+    ``ξ[t+1] = A[k,i] ξ[t] + B[k,i] w[t]``, ``z[t] = C[k,i] ξ[t] + D[k,i] w[t]``
+    with ``k = t mod N`` and mode ``i`` drawn independently at every step
+    with probability ``probabilities[k, i]`` (MATH §10).
+
+    The :class:`control.StateSpace` matrices ``self.A, self.B, self.C,
+    self.D`` are the *mean system* of MATH §7: ``E ξ`` and ``E z`` obey them
+    exactly for deterministic inputs, because the mode at time ``t`` is
+    independent of ``ξ[t]``. For ``N = 1`` that system is
+    ``(Σ p_i A_i, Σ p_i B_i, Σ p_i C_i, Σ p_i D_i)``; for ``N > 1`` it is that
+    periodic system lifted over one period (:func:`lift`), with sampling time
+    ``N·dt``, inputs ``w[0], …, w[N-1]`` and outputs ``z[0], …, z[N-1]``
+    stacked time-major and named ``'w0[k]'``. Hence ``control.step_response``
+    and ``control.bode_plot`` of this object are exact statements about
+    ``E z``; products and interconnections return the plain mean
+    :class:`control.StateSpace` (exact for the mean when the other system is
+    deterministic, see MATH §7), not a jump system.
+
+    Build one with :func:`jss` or :func:`control_ncs.feedback`.
+
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        Per-mode matrices, shape ``(N, M, ., .)``; an ``(M, ., .)`` stack
+        means ``N = 1``; a single matrix is shared by all modes.
+    probabilities : array_like, shape (M,) or (N, M)
+        Mode probabilities per phase; each row sums to 1.
+    dt : True or float > 0
+        Sampling period of one step (discrete time only).
+    nominal : array_like of int, shape (N,), optional
+        Index of the loss-free mode at each phase, for :meth:`nominal`.
+    name, inputs, outputs, states : optional
+        As in :class:`control.StateSpace`; ``inputs``/``outputs`` name the
+        per-step signals ``w`` and ``z``, not the lifted ones.
+
+    Attributes
+    ----------
+    modes : Modes
+        The per-phase, per-mode matrices and probabilities.
+    period : int
+        ``N``.
+    jump_inputs, jump_outputs, jump_states : list of str
+        Names of ``w``, ``z`` and ``ξ`` at one step.
+    info : dict
+        What built the system (controller kind, actuator strategy, plant,
+        gains), for reference; analysis never reads it.
+    """
+
+    def __init__(self, A: Any, B: Any, C: Any, D: Any, probabilities: Any,
+                 dt: Any = True, *, nominal: Any = None, name: str | None = None,
+                 inputs: Any = None, outputs: Any = None, states: Any = None,
+                 info: dict | None = None, **kwargs: Any):
+        no_extra_kwargs("JumpStateSpace", kwargs)
+        p = _probabilities(probabilities)
+        N, M = p.shape
+        a = real_array(A, "A", ndim=(2, 3, 4))
+        n = a.shape[-1]
+        if a.shape[-2] != n:
+            raise ControlDimension(f"A: each mode matrix must be square, got "
+                                   f"shape {a.shape}")
+        A_ = _phase_mode_array(a, "A", N, M, (n, n))
+        b = real_array(B, "B", ndim=(2, 3, 4))
+        m = b.shape[-1]
+        B_ = _phase_mode_array(b, "B", N, M, (n, m))
+        c = real_array(C, "C", ndim=(2, 3, 4))
+        q = c.shape[-2]
+        C_ = _phase_mode_array(c, "C", N, M, (q, n))
+        D_ = _phase_mode_array(D, "D", N, M, (q, m))
+        self.modes = Modes(A_, B_, C_, D_, p)
+        self.dt_step = discrete_dt(dt)
+        self.nominal_mode = None if nominal is None else self._check_nominal(
+            nominal, N, M)
+        self.info = dict(info or {})
+        self.jump_inputs = _names(inputs, m, "w")
+        self.jump_outputs = _names(outputs, q, "z")
+        self.jump_states = _names(states, n, "x")
+
+        Abar, Bbar, Cbar, Dbar = self.modes.mean()
+        if N == 1:
+            mats = (Abar[0], Bbar[0], Cbar[0], Dbar[0])
+            lifted_dt = self.dt_step
+        else:
+            mats = lift(Abar, Bbar, Cbar, Dbar)
+            lifted_dt = True if self.dt_step is True else self.dt_step * N
+        super().__init__(*mats, lifted_dt, name=name,
+                         inputs=_lifted_names(self.jump_inputs, N),
+                         outputs=_lifted_names(self.jump_outputs, N),
+                         states=self.jump_states)
+
+    @staticmethod
+    def _check_nominal(nominal: Any, N: int, M: int) -> np.ndarray:
+        idx = np.atleast_1d(np.asarray(nominal))
+        if idx.shape != (N,) or not np.issubdtype(idx.dtype, np.integer) \
+                or idx.min() < 0 or idx.max() >= M:
+            raise ValueError(f"nominal: expected {N} mode indices in 0..{M - 1}, "
+                             f"got {nominal!r}")
+        return idx.astype(int)
+
+    # -- accessors -----------------------------------------------------------
+    @property
+    def period(self) -> int:
+        """Number of phases ``N``."""
+        return self.modes.period
+
+    @property
+    def nmodes(self) -> int:
+        """Number of modes ``M`` per phase."""
+        return self.modes.count
+
+    def mode(self, k: int, i: int) -> tuple[np.ndarray, ...]:
+        """Matrices ``(A, B, C, D)`` of mode ``i`` at phase ``k mod N``."""
+        k %= self.period
+        return tuple(M[k, i] for M in (self.modes.A, self.modes.B,
+                                       self.modes.C, self.modes.D))
+
+    def mean_phase(self, k: int) -> tuple[np.ndarray, ...]:
+        """Mean matrices ``(Σ p A, Σ p B, Σ p C, Σ p D)`` at phase ``k mod N``."""
+        return tuple(M[k % self.period] for M in self.modes.mean())
+
+    def mean(self) -> ct.StateSpace:
+        """The mean system as a plain :class:`control.StateSpace` (a copy)."""
+        return ct.StateSpace(self.A, self.B, self.C, self.D, self.dt,
+                             inputs=self.input_labels, outputs=self.output_labels,
+                             states=self.state_labels,
+                             name=f"{self.name}$mean")
+
+    def nominal(self) -> ct.StateSpace:
+        """The loss-free system (every message arrives), lifted if ``N > 1``.
+
+        Raises
+        ------
+        ValueError
+            If the system was built without knowing its loss-free mode.
+        """
+        if self.nominal_mode is None:
+            raise ValueError("nominal: this jump system does not know which "
+                             "mode is loss-free; pass nominal= to jss()")
+        k = np.arange(self.period)
+        mats = [M[k, self.nominal_mode] for M in (self.modes.A, self.modes.B,
+                                                 self.modes.C, self.modes.D)]
+        if self.period > 1:
+            mats = lift(*mats)
+        else:
+            mats = [M[0] for M in mats]
+        return ct.StateSpace(*mats, self.dt, inputs=self.input_labels,
+                             outputs=self.output_labels,
+                             name=f"{self.name}$nominal")
+
+    def merged(self) -> "JumpStateSpace":
+        """The same system with coinciding modes merged (probabilities added)."""
+        keys = (self.modes.A, self.modes.B, self.modes.C, self.modes.D)
+        groups, nominal = _merge_groups(keys, self.modes.probabilities,
+                                        self.nominal_mode)
+        return self._rebuild(groups, nominal)
+
+    def _rebuild(self, groups, nominal) -> "JumpStateSpace":
+        mats, p = _apply_groups((self.modes.A, self.modes.B, self.modes.C,
+                                 self.modes.D), self.modes.probabilities, groups)
+        return JumpStateSpace(*mats, p, self.dt_step, nominal=nominal,
+                              name=self.name, inputs=self.jump_inputs,
+                              outputs=self.jump_outputs, states=self.jump_states,
+                              info=self.info)
+
+    # -- python protocol -----------------------------------------------------
+    def __reduce__(self):
+        # control.StateSpace holds lambdas and cannot be pickled; rebuild
+        # from the defining data instead (this also serves copy/deepcopy).
+        m = self.modes
+        return (_restore_jss, (m.A, m.B, m.C, m.D, m.probabilities, self.dt_step,
+                               self.nominal_mode, self.name, self.jump_inputs,
+                               self.jump_outputs, self.jump_states, self.info))
+
+    def __eq__(self, other: object) -> bool:
+        return (type(other) is type(self) and self.modes == other.modes
+                and self.dt_step == other.dt_step
+                and self.jump_inputs == other.jump_inputs
+                and self.jump_outputs == other.jump_outputs
+                and np.array_equal(self.nominal_mode, other.nominal_mode)
+                if self.nominal_mode is not None or other.nominal_mode is not None
+                else type(other) is type(self) and self.modes == other.modes
+                and self.dt_step == other.dt_step
+                and self.jump_inputs == other.jump_inputs
+                and self.jump_outputs == other.jump_outputs)
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        n = self.modes.A.shape[-1]
+        return (f"<JumpStateSpace {self.name}: {n} states, "
+                f"{len(self.jump_inputs)} inputs, {len(self.jump_outputs)} outputs, "
+                f"period {self.period}, {self.nmodes} modes, dt={self.dt_step}>")
+
+    def __str__(self) -> str:
+        p = np.array2string(self.modes.probabilities, precision=4)
+        head = (f"JumpStateSpace: {self.name}\n"
+                f"Periodic jump linear system, period N = {self.period}, "
+                f"{self.nmodes} i.i.d. modes per step, dt = {self.dt_step}\n"
+                f"Mode probabilities (rows = phases):\n{p}\n")
+        kind = self.info.get("controller")
+        if kind:
+            head += (f"Closed loop of a networked plant: controller={kind!r}, "
+                     f"actuator={self.info.get('actuator')!r}\n")
+        what = ("Mean system (exact E z for deterministic w)" if self.period == 1
+                else f"Mean system lifted over one period (dt = N·dt)")
+        return head + what + ":\n" + ct.StateSpace.__str__(self.mean())
+
+
+def _restore_jss(A, B, C, D, p, dt, nominal, name, inputs, outputs, states,
+                 info):
+    return JumpStateSpace(A, B, C, D, p, dt, nominal=nominal, name=name,
+                          inputs=inputs, outputs=outputs, states=states,
+                          info=info)
+
+
+def _names(value: Any, count: int, prefix: str) -> list[str]:
+    if value is None:
+        return [f"{prefix}[{i}]" for i in range(count)]
+    if isinstance(value, str):
+        value = [value] if count == 1 else [f"{value}[{i}]" for i in range(count)]
+    names = [str(v) for v in value]
+    if len(names) != count:
+        raise ControlDimension(f"expected {count} signal names, got {len(names)}")
+    return names
+
+
+def _merge_groups(mats: Sequence[np.ndarray], p: np.ndarray,
+                  nominal: np.ndarray | None) -> tuple[list, np.ndarray | None]:
+    """Per phase, lists of mode indices whose matrices coincide exactly.
+
+    Modes of probability zero are dropped, except the loss-free one.
+    """
+    N, M = p.shape
+    groups, new_nominal = [], None if nominal is None else np.zeros(N, int)
+    for k in range(N):
+        phase = []
+        for i in range(M):
+            if p[k, i] == 0 and (nominal is None or nominal[k] != i):
+                continue
+            for g in phase:
+                j = g[0]
+                if all(np.array_equal(X[k, i], X[k, j]) for X in mats):
+                    g.append(i)
+                    break
+            else:
+                phase.append([i])
+        if not phase:  # all-zero row cannot happen for valid probabilities
+            phase = [[0]]
+        if nominal is not None:
+            new_nominal[k] = next(g for g, grp in enumerate(phase)
+                                  if nominal[k] in grp)
+        groups.append(phase)
+    return groups, new_nominal
+
+
+def _apply_groups(mats: Sequence[np.ndarray], p: np.ndarray, groups: list
+                  ) -> tuple[list[np.ndarray], np.ndarray]:
+    """Merged matrices and probabilities, padded with probability-0 copies."""
+    N = p.shape[0]
+    M = max(len(g) for g in groups)
+    out = [np.zeros((N, M) + X.shape[2:]) for X in mats]
+    prob = np.zeros((N, M))
+    for k, phase in enumerate(groups):
+        for slot in range(M):
+            grp = phase[slot] if slot < len(phase) else phase[0]
+            for X, Y in zip(mats, out):
+                Y[k, slot] = X[k, grp[0]]
+            prob[k, slot] = p[k, grp].sum() if slot < len(phase) else 0.0
+    return out, prob
+
+
+def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any, dt: Any = True,
+        **kwargs: Any) -> JumpStateSpace:
+    """Create a periodic jump linear system from per-mode matrices.
+
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        Per-mode matrices: a stack of shape ``(M, ., .)`` for ``N = 1``,
+        ``(N, M, ., .)`` for period ``N``; a single matrix is shared by all
+        modes.
+    probabilities : array_like, shape (M,) or (N, M)
+        Probability of each mode at each phase (i.i.d. in time).
+    dt : True or float > 0, optional
+        Sampling period (discrete time only; default True = unspecified).
+    **kwargs
+        ``nominal``, ``name``, ``inputs``, ``outputs``, ``states``; anything
+        else raises ``TypeError``.
+
+    Returns
+    -------
+    JumpStateSpace
+
+    Examples
+    --------
+    A scalar loop ``x⁺ = 2x + u`` with ``u = -2x`` applied with probability
+    0.8 (else ``u = 0``) has mean ``x⁺ = 0.4 x``:
+
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> float(sys.A[0, 0])
+    0.4
+    """
+    return JumpStateSpace(A, B, C, D, probabilities, dt, **kwargs)
+
+
+class JumpPlant:
+    """A periodic jump system before its gain is chosen (MATH §10).
+
+    ``ξ⁺ = (A + Bu K_k E_k) ξ + Bw w``, ``z = (Cz + Du K_k E_k) ξ + Dw w``, all
+    matrices per phase ``k`` and mode ``i``. ``E_k`` says what the controller
+    knows of ``ξ``: for synthesis it must be a coordinate selection (each row
+    a unit vector or zero). Network strategies build this object
+    (``strategies.py``); :func:`control_ncs.passivesyn` designs ``K``;
+    :meth:`close` applies it.
+
+    Attributes
+    ----------
+    A, Bu, Bw, Cz, Du, Dw : ndarray, shape (N, M, ., .)
+    E : ndarray, shape (N, nk, nx)
+    probabilities : ndarray, shape (N, M)
+    dt : True or float
+    nominal : ndarray of int, shape (N,), or None
+        The loss-free mode of each phase.
+    info : dict
+        Strategy description (controller, actuator, network), for reference.
+    """
+
+    _FIELDS = ("A", "Bu", "Bw", "Cz", "Du", "Dw")
+
+    def __init__(self, A, Bu, Bw, Cz, Du, Dw, E, probabilities, dt=True, *,
+                 nominal=None, inputs=None, outputs=None, states=None,
+                 info=None):
+        self.A, self.Bu, self.Bw = (np.asarray(X, float) for X in (A, Bu, Bw))
+        self.Cz, self.Du, self.Dw = (np.asarray(X, float) for X in (Cz, Du, Dw))
+        self.E = np.asarray(E, float)
+        self.probabilities = np.asarray(probabilities, float)
+        self.dt = dt
+        self.nominal = None if nominal is None else np.asarray(nominal, int)
+        self.inputs, self.outputs, self.states = inputs, outputs, states
+        self.info = dict(info or {})
+
+    @property
+    def period(self) -> int:
+        return self.probabilities.shape[0]
+
+    @property
+    def shape(self) -> dict:
+        """Sizes: ``nx`` (state), ``nw``, ``nz``, ``nu`` (control), ``nk``."""
+        return dict(nx=self.A.shape[-1], nw=self.Bw.shape[-1],
+                    nz=self.Cz.shape[-2], nu=self.Bu.shape[-1],
+                    nk=self.E.shape[1])
+
+    def gain_shape(self) -> tuple[int, int, int]:
+        """Shape ``(N, nu, nk)`` of a gain sequence for :meth:`close`."""
+        s = self.shape
+        return (self.period, s["nu"], s["nk"])
+
+    def close(self, gains: np.ndarray, **info: Any) -> JumpStateSpace:
+        """The closed loop with ``v = K_k E_k ξ`` as a :class:`JumpStateSpace`."""
+        K = np.asarray(gains, float)
+        F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
+        A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
+        C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
+        merged = dict(self.info, gains=K, **info)
+        sys = JumpStateSpace(A, self.Bw, C, self.Dw, self.probabilities, self.dt,
+                             nominal=self.nominal, inputs=self.inputs,
+                             outputs=self.outputs, states=self.states,
+                             info=merged)
+        return sys.merged()
+
+    def merged(self) -> "JumpPlant":
+        """The same plant with coinciding modes merged (MATH §8, merged form)."""
+        mats = [getattr(self, f) for f in self._FIELDS]
+        groups, nominal = _merge_groups(mats, self.probabilities, self.nominal)
+        new, p = _apply_groups(mats, self.probabilities, groups)
+        return JumpPlant(*new, self.E, p, self.dt, nominal=nominal,
+                         inputs=self.inputs, outputs=self.outputs,
+                         states=self.states, info=self.info)
+
+    def known_coordinates(self, k: int) -> np.ndarray:
+        """Coordinates of ``ξ`` the controller sees at phase ``k``."""
+        return np.flatnonzero(np.any(self.E[k % self.period] != 0, axis=0))
+
+    def active_inputs(self, k: int) -> np.ndarray:
+        """Control inputs that can act at phase ``k`` (others are never applied)."""
+        k %= self.period
+        used = np.any(self.Bu[k] != 0, axis=(0, 1)) | np.any(self.Du[k] != 0,
+                                                             axis=(0, 1))
+        return np.flatnonzero(used)
+
+    def is_selection(self) -> bool:
+        """True when every ``E_k`` is a 0/1 coordinate selection."""
+        E = self.E
+        binary = np.all((E == 0) | (E == 1))
+        return bool(binary and np.all(E.sum(axis=2) <= 1)
+                    and np.all(E.sum(axis=1) <= 1))
+
+    def __repr__(self) -> str:
+        s = self.shape
+        return (f"<JumpPlant: {s['nx']} states, {s['nw']} w, {s['nz']} z, "
+                f"{s['nu']} u, period {self.period}, "
+                f"{self.probabilities.shape[1]} modes, info={self.info}>")
+
+
+def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
+    """``sys`` as a :class:`JumpStateSpace`; a deterministic discrete-time
+    :class:`control.StateSpace` becomes a one-mode jump system."""
+    if isinstance(sys, JumpStateSpace):
+        return sys
+    if isinstance(sys, ct.StateSpace):
+        dt = discrete_dt(sys.dt, f"{name}.dt")
+        return JumpStateSpace(sys.A[None], sys.B[None], sys.C[None],
+                              sys.D[None], [1.0], dt, nominal=[0],
+                              inputs=list(sys.input_labels),
+                              outputs=list(sys.output_labels),
+                              states=list(sys.state_labels), name=sys.name)
+    from control.exception import ControlArgument
+    raise ControlArgument(f"{name}: expected a JumpStateSpace (see jss() or "
+                          f"control_ncs.feedback()) or a discrete-time "
+                          f"control.StateSpace, got {type(sys).__name__}")

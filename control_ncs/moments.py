@@ -1,0 +1,174 @@
+"""Exact first and second moments of a jump system (MATH §7), no sampling."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import control as ct
+from control.exception import ControlDimension
+
+from ._checks import matrix, no_extra_kwargs, real_array
+from .jump import as_jump
+
+__all__ = ["moments", "MomentsResponse", "time_grid", "input_signal"]
+
+
+def time_grid(sys, timepts: Any) -> np.ndarray:
+    """Validate ``timepts`` (an int count of steps, or equally spaced times
+    starting at 0 with spacing ``dt``) and return the times."""
+    dt = 1.0 if sys.dt_step is True else float(sys.dt_step)
+    if np.ndim(timepts) == 0:
+        steps = int(timepts)
+        if steps != timepts or steps < 1:
+            raise ValueError(f"timepts: expected a number of steps >= 1 or an "
+                             f"array of times, got {timepts!r}")
+        return np.arange(steps) * dt
+    t = real_array(timepts, "timepts", ndim=1)
+    if t.size < 1:
+        raise ValueError("timepts: needs at least one time")
+    if not np.allclose(t, t[0] + np.arange(t.size) * dt, rtol=0,
+                       atol=1e-9 * max(1.0, abs(t[-1]))):
+        raise ValueError(f"timepts: a discrete-time system needs equally spaced "
+                         f"times with spacing dt = {dt}")
+    return t
+
+
+def input_signal(inputs: Any, m: int, steps: int, name: str = "inputs"
+                 ) -> np.ndarray:
+    """``inputs`` as an ``(m, steps)`` array (None = zeros, scalars broadcast)."""
+    if inputs is None:
+        return np.zeros((m, steps))
+    u = real_array(inputs, name, ndim=(0, 1, 2))
+    if u.ndim == 1 and m == 1 and u.size == steps:
+        u = u[None]
+    try:
+        return np.array(np.broadcast_to(u if u.ndim != 1 else u[:, None],
+                                        (m, steps)))
+    except ValueError:
+        raise ControlDimension(f"{name}: expected shape ({m}, {steps}) "
+                               f"(signals × time points), got {u.shape}") from None
+
+
+@dataclass
+class MomentsResponse:
+    """Exact moments over time (all arrays have time as the last axis).
+
+    Attributes
+    ----------
+    time : ndarray, shape (T,)
+    states_mean : ndarray, shape (n, T)
+        ``E ξ_t``.
+    outputs_mean : ndarray, shape (p, T)
+        ``E z_t``.
+    states_cov, outputs_cov : ndarray, shapes (n, n, T), (p, p, T)
+        Covariances ``E[ξξᵀ] - E ξ E ξᵀ`` and likewise for ``z``.
+    states_second_moment : ndarray, shape (n, n, T)
+        ``E[ξ ξᵀ]``.
+    sys : JumpStateSpace
+    """
+
+    time: np.ndarray
+    states_mean: np.ndarray
+    outputs_mean: np.ndarray
+    states_cov: np.ndarray
+    outputs_cov: np.ndarray
+    states_second_moment: np.ndarray
+    sys: Any = None
+
+    @property
+    def outputs_std(self) -> np.ndarray:
+        """Standard deviation of each output, shape (p, T)."""
+        d = np.einsum("iit->it", self.outputs_cov)
+        return np.sqrt(np.maximum(d, 0.0))
+
+    def to_response(self) -> ct.TimeResponseData:
+        """The mean as a :class:`control.TimeResponseData` (plottable)."""
+        s = self.sys
+        return ct.TimeResponseData(
+            self.time, self.outputs_mean, self.states_mean, issiso=False,
+            output_labels=s.jump_outputs, state_labels=s.jump_states,
+            plot_inputs=False, sysname=s.name, title=f"Exact mean of {s.name}")
+
+
+def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = None,
+            *, noise_covariance: Any = None, initial_covariance: Any = None,
+            **kwargs: Any) -> MomentsResponse:
+    """Exact mean and covariance of the state and output of a jump system.
+
+    Propagates ``m⁺ = Σ p (A m + B w)`` and
+    ``Q⁺ = Σ p [A Q Aᵀ + A m wᵀBᵀ + B w mᵀAᵀ + B (w wᵀ + W) Bᵀ]`` (MATH §7,
+    written for the generic modes of §10), where ``w`` is deterministic and
+    ``W`` the covariance of an added white part.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time control.StateSpace
+    timepts : int or array_like
+        Number of steps, or times ``0, dt, 2dt, …``; phase ``t mod N`` applies
+        at step ``t``.
+    inputs : array_like, shape (m, T), optional
+        Deterministic part of ``w`` (default zero).
+    initial_state : array_like, shape (n,), optional
+        Mean of ``ξ_0`` (default zero).
+    noise_covariance : array_like, shape (m, m), optional
+        Covariance ``W`` of a zero-mean white part of ``w``.
+    initial_covariance : array_like, shape (n, n), optional
+        Covariance of ``ξ_0`` (default zero: known initial state).
+
+    Returns
+    -------
+    MomentsResponse
+
+    Examples
+    --------
+    >>> from control_ncs import jss
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = moments(sys, 3, initial_state=[1.0])
+    >>> r.states_mean.round(6).tolist(), r.states_second_moment[0, 0].round(6).tolist()
+    ([[1.0, 0.4, 0.16]], [1.0, 0.8, 0.64])
+    """
+    no_extra_kwargs("moments", kwargs)
+    sys = as_jump(sys)
+    A, B, C, D, p = (sys.modes.A, sys.modes.B, sys.modes.C, sys.modes.D,
+                     sys.modes.probabilities)
+    n, m, q = A.shape[-1], B.shape[-1], C.shape[-2]
+    t = time_grid(sys, timepts)
+    T = t.size
+    w = input_signal(inputs, m, T)
+    x0 = np.zeros(n) if initial_state is None else \
+        real_array(initial_state, "initial_state").reshape(-1)
+    if x0.size != n:
+        raise ControlDimension(f"initial_state: expected {n} entries, got {x0.size}")
+    W = np.zeros((m, m)) if noise_covariance is None else \
+        matrix(noise_covariance, "noise_covariance", (m, m))
+    P0 = np.zeros((n, n)) if initial_covariance is None else \
+        matrix(initial_covariance, "initial_covariance", (n, n))
+    mean_x, mean_z = np.zeros((n, T)), np.zeros((q, T))
+    Sx, Sz = np.zeros((n, n, T)), np.zeros((q, q, T))
+    mk, Qk = x0.copy(), P0 + np.outer(x0, x0)
+    for j in range(T):
+        k = j % sys.period
+        pk = p[k]
+        wk = w[:, j]
+        W2 = np.outer(wk, wk) + W
+        mean_x[:, j], Sx[:, :, j] = mk, Qk
+        mean_z[:, j] = np.einsum("i,iab,b->a", pk, C[k], mk) + \
+            np.einsum("i,iab,b->a", pk, D[k], wk)
+        Sz[:, :, j] = _second_moment_step(pk, C[k], D[k], Qk, mk, wk, W2)
+        mk, Qk = (np.einsum("i,iab,b->a", pk, A[k], mk)
+                  + np.einsum("i,iab,b->a", pk, B[k], wk),
+                  _second_moment_step(pk, A[k], B[k], Qk, mk, wk, W2))
+    cov_x = Sx - np.einsum("at,bt->abt", mean_x, mean_x)
+    cov_z = Sz - np.einsum("at,bt->abt", mean_z, mean_z)
+    return MomentsResponse(t, mean_x, mean_z, cov_x, cov_z, Sx, sys)
+
+
+def _second_moment_step(p, F, G, Q, m, w, W2):
+    """``Σ p [F Q Fᵀ + F m wᵀ Gᵀ + G w mᵀ Fᵀ + G W2 Gᵀ]``."""
+    cross = np.einsum("i,iab,b,c,idc->ad", p, F, m, w, G)
+    S = (np.einsum("i,iab,bc,idc->ad", p, F, Q, F)
+         + cross + cross.T
+         + np.einsum("i,iab,bc,idc->ad", p, G, W2, G))
+    return 0.5 * (S + S.T)

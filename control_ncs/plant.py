@@ -1,0 +1,300 @@
+"""The generalized plant with its network (MATH §2, §3; paper eq. 1-2)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import control as ct
+from control.exception import ControlArgument, ControlDimension
+
+from ._checks import discrete_dt, matrix, no_extra_kwargs
+from .network import (Schedule, common_period, loss_probability,
+                      mode_probabilities, schedule)
+
+__all__ = ["NetworkedStateSpace", "nss"]
+
+
+class NetworkedStateSpace(ct.StateSpace):
+    """A generalized plant whose sensors and actuators talk over a network.
+
+    The StateSpace matrices are the plant of paper eq. 1 in the layout of
+    :func:`control.hinfsyn`::
+
+        x⁺ = A x + B1 w + B2 u        inputs  [w; u],  u = last ncon
+        z  = C1 x + D11 w + D12 u     outputs [z; y],  y = last nmeas
+        y  = C2 x                     (D21 = 0, D22 = 0)
+
+    The network (MATH §3): at time ``t`` only the sensors in
+    ``sensor_schedule`` phase ``t mod N`` send, in one packet lost with
+    probability ``sensor_loss``; the controller's packet reaches the
+    actuators of ``actuator_schedule`` unless lost (``actuator_loss``).
+    Losses are i.i.d. Bernoulli, independent of each other.
+
+    Use :func:`nss` to create one.
+
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        Plant matrices with inputs ``[w; u]`` and outputs ``[z; y]``.
+    dt : True or float > 0
+        Sampling period; continuous-time plants are rejected (discretize
+        with :func:`control.sample_system` first).
+    nmeas, ncon : int
+        Number of measured outputs ``y`` (last outputs) and control inputs
+        ``u`` (last inputs), as in :func:`control.hinfsyn`.
+    sensor_schedule, actuator_schedule : None, index vector or 0/1 matrix
+        See :func:`control_ncs.network.schedule`. ``None``: everyone sends at
+        every step.
+    sensor_loss, actuator_loss : float in [0, 1]
+        ``α1 = P(θ1 = 0)`` and ``α2 = P(θ2 = 0)`` (paper notation).
+    shared_channel : bool
+        If True, at most one message crosses the network per step: no phase
+        may schedule a sensor and an actuator together (paper §2).
+    name, inputs, outputs, states : optional
+        As for :class:`control.StateSpace`.
+
+    Attributes
+    ----------
+    nmeas, ncon : int
+    sensor_schedule, actuator_schedule : Schedule
+        Both written over the common ``period``.
+    sensor_loss, actuator_loss : float
+    shared_channel : bool
+    period : int
+        Least common multiple of the two schedules' periods.
+    """
+
+    def __init__(self, A: Any, B: Any, C: Any, D: Any, dt: Any = True, *,
+                 nmeas: int, ncon: int, sensor_schedule: Any = None,
+                 actuator_schedule: Any = None, sensor_loss: float = 0.0,
+                 actuator_loss: float = 0.0, shared_channel: bool = False,
+                 name: str | None = None, inputs: Any = None,
+                 outputs: Any = None, states: Any = None, **kwargs: Any):
+        no_extra_kwargs("NetworkedStateSpace", kwargs)
+        dt = discrete_dt(dt)
+        A = matrix(A, "A", (None, None))
+        n = A.shape[0]
+        if A.shape != (n, n):
+            raise ControlDimension(f"A: expected a square matrix, got {A.shape}")
+        B = matrix(B, "B", (n, None))
+        C = matrix(C, "C", (None, n))
+        D = matrix(D, "D", (C.shape[0], B.shape[1]))
+        ninputs, noutputs = B.shape[1], C.shape[0]
+        self.ncon = _count(ncon, "ncon", ninputs, "inputs")
+        self.nmeas = _count(nmeas, "nmeas", noutputs, "outputs")
+        p1 = noutputs - self.nmeas
+        m1 = ninputs - self.ncon
+        if np.any(D[p1:, :] != 0):
+            raise ValueError("D: the measured outputs y must not depend on the "
+                             "inputs (D21 = 0 and D22 = 0 are required, MATH §2)")
+        self.sensor_schedule = schedule(sensor_schedule, self.nmeas,
+                                        "sensor_schedule")
+        self.actuator_schedule = schedule(actuator_schedule, self.ncon,
+                                          "actuator_schedule")
+        period = common_period(self.sensor_schedule, self.actuator_schedule)
+        self.sensor_schedule = self.sensor_schedule.repeat(period)
+        self.actuator_schedule = self.actuator_schedule.repeat(period)
+        self.sensor_loss = loss_probability(sensor_loss, "sensor_loss")
+        self.actuator_loss = loss_probability(actuator_loss, "actuator_loss")
+        self.shared_channel = bool(shared_channel)
+        if self.shared_channel:
+            both = (self.sensor_schedule.pattern.any(axis=1)
+                    & self.actuator_schedule.pattern.any(axis=1))
+            if both.any():
+                k = np.flatnonzero(both).tolist()
+                raise ValueError(
+                    "shared_channel: only one message may cross the network per "
+                    f"step, but phases {k} schedule a sensor and an actuator "
+                    "together (sensor_schedule[k] != 0 requires "
+                    "actuator_schedule[k] == 0)")
+        self._m1, self._p1 = m1, p1
+        if inputs is None:
+            inputs = [f"w[{i}]" for i in range(m1)] + \
+                [f"u[{i}]" for i in range(self.ncon)]
+        if outputs is None:
+            outputs = [f"z[{i}]" for i in range(p1)] + \
+                [f"y[{i}]" for i in range(self.nmeas)]
+        super().__init__(A, B, C, D, dt, name=name, inputs=inputs,
+                         outputs=outputs, states=states)
+
+    # -- partition (MATH §2) -------------------------------------------------
+    @property
+    def period(self) -> int:
+        """Common period ``N`` of the schedules."""
+        return self.sensor_schedule.period
+
+    @property
+    def B1(self) -> np.ndarray:
+        return self.B[:, :self._m1]
+
+    @property
+    def B2(self) -> np.ndarray:
+        return self.B[:, self._m1:]
+
+    @property
+    def C1(self) -> np.ndarray:
+        return self.C[:self._p1]
+
+    @property
+    def C2(self) -> np.ndarray:
+        return self.C[self._p1:]
+
+    @property
+    def D11(self) -> np.ndarray:
+        return self.D[:self._p1, :self._m1]
+
+    @property
+    def D12(self) -> np.ndarray:
+        return self.D[:self._p1, self._m1:]
+
+    @property
+    def disturbance_labels(self) -> list[str]:
+        """Names of the exogenous inputs ``w``."""
+        return list(self.input_labels[:self._m1])
+
+    @property
+    def performance_labels(self) -> list[str]:
+        """Names of the performance outputs ``z``."""
+        return list(self.output_labels[:self._p1])
+
+    def mode_probabilities(self) -> dict:
+        """``{(θ1, θ2): probability}`` of the four network modes (eq. 14)."""
+        return mode_probabilities(self.sensor_loss, self.actuator_loss)
+
+    def with_network(self, **changes: Any) -> "NetworkedStateSpace":
+        """A copy with some network settings changed (``sensor_loss=0.1``, …)."""
+        args = self._init_args()
+        unknown = set(changes) - set(args)
+        if unknown:
+            raise TypeError(f"with_network() got unexpected keyword argument(s): "
+                            f"{', '.join(sorted(unknown))}")
+        args.update(changes)
+        return NetworkedStateSpace(**args)
+
+    def _init_args(self) -> dict:
+        return dict(A=self.A, B=self.B, C=self.C, D=self.D, dt=self.dt,
+                    nmeas=self.nmeas, ncon=self.ncon,
+                    sensor_schedule=self.sensor_schedule.pattern.astype(int),
+                    actuator_schedule=self.actuator_schedule.pattern.astype(int),
+                    sensor_loss=self.sensor_loss,
+                    actuator_loss=self.actuator_loss,
+                    shared_channel=self.shared_channel, name=self.name,
+                    inputs=list(self.input_labels),
+                    outputs=list(self.output_labels),
+                    states=list(self.state_labels))
+
+    # -- python protocol -----------------------------------------------------
+    def __reduce__(self):
+        # control.StateSpace holds lambdas and cannot be pickled.
+        return (_restore_nss, (self._init_args(),))
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        a, b = self._init_args(), other._init_args()
+        return all(np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray)
+                   else a[k] == b[k] for k in a)
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        return (f"<NetworkedStateSpace {self.name}: {self.nstates} states, "
+                f"w:{self._m1} u:{self.ncon} z:{self._p1} y:{self.nmeas}, "
+                f"period {self.period}, α1={self.sensor_loss:g}, "
+                f"α2={self.actuator_loss:g}, dt={self.dt}>")
+
+    def __str__(self) -> str:
+        s1 = self.sensor_schedule.pattern.astype(int).tolist()
+        s2 = self.actuator_schedule.pattern.astype(int).tolist()
+        net = (f"NetworkedStateSpace: {self.name}\n"
+               f"Network: period N = {self.period}, sensor loss α1 = "
+               f"{self.sensor_loss:g}, actuator loss α2 = {self.actuator_loss:g}"
+               f"{', shared channel' if self.shared_channel else ''}\n"
+               f"  sensor schedule (rows = phases): {s1}\n"
+               f"  actuator schedule (rows = phases): {s2}\n"
+               f"Plant (nmeas = {self.nmeas}, ncon = {self.ncon}):\n")
+        return net + ct.StateSpace.__str__(
+            ct.StateSpace(self.A, self.B, self.C, self.D, self.dt,
+                          inputs=self.input_labels, outputs=self.output_labels))
+
+
+def _restore_nss(args: dict) -> NetworkedStateSpace:
+    return NetworkedStateSpace(**args)
+
+
+def _count(value: Any, name: str, total: int, what: str) -> int:
+    if value is None:
+        raise ControlArgument(f"{name}: required (number of {what} that belong "
+                              f"to the controller, as in control.hinfsyn)")
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (int, np.integer)):
+        raise ControlArgument(f"{name}: expected an int, got {value!r}")
+    if not 1 <= value <= total:
+        raise ControlDimension(f"{name}: expected 1 <= {name} <= {total} "
+                               f"(the plant has {total} {what}), got {value}")
+    return int(value)
+
+
+def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
+    """Create a networked generalized plant.
+
+    ``nss(sys, nmeas=..., ncon=..., ...)`` or
+    ``nss(A, B, C, D[, dt], nmeas=..., ncon=..., ...)``.
+
+    Parameters
+    ----------
+    sys : control.StateSpace
+        Discrete-time generalized plant, inputs ``[w; u]``, outputs ``[z; y]``
+        (signal names are kept).
+    A, B, C, D : array_like
+        Its matrices, if ``sys`` is not given.
+    dt : True or float > 0, optional
+        Sampling period when matrices are given (default True).
+    nmeas, ncon : int
+        Numbers of measurements ``y`` and controls ``u`` (last outputs/inputs).
+    sensor_schedule, actuator_schedule, sensor_loss, actuator_loss, shared_channel
+        The network; see :class:`NetworkedStateSpace`.
+    name : str, optional
+
+    Returns
+    -------
+    NetworkedStateSpace
+
+    Raises
+    ------
+    ValueError
+        Continuous-time plant, non-finite matrices, bad schedule or
+        probability, ``D21``/``D22`` nonzero, shared-channel conflicts.
+    ControlDimension
+        Inconsistent shapes, ``nmeas``/``ncon`` out of range.
+    TypeError
+        Unknown keyword.
+
+    Examples
+    --------
+    The paper's schedule with two sensors, ``N = 4``:
+
+    >>> P = nss([[1.1, 0.1], [0, 0.9]], [[1, 0], [0, 1]],
+    ...         [[1, 0], [1, 0], [0, 1]], [[0.5, 0], [0, 0], [0, 0]],
+    ...         nmeas=2, ncon=1, sensor_schedule=[2, 1, 0, 2], sensor_loss=0.1)
+    >>> P.period, [P.sensor_schedule.senders(k).tolist() for k in range(4)]
+    (4, [[1], [0], [], [1]])
+    """
+    if len(args) == 1:
+        sys = args[0]
+        if not isinstance(sys, ct.StateSpace):
+            if isinstance(sys, ct.LTI):
+                sys = ct.ss(sys)
+            else:
+                raise ControlArgument(f"sys: expected a control.StateSpace, got "
+                                      f"{type(sys).__name__}")
+        kwargs.setdefault("inputs", list(sys.input_labels))
+        kwargs.setdefault("outputs", list(sys.output_labels))
+        kwargs.setdefault("states", list(sys.state_labels))
+        kwargs.setdefault("name", sys.name)
+        return NetworkedStateSpace(sys.A, sys.B, sys.C, sys.D, sys.dt, **kwargs)
+    if len(args) in (4, 5):
+        return NetworkedStateSpace(*args, **kwargs)
+    raise ControlArgument(f"nss: expected (sys) or (A, B, C, D[, dt]), got "
+                          f"{len(args)} positional arguments")

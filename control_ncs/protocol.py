@@ -1,0 +1,388 @@
+"""Event-level Monte Carlo simulator of a networked control protocol.
+
+This module simulates, packet by packet, a plant controlled over a shared
+network with periodic medium-access schedules and Bernoulli packet losses.
+It is deliberately written from the protocol description alone -- it never
+builds the augmented (Markov jump) system matrices -- so that its trajectories
+can serve as an independent reference when validating such a formulation.
+
+Model
+-----
+Plant (discrete time, full-state measurement, sensor ``i`` measures state
+``i``)::
+
+    x(k+1) = A x(k) + B1 w(k) + B2 u(k)
+    z(k)   = C1 x(k) + D11 w(k) + D12 u(k)
+
+Network with period ``N``: ``S1[k mod N, i] = 1`` if sensor ``i`` may send at
+step ``k`` (one packet carries all scheduled sensors), ``S2[k mod N, j] = 1``
+if actuator ``j`` is addressed at step ``k`` (one packet). ``theta1_k = 0``
+(probability ``alpha1``) means the sensor packet is lost, ``theta2_k = 0``
+(probability ``alpha2``) means the controller-to-actuator packet is lost.
+
+Random draws
+------------
+For reproducibility, at every step ``k`` -- whether or not anything is
+scheduled -- the simulator draws, in this order::
+
+    theta1 = rng.random(trials) >= sensor_loss
+    theta2 = rng.random(trials) >= actuator_loss
+
+No other random numbers are consumed.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["simulate_protocol"]
+
+_CONTROLLERS = ("static", "predictor")
+_ACTUATORS = ("zero", "hold")
+
+
+def _matrix(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """Return ``value`` as a finite 2-D float array (scalars become 1x1)."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a real numeric matrix") from exc
+    if arr.ndim == 0:
+        arr = arr.reshape(1, 1)
+    if arr.ndim != 2:
+        raise ValueError(
+            f"{name} must be a 2-D array, got an array with {arr.ndim} dimensions"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must contain only finite values")
+    return arr
+
+
+def _expect_shape(arr: NDArray[Any], shape: tuple[int, ...], name: str) -> None:
+    if arr.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+
+
+def _schedule(value: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
+    """Return a 0/1 schedule of shape (N, width) as a float array."""
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a 0/1 array") from exc
+    if arr.ndim != 2 or arr.shape[1] != width or arr.shape[0] < 1:
+        raise ValueError(
+            f"{name} must have shape (N, {width}) with N >= 1, got {arr.shape}"
+        )
+    if not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
+        raise ValueError(f"{name} must be a numeric or boolean 0/1 array")
+    if not np.all((arr == 0) | (arr == 1)):
+        raise ValueError(f"{name} must contain only 0 and 1 entries")
+    return arr.astype(float)
+
+
+def _probability(value: Any, name: str) -> float:
+    try:
+        p = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a real probability in [0, 1]") from exc
+    if not 0.0 <= p <= 1.0:  # also rejects NaN
+        raise ValueError(f"{name} must be a probability in [0, 1], got {value!r}")
+    return p
+
+
+def _count(value: Any, name: str, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value}")
+    return int(value)
+
+
+def _vector(value: ArrayLike, name: str, length: int) -> NDArray[np.float64]:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a real vector of length {length}") from exc
+    # Accept column vectors too, since control code often carries (n, 1) states.
+    if arr.shape not in ((length,), (length, 1)):
+        raise ValueError(f"{name} must have shape ({length},), got {arr.shape}")
+    arr = arr.reshape(length)
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must contain only finite values")
+    return arr
+
+
+def simulate_protocol(
+    A: ArrayLike,
+    B1: ArrayLike,
+    B2: ArrayLike,
+    C1: ArrayLike,
+    D11: ArrayLike,
+    D12: ArrayLike,
+    sensor_schedule: ArrayLike,
+    actuator_schedule: ArrayLike,
+    sensor_loss: float,
+    actuator_loss: float,
+    gains: ArrayLike,
+    steps: int,
+    *,
+    controller: str = "static",
+    actuator: str = "zero",
+    inputs: ArrayLike | None = None,
+    initial_state: ArrayLike | None = None,
+    initial_estimate: ArrayLike | None = None,
+    trials: int = 1,
+    rng: np.random.Generator | None = None,
+) -> dict[str, NDArray[Any]]:
+    """Simulate a scheduled, lossy networked control loop event by event.
+
+    All trials are simulated simultaneously (leading trial axis); only time
+    is iterated.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        Plant state matrix.
+    B1 : array_like, shape (n, m1)
+        Disturbance input matrix.
+    B2 : array_like, shape (n, m2)
+        Control input matrix.
+    C1 : array_like, shape (p1, n)
+        Performance output matrix.
+    D11 : array_like, shape (p1, m1)
+        Disturbance feedthrough to the performance output.
+    D12 : array_like, shape (p1, m2)
+        Control feedthrough to the performance output.
+    sensor_schedule : array_like, shape (N, n)
+        0/1 array; ``sensor_schedule[k mod N, i] == 1`` if sensor ``i`` may
+        send at step ``k``. Its first dimension defines the period ``N``.
+    actuator_schedule : array_like, shape (N, m2)
+        0/1 array; ``actuator_schedule[k mod N, j] == 1`` if actuator ``j``
+        is addressed at step ``k``.
+    sensor_loss : float
+        ``alpha1 = P(theta1_k = 0)``, the sensor-packet loss probability.
+    actuator_loss : float
+        ``alpha2 = P(theta2_k = 0)``, the actuator-packet loss probability.
+    gains : array_like, shape (N, m2, nk)
+        Periodic gains; step ``k`` uses ``gains[k mod N]``. ``nk = n`` except
+        for ``controller='predictor'`` with ``actuator='hold'``, where
+        ``nk = n + m2`` and the gain acts on ``[xhat; u_{k-1}]``.
+    steps : int
+        Number of time steps to simulate (>= 0).
+    controller : {'static', 'predictor'}, optional
+        ``'static'``: ``v_k = K_k theta1_k diag(S1[k]) x_k``.
+        ``'predictor'``: model-based estimate ``xhat`` corrected by received
+        measurements and propagated with ``A xhat + B2 u`` (the applied
+        ``u`` is known through acknowledgements).
+    actuator : {'zero', 'hold'}, optional
+        ``'zero'``: unaddressed or lost actuators apply 0.
+        ``'hold'``: unaddressed or lost actuators keep their previous value
+        (``u_{-1} = 0``).
+    inputs : array_like, shape (m1, steps), optional
+        Deterministic disturbance sequence ``w``; zeros if omitted.
+    initial_state : array_like, shape (n,), optional
+        Plant initial state ``x_0`` shared by all trials; zeros if omitted.
+    initial_estimate : array_like, shape (n,), optional
+        Predictor estimate before the first sensor update at ``k = 0``;
+        zeros if omitted. Only allowed with ``controller='predictor'``.
+    trials : int, optional
+        Number of independent Monte Carlo trials (>= 1).
+    rng : numpy.random.Generator, optional
+        Source of randomness. If omitted a fresh, unseeded generator is used
+        (results are then not reproducible). The global NumPy RNG is never
+        used.
+
+    Returns
+    -------
+    dict
+        ``'x'`` : ndarray, shape (trials, n, steps + 1)
+            Plant states ``x_0 .. x_steps``.
+        ``'z'`` : ndarray, shape (trials, p1, steps)
+            Performance outputs ``z_k = C1 x_k + D11 w_k + D12 u_k``.
+        ``'u'`` : ndarray, shape (trials, m2, steps)
+            Applied control inputs.
+        ``'theta1'``, ``'theta2'`` : ndarray of bool, shape (trials, steps)
+            Packet-success indicators drawn at each step.
+        ``'xhat'`` : ndarray, shape (trials, n, steps + 1)
+            Only for ``controller='predictor'``. ``xhat[:, :, k]`` is the
+            estimate after the sensor update at step ``k``; the last column
+            is the prediction ``A xhat + B2 u`` made at the final step,
+            before any further update.
+
+    Raises
+    ------
+    ValueError
+        If any argument has the wrong shape, type or range, or if
+        ``controller`` / ``actuator`` is not a recognised name.
+
+    Notes
+    -----
+    At every step the simulator draws ``theta1`` for all trials and then
+    ``theta2`` for all trials, as ``rng.random(trials) >= alpha``, even
+    when nothing is scheduled, so that the random stream does not depend on
+    the schedules.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> out = simulate_protocol(
+    ...     [[2.0]], [[0.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]],
+    ...     [[1]], [[1]], 0.0, 0.0, [[[-2.0]]], 3,
+    ...     initial_state=[1.0], rng=np.random.default_rng(0))
+    >>> out["x"][0, 0]
+    array([1., 0., 0., 0.])
+    """
+    # --- argument validation -------------------------------------------
+    if not isinstance(controller, str) or controller not in _CONTROLLERS:
+        raise ValueError(
+            f"controller must be one of {_CONTROLLERS}, got {controller!r}"
+        )
+    if not isinstance(actuator, str) or actuator not in _ACTUATORS:
+        raise ValueError(f"actuator must be one of {_ACTUATORS}, got {actuator!r}")
+
+    A = _matrix(A, "A")
+    n = A.shape[0]
+    _expect_shape(A, (n, n), "A")
+    B1 = _matrix(B1, "B1")
+    B2 = _matrix(B2, "B2")
+    if B1.shape[0] != n:
+        raise ValueError(f"B1 must have {n} rows (shape (n, m1)), got {B1.shape}")
+    if B2.shape[0] != n:
+        raise ValueError(f"B2 must have {n} rows (shape (n, m2)), got {B2.shape}")
+    m1, m2 = B1.shape[1], B2.shape[1]
+    C1 = _matrix(C1, "C1")
+    if C1.shape[1] != n:
+        raise ValueError(f"C1 must have {n} columns (shape (p1, n)), got {C1.shape}")
+    p1 = C1.shape[0]
+    D11 = _matrix(D11, "D11")
+    _expect_shape(D11, (p1, m1), "D11")
+    D12 = _matrix(D12, "D12")
+    _expect_shape(D12, (p1, m2), "D12")
+
+    S1 = _schedule(sensor_schedule, "sensor_schedule", n)
+    N = S1.shape[0]
+    S2 = _schedule(actuator_schedule, "actuator_schedule", m2)
+    if S2.shape[0] != N:
+        raise ValueError(
+            f"actuator_schedule must have the same period as sensor_schedule "
+            f"(shape ({N}, {m2})), got {S2.shape}"
+        )
+
+    alpha1 = _probability(sensor_loss, "sensor_loss")
+    alpha2 = _probability(actuator_loss, "actuator_loss")
+
+    predictor = controller == "predictor"
+    hold = actuator == "hold"
+    nk = n + m2 if (predictor and hold) else n
+    try:
+        K = np.asarray(gains, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError("gains must be a real array of shape (N, m2, nk)") from exc
+    if K.shape != (N, m2, nk):
+        raise ValueError(
+            f"gains must have shape (N, m2, nk) = ({N}, {m2}, {nk}) for "
+            f"controller={controller!r}, actuator={actuator!r}, got {K.shape}"
+        )
+    if not np.all(np.isfinite(K)):
+        raise ValueError("gains must contain only finite values")
+
+    steps = _count(steps, "steps", 0)
+    trials = _count(trials, "trials", 1)
+
+    if inputs is None:
+        W = np.zeros((m1, steps))
+    else:
+        W = _matrix(inputs, "inputs") if np.ndim(inputs) >= 1 else None
+        if W is None or W.shape != (m1, steps):
+            raise ValueError(
+                f"inputs must have shape (m1, steps) = ({m1}, {steps}), "
+                f"got {np.shape(inputs)}"
+            )
+
+    x0 = np.zeros(n) if initial_state is None else _vector(
+        initial_state, "initial_state", n
+    )
+    if initial_estimate is not None and not predictor:
+        raise ValueError(
+            "initial_estimate is only meaningful for controller='predictor'"
+        )
+    xhat0 = np.zeros(n) if initial_estimate is None else _vector(
+        initial_estimate, "initial_estimate", n
+    )
+
+    if rng is None:
+        rng = np.random.default_rng()
+    elif not isinstance(rng, np.random.Generator):
+        raise ValueError(
+            f"rng must be a numpy.random.Generator or None, got {type(rng).__name__}"
+        )
+
+    # --- simulation ----------------------------------------------------
+    # Row-vector convention (trials, dim) so that one matmul with a
+    # transposed matrix advances every trial at once.
+    x = np.tile(x0, (trials, 1))
+    xhat = np.tile(xhat0, (trials, 1))
+    u_prev = np.zeros((trials, m2))
+
+    x_hist = np.empty((trials, n, steps + 1))
+    z_hist = np.empty((trials, p1, steps))
+    u_hist = np.empty((trials, m2, steps))
+    xhat_hist = np.empty((trials, n, steps + 1)) if predictor else None
+    th1_hist = np.empty((trials, steps), dtype=bool)
+    th2_hist = np.empty((trials, steps), dtype=bool)
+
+    x_hist[:, :, 0] = x
+    for k in range(steps):
+        phase = k % N
+        # Drawn unconditionally so the random stream is independent of the
+        # schedule; with alpha = 1 this is always False since random() < 1.
+        th1 = rng.random(trials) >= alpha1
+        th2 = rng.random(trials) >= alpha2
+        th1_hist[:, k] = th1
+        th2_hist[:, k] = th2
+
+        # A packet is received only if scheduled and not lost; the product
+        # is the per-trial, per-channel delivery mask.
+        recv1 = th1[:, None] * S1[phase][None, :]
+        recv2 = th2[:, None] * S2[phase][None, :]
+        Kk = K[phase]
+        w = W[:, k]
+
+        if predictor:
+            xhat = xhat + recv1 * (x - xhat)
+            xhat_hist[:, :, k] = xhat
+            feedback = np.concatenate([xhat, u_prev], axis=1) if hold else xhat
+        else:
+            feedback = recv1 * x
+        v = feedback @ Kk.T
+
+        if hold:
+            u = u_prev + recv2 * (v - u_prev)
+        else:
+            u = recv2 * v
+
+        z_hist[:, :, k] = x @ C1.T + w @ D11.T + u @ D12.T
+        u_hist[:, :, k] = u
+
+        x = x @ A.T + w @ B1.T + u @ B2.T
+        if predictor:
+            # The controller does not know w, so its model propagates
+            # without it; u is known exactly thanks to acknowledgements.
+            xhat = xhat @ A.T + u @ B2.T
+        u_prev = u
+        x_hist[:, :, k + 1] = x
+
+    result: dict[str, NDArray[Any]] = {
+        "x": x_hist,
+        "z": z_hist,
+        "u": u_hist,
+        "theta1": th1_hist,
+        "theta2": th2_hist,
+    }
+    if predictor:
+        xhat_hist[:, :, steps] = xhat
+        result["xhat"] = xhat_hist
+    return result

@@ -1,0 +1,150 @@
+"""Exact mean-square stability (MATH §5).
+
+The second moment ``Q = E ξξᵀ`` of the unforced system evolves by
+``Q⁺ = 𝒯_k(Q) = Σ_i p_ki A_ki Q A_kiᵀ``. Over one period this is the
+monodromy operator ``𝒯 = 𝒯_{N-1} ∘ … ∘ 𝒯_0``; the system is mean-square
+stable exactly when its spectral radius is below one. Two routes compute it:
+
+* ``'dense'``: the ``n² × n²`` Kronecker matrix ``Σ p (A ⊗ A)`` per phase,
+  multiplied over the period, then all eigenvalues (memory ``O(n⁴)``);
+* ``'matrix-free'``: ``𝒯`` applied by matrix products
+  (``O(N·M·n³)`` per application) inside ARPACK
+  (:func:`scipy.sparse.linalg.eigs`) for the eigenvalue of largest modulus,
+  which for this positive map is the spectral radius itself.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
+
+from ._checks import choice, no_extra_kwargs
+from .jump import as_jump
+
+__all__ = ["ms_radius", "is_mss", "second_moment_operator"]
+
+#: Above this state dimension, method='auto' goes matrix-free (the dense
+#: monodromy needs n⁴ floats and N·n⁶ flops; see benchmarks/).
+DENSE_MAX_STATES = 24
+
+
+def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
+    """The second-moment map as a :class:`scipy.sparse.linalg.LinearOperator`.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time StateSpace
+    k : int, optional
+        Phase whose one-step map ``𝒯_k`` is wanted; default: the monodromy
+        ``𝒯`` over a whole period. Acts on ``vec(Q)`` (row-major ravel).
+
+    Returns
+    -------
+    LinearOperator of shape (n², n²)
+    """
+    sys = as_jump(sys)
+    A, p = sys.modes.A, sys.modes.probabilities
+    n = A.shape[-1]
+    phases = range(sys.period) if k is None else [k % sys.period]
+    dtype = np.result_type(A.dtype, float)
+
+    def apply(v: np.ndarray) -> np.ndarray:
+        Q = np.asarray(v).reshape(n, n)
+        for j in phases:
+            live = p[j] > 0
+            Aj = A[j, live]
+            Q = np.einsum("m,mab,bc,mdc->ad", p[j, live], Aj, Q, Aj,
+                          optimize=True)
+        return Q.reshape(-1)
+
+    return LinearOperator((n * n, n * n), matvec=apply, rmatvec=None,
+                          dtype=dtype)
+
+
+def _dense_monodromy(sys) -> np.ndarray:
+    A, p = sys.modes.A, sys.modes.probabilities
+    n = A.shape[-1]
+    T = np.eye(n * n)
+    for k in range(sys.period):
+        Tk = np.zeros((n * n, n * n))
+        for i in np.flatnonzero(p[k] > 0):
+            Tk += p[k, i] * np.kron(A[k, i], A[k, i])  # vec(AQAᵀ), row-major
+        T = Tk @ T
+    return T
+
+
+def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
+              **kwargs: Any) -> float:
+    """Per-step mean-square spectral radius ``ρ(𝒯)^(1/N)`` (MATH §5).
+
+    ``E‖ξ_t‖²`` of the unforced system decays (or grows) like this number to
+    the power ``t``; the system is mean-square stable exactly when it is
+    below 1. For a deterministic system it is ``ρ(A)²``. A periodic system
+    is judged over its whole period, never by the average of its phases.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time control.StateSpace
+    method : {'auto', 'dense', 'matrix-free'}
+        ``'auto'`` uses ``'dense'`` up to ``DENSE_MAX_STATES`` states.
+    tol : float
+        Relative accuracy asked of ARPACK (matrix-free route).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    RuntimeError
+        If ARPACK does not converge (the message gives its best estimate).
+
+    Examples
+    --------
+    ``x⁺ = 2x + u``, ``u = -2x`` applied with probability 0.8: ``E x²`` is
+    multiplied by ``0.2·4 = 0.8`` per step.
+
+    >>> from control_ncs import jss
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> round(ms_radius(sys), 12)
+    0.8
+    """
+    no_extra_kwargs("ms_radius", kwargs)
+    sys = as_jump(sys)
+    choice(method, "method", ("auto", "dense", "matrix-free"))
+    n = sys.modes.A.shape[-1]
+    if method == "auto":
+        method = "dense" if n <= DENSE_MAX_STATES else "matrix-free"
+    if method == "dense" or n * n <= 4:
+        rho = float(np.max(np.abs(np.linalg.eigvals(_dense_monodromy(sys)))))
+    else:
+        op = second_moment_operator(sys)
+        # A PSD start lies in the cone where the Perron eigenvector lives.
+        v0 = np.eye(n).reshape(-1)
+        try:
+            vals = eigs(op, k=1, which="LM", v0=v0, tol=tol,
+                        ncv=min(n * n - 1, 30), maxiter=5000,
+                        return_eigenvectors=False)
+        except ArpackNoConvergence as err:
+            raise RuntimeError(
+                "ms_radius: ARPACK did not converge on the second-moment "
+                f"operator (n = {n}); partial estimates {err.eigenvalues}. "
+                "Try method='dense' for small n, or a larger tol.") from None
+        rho = float(np.abs(vals[0]))
+    return rho ** (1.0 / sys.period)
+
+
+def is_mss(sys: Any, **kwargs: Any) -> bool:
+    """True when ``sys`` is mean-square stable (``ms_radius(sys) < 1``).
+
+    Keywords are passed to :func:`ms_radius`.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> is_mss(ct.ss([[0.5]], [[1]], [[1]], [[0]], True))
+    True
+    """
+    return ms_radius(sys, **kwargs) < 1.0

@@ -1,0 +1,224 @@
+"""Network strategies as builders of the generic jump system (MATH §4, §8b, §10).
+
+Each builder turns a :class:`~control_ncs.plant.NetworkedStateSpace` into a
+:class:`~control_ncs.jump.JumpPlant` with the four network modes of each
+phase listed in the order of paper eq. 14, ``(θ1, θ2) = (0,0), (1,0), (0,1),
+(1,1)``; the last one is loss-free. Builders never call a solver, and nothing
+downstream looks at schedules or losses again.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from control.exception import ControlArgument
+
+from ._checks import choice, no_extra_kwargs
+from .gain import ACTUATORS, CONTROLLERS, PeriodicGain
+from .jump import JumpPlant, JumpStateSpace
+from .plant import NetworkedStateSpace
+
+__all__ = ["build", "feedback"]
+
+MODES = ((0, 0), (1, 0), (0, 1), (1, 1))
+
+
+def build(P: NetworkedStateSpace, controller: str = "static",
+          actuator: str = "zero", *, period: int | None = None) -> JumpPlant:
+    """The networked loop of ``P`` as a :class:`JumpPlant`, before the gain.
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+    controller : {'static', 'predictor'}
+        ``'static'``: ``v = K_k ŷ`` with ``ŷ = θ1 Σ1 y`` (paper eq. 2-3,
+        MATH §4). ``'predictor'``: the model-based controller of MATH §8b,
+        ``v = K_k x̂`` (needs ``y = x``).
+    actuator : {'zero', 'hold'}
+        What an actuator applies when its message is lost or not scheduled.
+    period : int, optional
+        Build over this many phases (a multiple of ``P.period``), e.g. to
+        match a gain sequence.
+
+    Returns
+    -------
+    JumpPlant
+        Unmerged: four modes per phase, eq. 14 order; ``nominal`` is the
+        loss-free mode.
+    """
+    if not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
+                              f"got {type(P).__name__}")
+    choice(controller, "controller", CONTROLLERS)
+    choice(actuator, "actuator", ACTUATORS)
+    N = P.period if period is None else int(period)
+    if N % P.period:
+        raise ValueError(f"period: {N} is not a multiple of the plant's network "
+                         f"period {P.period}")
+    if controller == "predictor" and not _measures_state(P):
+        raise ControlArgument(
+            "controller='predictor' needs the full state measured: y = x "
+            f"(C2 = I), got C2 of shape {P.C2.shape}")
+    maker = _predictor_phase if controller == "predictor" else _static_phase
+    fields = [maker(P, k, actuator, t1, t2) for k in range(N)
+              for (t1, t2) in MODES]
+    stacked = {f: np.array([m[f] for m in fields]).reshape(
+        (N, 4) + fields[0][f].shape) for f in fields[0] if f != "E"}
+    E = np.array([fields[4 * k]["E"] for k in range(N)])
+    a1, a2 = P.sensor_loss, P.actuator_loss
+    prob = P.mode_probabilities()
+    p = np.tile([prob[m] for m in MODES], (N, 1))
+    nx = stacked["A"].shape[-1]
+    states = _state_names(P, controller, actuator, nx)
+    info = dict(controller=controller, actuator=actuator, sensor_loss=a1,
+                actuator_loss=a2, plant_period=P.period)
+    return JumpPlant(stacked["A"], stacked["Bu"], stacked["Bw"], stacked["Cz"],
+                     stacked["Du"], stacked["Dw"], E, p, P.dt,
+                     nominal=np.full(N, 3), inputs=P.disturbance_labels,
+                     outputs=P.performance_labels, states=states, info=info)
+
+
+def _measures_state(P: NetworkedStateSpace) -> bool:
+    return P.C2.shape == (P.nstates, P.nstates) and np.array_equal(
+        P.C2, np.eye(P.nstates))
+
+
+def _static_phase(P, k, actuator, t1, t2) -> dict:
+    """Memoryless gain, MATH §4: ``u = θ2 Σ2 K θ1 Σ1 y``."""
+    n, m2 = P.nstates, P.ncon
+    S1 = P.sensor_schedule.selection(k)
+    S2 = P.actuator_schedule.selection(k)
+    g = t1 * t2
+    A, B1, B2, C1, D11, D12 = P.A, P.B1, P.B2, P.C1, P.D11, P.D12
+    E = S1 @ P.C2
+    if actuator == "zero":
+        return dict(A=A, Bu=g * B2 @ S2, Bw=B1, Cz=C1, Du=g * D12 @ S2,
+                    Dw=D11, E=E)
+    # hold: ξ = [x; u⁻], u = (I - θ2 Σ2) u⁻ + θ2 Σ2 v
+    keep = np.eye(m2) - t2 * S2
+    Z = np.zeros
+    return dict(
+        A=np.block([[A, B2 @ keep], [Z((m2, n)), keep]]),
+        Bu=g * np.vstack([B2 @ S2, S2]),
+        Bw=np.vstack([B1, Z((m2, B1.shape[1]))]),
+        Cz=np.hstack([C1, D12 @ keep]), Du=g * D12 @ S2, Dw=D11,
+        E=np.hstack([E, Z((E.shape[0], m2))]))
+
+
+def _predictor_phase(P, k, actuator, t1_next, t2) -> dict:
+    """Model-based controller, MATH §8b; the mode is ``(θ1,k+1, θ2,k)``.
+
+    State ``[x̂; e]`` (zero actuator) or ``[x̂; u⁻; e]`` (hold), with ``x̂``
+    the estimate after the sensor update and ``e = x - x̂``.
+    """
+    n, m2 = P.nstates, P.ncon
+    S2 = P.actuator_schedule.selection(k)
+    R = t1_next * P.sensor_schedule.selection(k + 1)
+    A, B1, B2, C1, D11, D12 = P.A, P.B1, P.B2, P.C1, P.D11, P.D12
+    I, Z = np.eye(n), np.zeros
+    m1 = B1.shape[1]
+    if actuator == "zero":
+        return dict(
+            A=np.block([[A, R @ A], [Z((n, n)), (I - R) @ A]]),
+            Bu=t2 * np.vstack([B2 @ S2, Z((n, m2))]),
+            Bw=np.vstack([R @ B1, (I - R) @ B1]),
+            Cz=np.hstack([C1, C1]), Du=t2 * D12 @ S2, Dw=D11,
+            E=np.hstack([I, Z((n, n))]))
+    keep = np.eye(m2) - t2 * S2
+    return dict(
+        A=np.block([[A, B2 @ keep, R @ A],
+                    [Z((m2, n)), keep, Z((m2, n))],
+                    [Z((n, n)), Z((n, m2)), (I - R) @ A]]),
+        Bu=t2 * np.vstack([B2 @ S2, S2, Z((n, m2))]),
+        Bw=np.vstack([R @ B1, Z((m2, m1)), (I - R) @ B1]),
+        Cz=np.hstack([C1, D12 @ keep, C1]), Du=t2 * D12 @ S2, Dw=D11,
+        E=np.hstack([np.eye(n + m2), Z((n + m2, n))]))
+
+
+def _state_names(P, controller, actuator, nx) -> list[str]:
+    x = list(P.state_labels)
+    u = [f"{s}_prev" for s in P.input_labels[len(P.disturbance_labels):]]
+    if controller == "static":
+        return x + (u if actuator == "hold" else [])
+    xhat = [f"{s}_hat" for s in x]
+    err = [f"{s}_err" for s in x]
+    return xhat + (u if actuator == "hold" else []) + err
+
+
+def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
+             actuator: str | None = None, **kwargs: Any) -> JumpStateSpace:
+    """Close the networked loop of ``P`` with a (periodic) gain.
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+        Plant with its network.
+    K : PeriodicGain or array_like
+        A gain from :func:`control_ncs.passivesyn`, or gains of shape
+        ``(m2, nk)`` (constant) or ``(N_K, m2, nk)`` (periodic; the loop's
+        period is the least common multiple of ``N_K`` and ``P.period``).
+        ``nk`` is ``nmeas`` for the static controller, ``n`` for the
+        predictor, plus ``m2`` for the predictor with a hold actuator.
+    controller : {'static', 'predictor'}, optional
+        Default: the gain's own kind, else ``'static'``.
+    actuator : {'zero', 'hold'}, optional
+        Default: the gain's own strategy, else ``'zero'``.
+
+    Returns
+    -------
+    JumpStateSpace
+        The closed loop ``w → z`` (modes merged); ``info`` records the
+        controller, actuator and gains.
+
+    Raises
+    ------
+    ValueError
+        If a static gain can never close the loop because no phase schedules
+        a sensor and an actuator together (e.g. a shared channel, MATH §4).
+    ControlDimension
+        If the gain has the wrong shape.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...         nmeas=1, ncon=1, actuator_loss=0.2)
+    >>> CL = feedback(P, [[-2.0]])
+    >>> CL.modes.probabilities.round(3).tolist()
+    [[0.2, 0.8]]
+    """
+    no_extra_kwargs("feedback", kwargs)
+    if isinstance(K, PeriodicGain):
+        controller = controller or K.controller
+        actuator = actuator or K.actuator
+        gains = K.gains
+    else:
+        gains = PeriodicGain(K, controller or "static", actuator or "zero").gains
+    controller = choice(controller or "static", "controller", CONTROLLERS)
+    actuator = choice(actuator or "zero", "actuator", ACTUATORS)
+    if not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
+                              f"got {type(P).__name__}")
+    if controller == "static":
+        closes = (P.sensor_schedule.pattern.any(axis=1)
+                  & P.actuator_schedule.pattern.any(axis=1))
+        if not closes.any():
+            raise ValueError(
+                "K: a memoryless (static) gain never closes this loop: no phase "
+                "schedules a sensor and an actuator together (a shared channel "
+                "forces this, MATH §4), so F_k = Σ2 K Σ1 = 0 and the plant runs "
+                "open loop. Use controller='predictor', which keeps a model-based "
+                "estimate between messages.")
+    N = math.lcm(P.period, gains.shape[0])
+    plant = build(P, controller, actuator, period=N)
+    want = plant.gain_shape()[1:]
+    if gains.shape[1:] != want:
+        from control.exception import ControlDimension
+        raise ControlDimension(
+            f"K: expected gains of shape {want} (or ({gains.shape[0]}, "
+            f"{want[0]}, {want[1]}) per phase) for controller={controller!r}, "
+            f"actuator={actuator!r}, got {gains.shape[1:]}")
+    gains = np.tile(gains, (N // gains.shape[0], 1, 1))
+    return plant.close(gains)
