@@ -12,6 +12,12 @@ from .gain import PeriodicGain
 from .strategies import build, feedback
 from .stability import ms_radius, is_mss, second_moment_operator
 from .moments import moments, MomentsResponse
+from .verify import (Certificate, CertificationError, SynthesisError,
+                     check_certificate, certified_index, dissipation_matrices)
+from .passivity import (ispassive, get_input_ff_index, mean_input_ff_index,
+                        frequency_ff_index, passivity_certificate,
+                        PassivityResult)
+from .synthesis import passivesyn, SynthesisResult
 
 __all__ = [
     "Schedule", "schedule", "mode_probabilities",
@@ -19,6 +25,11 @@ __all__ = [
     "NetworkedStateSpace", "nss", "PeriodicGain", "build", "feedback",
     "ms_radius", "is_mss", "second_moment_operator",
     "moments", "MomentsResponse",
+    "Certificate", "CertificationError", "SynthesisError",
+    "check_certificate", "certified_index", "dissipation_matrices",
+    "ispassive", "get_input_ff_index", "mean_input_ff_index",
+    "frequency_ff_index", "passivity_certificate", "PassivityResult",
+    "passivesyn", "SynthesisResult",
 ]
 
 __version__ = "0.1.0"

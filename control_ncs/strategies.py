@@ -15,12 +15,12 @@ from typing import Any
 import numpy as np
 from control.exception import ControlArgument
 
-from ._checks import choice, no_extra_kwargs
+from ._checks import choice, no_extra_kwargs, real_array
 from .gain import ACTUATORS, CONTROLLERS, PeriodicGain
 from .jump import JumpPlant, JumpStateSpace
 from .plant import NetworkedStateSpace
 
-__all__ = ["build", "feedback"]
+__all__ = ["build", "feedback", "loop_closes"]
 
 MODES = ((0, 0), (1, 0), (0, 1), (1, 1))
 
@@ -97,21 +97,37 @@ def _static_phase(P, k, actuator, t1, t2) -> dict:
         return dict(A=A, Bu=g * B2 @ S2, Bw=B1, Cz=C1, Du=g * D12 @ S2,
                     Dw=D11, E=E)
     # hold: ξ = [x; u⁻], u = (I - θ2 Σ2) u⁻ + θ2 Σ2 v
+    H = _held(P)
+    h = H.shape[0]
     keep = np.eye(m2) - t2 * S2
     Z = np.zeros
     return dict(
-        A=np.block([[A, B2 @ keep], [Z((m2, n)), keep]]),
-        Bu=g * np.vstack([B2 @ S2, S2]),
-        Bw=np.vstack([B1, Z((m2, B1.shape[1]))]),
-        Cz=np.hstack([C1, D12 @ keep]), Du=g * D12 @ S2, Dw=D11,
-        E=np.hstack([E, Z((E.shape[0], m2))]))
+        A=np.block([[A, B2 @ keep @ H.T], [Z((h, n)), H @ keep @ H.T]]),
+        Bu=g * np.vstack([B2 @ S2, H @ S2]),
+        Bw=np.vstack([B1, Z((h, B1.shape[1]))]),
+        Cz=np.hstack([C1, D12 @ keep @ H.T]), Du=g * D12 @ S2, Dw=D11,
+        E=np.hstack([E, Z((E.shape[0], h))]))
+
+
+def _held(P) -> np.ndarray:
+    """Selector of the actuators whose last value a hold actuator keeps.
+
+    An actuator that no phase addresses applies its initial value 0 forever;
+    keeping it in the state would add an eigenvalue 1 to every mode (a
+    constant nobody can change), so it is left out.
+    """
+    idx = np.flatnonzero(P.actuator_schedule.pattern.any(axis=0))
+    H = np.zeros((idx.size, P.ncon))
+    H[np.arange(idx.size), idx] = 1.0
+    return H
 
 
 def _predictor_phase(P, k, actuator, t1_next, t2) -> dict:
     """Model-based controller, MATH §8b; the mode is ``(θ1,k+1, θ2,k)``.
 
-    State ``[x̂; e]`` (zero actuator) or ``[x̂; u⁻; e]`` (hold), with ``x̂``
-    the estimate after the sensor update and ``e = x - x̂``.
+    State ``[x̂; e]`` (zero actuator) or ``[x̂; u⁻; e]`` (hold; ``u⁻`` the
+    last inputs of the actuators some phase addresses), with ``x̂`` the
+    estimate after the sensor update and ``e = x - x̂``.
     """
     n, m2 = P.nstates, P.ncon
     S2 = P.actuator_schedule.selection(k)
@@ -126,25 +142,41 @@ def _predictor_phase(P, k, actuator, t1_next, t2) -> dict:
             Bw=np.vstack([R @ B1, (I - R) @ B1]),
             Cz=np.hstack([C1, C1]), Du=t2 * D12 @ S2, Dw=D11,
             E=np.hstack([I, Z((n, n))]))
+    H = _held(P)
+    h = H.shape[0]
     keep = np.eye(m2) - t2 * S2
+    # the gain acts on [x̂; u⁻] with all m2 last inputs (never-addressed ones
+    # are identically zero and left out of the state, see _held)
+    E = np.zeros((n + m2, 2 * n + h))
+    E[:n, :n] = I
+    E[n:, n:n + h] = H.T
     return dict(
-        A=np.block([[A, B2 @ keep, R @ A],
-                    [Z((m2, n)), keep, Z((m2, n))],
-                    [Z((n, n)), Z((n, m2)), (I - R) @ A]]),
-        Bu=t2 * np.vstack([B2 @ S2, S2, Z((n, m2))]),
-        Bw=np.vstack([R @ B1, Z((m2, m1)), (I - R) @ B1]),
-        Cz=np.hstack([C1, D12 @ keep, C1]), Du=t2 * D12 @ S2, Dw=D11,
-        E=np.hstack([np.eye(n + m2), Z((n + m2, n))]))
+        A=np.block([[A, B2 @ keep @ H.T, R @ A],
+                    [Z((h, n)), H @ keep @ H.T, Z((h, n))],
+                    [Z((n, n)), Z((n, h)), (I - R) @ A]]),
+        Bu=t2 * np.vstack([B2 @ S2, H @ S2, Z((n, m2))]),
+        Bw=np.vstack([R @ B1, Z((h, m1)), (I - R) @ B1]),
+        Cz=np.hstack([C1, D12 @ keep @ H.T, C1]), Du=t2 * D12 @ S2, Dw=D11,
+        E=E)
 
 
 def _state_names(P, controller, actuator, nx) -> list[str]:
     x = list(P.state_labels)
-    u = [f"{s}_prev" for s in P.input_labels[len(P.disturbance_labels):]]
+    controls = P.input_labels[len(P.disturbance_labels):]
+    u = [f"{controls[i]}_prev"
+         for i in np.flatnonzero(P.actuator_schedule.pattern.any(axis=0))]
     if controller == "static":
         return x + (u if actuator == "hold" else [])
     xhat = [f"{s}_hat" for s in x]
     err = [f"{s}_err" for s in x]
     return xhat + (u if actuator == "hold" else []) + err
+
+
+def loop_closes(P: NetworkedStateSpace) -> bool:
+    """True if some phase schedules a sensor and an actuator together, the
+    only way a memoryless gain can act (MATH §4)."""
+    return bool((P.sensor_schedule.pattern.any(axis=1)
+                 & P.actuator_schedule.pattern.any(axis=1)).any())
 
 
 def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
@@ -195,22 +227,21 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         actuator = actuator or K.actuator
         gains = K.gains
     else:
-        gains = PeriodicGain(K, controller or "static", actuator or "zero").gains
+        # validate here so that messages name the argument K, not 'gains'
+        gains = PeriodicGain(real_array(K, "K", ndim=(2, 3)),
+                             controller or "static", actuator or "zero").gains
     controller = choice(controller or "static", "controller", CONTROLLERS)
     actuator = choice(actuator or "zero", "actuator", ACTUATORS)
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
-    if controller == "static":
-        closes = (P.sensor_schedule.pattern.any(axis=1)
-                  & P.actuator_schedule.pattern.any(axis=1))
-        if not closes.any():
-            raise ValueError(
-                "K: a memoryless (static) gain never closes this loop: no phase "
-                "schedules a sensor and an actuator together (a shared channel "
-                "forces this, MATH §4), so F_k = Σ2 K Σ1 = 0 and the plant runs "
-                "open loop. Use controller='predictor', which keeps a model-based "
-                "estimate between messages.")
+    if controller == "static" and not loop_closes(P):
+        raise ValueError(
+            "K: a memoryless (static) gain never closes this loop: no phase "
+            "schedules a sensor and an actuator together (a shared channel "
+            "forces this, MATH §4), so F_k = Σ2 K Σ1 = 0 and the plant runs "
+            "open loop. Use controller='predictor', which keeps a model-based "
+            "estimate between messages.")
     N = math.lcm(P.period, gains.shape[0])
     plant = build(P, controller, actuator, period=N)
     want = plant.gain_shape()[1:]
