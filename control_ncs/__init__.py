@@ -18,6 +18,11 @@ from .passivity import (ispassive, get_input_ff_index, mean_input_ff_index,
                         frequency_ff_index, passivity_certificate,
                         PassivityResult)
 from .synthesis import passivesyn, SynthesisResult
+from .simulate import (simulate, SamplePaths, EnsembleResponse,
+                       forced_response, step_response, impulse_response,
+                       initial_response, plot_ensemble)
+from .interconnect import jump_feedback, lift_lti
+from .timeline import schedule_plot
 
 __all__ = [
     "Schedule", "schedule", "mode_probabilities",
@@ -30,6 +35,9 @@ __all__ = [
     "ispassive", "get_input_ff_index", "mean_input_ff_index",
     "frequency_ff_index", "passivity_certificate", "PassivityResult",
     "passivesyn", "SynthesisResult",
+    "simulate", "SamplePaths", "EnsembleResponse", "forced_response",
+    "step_response", "impulse_response", "initial_response", "plot_ensemble",
+    "jump_feedback", "lift_lti", "schedule_plot",
 ]
 
 __version__ = "0.1.0"

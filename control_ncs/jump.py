@@ -102,12 +102,14 @@ def _probabilities(value: Any, name: str = "probabilities") -> np.ndarray:
     p = real_array(value, name, ndim=(1, 2))
     if p.ndim == 1:
         p = p[None]
-    if np.any(p < 0) or np.any(p > 1):
+    if np.any(p < -_PROB_TOL) or np.any(p > 1 + _PROB_TOL):
         raise ValueError(f"{name}: probabilities must lie in [0, 1]")
     if not np.allclose(p.sum(axis=1), 1.0, atol=_PROB_TOL, rtol=0):
         raise ValueError(f"{name}: the mode probabilities of each phase must "
                          f"sum to 1, got sums {p.sum(axis=1).tolist()}")
-    return p
+    # rounding (e.g. merged eq. 14 modes summing to 1 + 2e-16) is tolerated
+    # as for the row sums, then removed
+    return np.clip(p, 0.0, 1.0)
 
 
 def lift(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
@@ -172,11 +174,18 @@ class JumpStateSpace(ct.StateSpace):
     ``(Σ p_i A_i, Σ p_i B_i, Σ p_i C_i, Σ p_i D_i)``; for ``N > 1`` it is that
     periodic system lifted over one period (:func:`lift`), with sampling time
     ``N·dt``, inputs ``w[0], …, w[N-1]`` and outputs ``z[0], …, z[N-1]``
-    stacked time-major and named ``'w0[k]'``. Hence ``control.step_response``
-    and ``control.bode_plot`` of this object are exact statements about
-    ``E z``; products and interconnections return the plain mean
-    :class:`control.StateSpace` (exact for the mean when the other system is
-    deterministic, see MATH §7), not a jump system.
+    stacked time-major (all channels of phase 0 first) and named
+    ``'<signal>[k]'`` for phase ``k`` (e.g. ``'w[0][1]'``: channel ``w[0]``
+    at phase 1). Hence ``control.step_response`` and ``control.bode_plot``
+    of this object are exact statements about ``E z``. Products and
+    interconnections return the plain mean :class:`control.StateSpace`.
+    Series and parallel connections with a deterministic system are exact
+    for the mean; a *feedback* loop is exact only when no product of two
+    mode-dependent matrices arises (e.g. the other system has no
+    feedthrough, or the loops built by :func:`control_ncs.feedback`).
+    MATH §7 claims it always is, which is wrong: tests/test_interconnect.py
+    has a counterexample. For a loop that stays a jump system, use
+    :func:`control_ncs.jump_feedback`.
 
     Build one with :func:`jss` or :func:`control_ncs.feedback`.
 
@@ -233,9 +242,9 @@ class JumpStateSpace(ct.StateSpace):
         self.nominal_mode = None if nominal is None else self._check_nominal(
             nominal, N, M)
         self.info = dict(info or {})
-        self.jump_inputs = _names(inputs, m, "w")
-        self.jump_outputs = _names(outputs, q, "z")
-        self.jump_states = _names(states, n, "x")
+        self.jump_inputs = _names(inputs, m, "w", "inputs")
+        self.jump_outputs = _names(outputs, q, "z", "outputs")
+        self.jump_states = _names(states, n, "x", "states")
 
         Abar, Bbar, Cbar, Dbar = self.modes.mean()
         if N == 1:
@@ -374,14 +383,15 @@ def _restore_jss(A, B, C, D, p, dt, nominal, name, inputs, outputs, states,
                           info=info)
 
 
-def _names(value: Any, count: int, prefix: str) -> list[str]:
+def _names(value: Any, count: int, prefix: str, argname: str) -> list[str]:
     if value is None:
         return [f"{prefix}[{i}]" for i in range(count)]
     if isinstance(value, str):
         value = [value] if count == 1 else [f"{value}[{i}]" for i in range(count)]
     names = [str(v) for v in value]
     if len(names) != count:
-        raise ControlDimension(f"expected {count} signal names, got {len(names)}")
+        raise ControlDimension(f"{argname}: expected {count} signal names, "
+                               f"got {len(names)}")
     return names
 
 

@@ -77,10 +77,39 @@ def check_solver(solver: str | None) -> str:
     return name
 
 
+#: Keywords that :meth:`cvxpy.Problem.solve` itself accepts for any solver.
+CVXPY_SOLVE_KEYWORDS = frozenset((
+    "verbose", "warm_start", "gp", "qcp", "requires_grad", "enforce_dpp",
+    "ignore_dpp", "canon_backend", "bounds"))
+
+#: CVXOPT's cone-programming options (cvxopt.solvers.options) and the two
+#: cvxpy adds. CVXOPT ignores any other key silently, so a misspelt option
+#: would change nothing and say nothing: it is rejected here instead.
+CVXOPT_OPTIONS = frozenset((
+    "show_progress", "maxiters", "abstol", "reltol", "feastol", "refinement",
+    "kktreg", "debug", "max_iters", "kktsolver"))
+
+
+def check_options(name: str, options: dict) -> None:
+    """``TypeError`` for solver options the solver would silently ignore.
+
+    Clarabel and SCS reject unknown settings themselves (``TypeError``);
+    CVXOPT does not, so its keys are checked against the known ones.
+    """
+    if name == cp.CVXOPT:
+        unknown = set(options) - CVXOPT_OPTIONS - CVXPY_SOLVE_KEYWORDS
+        if unknown:
+            raise TypeError(
+                f"solver option(s) {sorted(unknown)} not accepted by CVXOPT "
+                f"(known: {sorted(CVXOPT_OPTIONS)}, and cvxpy's "
+                f"{sorted(CVXPY_SOLVE_KEYWORDS)})")
+
+
 def solve(problem: cp.Problem, solver: str | None = None,
           **options: Any) -> SolveReport:
     """Solve ``problem`` and report; solver failures become a status."""
     name = check_solver(solver)
+    check_options(name, options)
     opts = dict(CLARABEL_DEFAULTS) if name == cp.CLARABEL else {}
     opts.update(options)
     start = time.perf_counter()
@@ -90,6 +119,14 @@ def solve(problem: cp.Problem, solver: str | None = None,
         status = problem.status
     except cp.error.SolverError as err:
         status, message = "solver_error", str(err)
+    except BaseException as err:
+        # Clarabel (Rust, via pyo3) turns an internal panic, e.g. a failed
+        # eigendecomposition in a PSD cone step near the boundary, into
+        # pyo3_runtime.PanicException, a BaseException that no `except
+        # Exception` catches. It is a solver failure like any other.
+        if type(err).__name__ != "PanicException":
+            raise
+        status, message = "solver_error", f"{name} panicked: {err}"
     total = time.perf_counter() - start
     compile_time = float(getattr(problem, "compilation_time", None) or 0.0)
     stats = problem.solver_stats
@@ -117,7 +154,7 @@ def data_scale(*mats: np.ndarray) -> float:
 # -- analysis: MATH §6 ---------------------------------------------------------
 @dataclass
 class AnalysisModel:
-    """The analysis LMI of a closed loop: ``Θ_k(P, η) ≼ -ε I``, ``P_k ≽ ε I``."""
+    """The analysis LMI: ``Θ_k(P, η) ≼ -ε diag(P_k, I)``, ``P_k ≽ ε I``."""
 
     problem: cp.Problem
     P: list
@@ -143,7 +180,15 @@ def analysis_model(sys: JumpStateSpace, eta: float | None, margin: float,
         supply = cp.bmat([
             [-decay ** 2 * P[k], -Cbar[k].T],
             [-Cbar[k], 2 * e * np.eye(m) - Dbar[k] - Dbar[k].T]])
-        cons += [_sym(quad + supply) << -eps * np.eye(n + m),
+        # The (1,1) block is homogeneous in P, so its margin is relative to
+        # P_k (a decay margin 1 - ε). An absolute ε·I there forces
+        # ‖P‖ ≳ ε / (1 - ms_radius) and, through the supply coupling, costs η:
+        # measured on a loop from passivesyn with ms_radius = 1 - 1e-6, the
+        # absolute margin certified η = -4.7e5 where the synthesis P proves
+        # 1.5285 (tests/test_passivity.py).
+        slack = cp.bmat([[P[k], np.zeros((n, m))],
+                         [np.zeros((m, n)), np.eye(m)]])
+        cons += [_sym(quad + supply) << -eps * slack,
                  P[k] >> eps * np.eye(n)]
     objective = cp.Maximize(e) if eta is None else cp.Minimize(0)
     return AnalysisModel(cp.Problem(objective, cons), P, e, eps)

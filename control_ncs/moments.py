@@ -28,6 +28,10 @@ def time_grid(sys, timepts: Any) -> np.ndarray:
     t = real_array(timepts, "timepts", ndim=1)
     if t.size < 1:
         raise ValueError("timepts: needs at least one time")
+    if t[0] != 0:
+        # step j runs phase j mod N: a grid starting elsewhere would
+        # silently assign the wrong phases
+        raise ValueError(f"timepts: times must start at 0, got {t[0]!r}")
     if not np.allclose(t, t[0] + np.arange(t.size) * dt, rtol=0,
                        atol=1e-9 * max(1.0, abs(t[-1]))):
         raise ValueError(f"timepts: a discrete-time system needs equally spaced "

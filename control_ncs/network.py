@@ -105,7 +105,8 @@ def schedule(spec: Any, nodes: int, name: str = "schedule") -> Schedule:
         * ``None``: every node sends at every step (period 1).
         * The paper's index vector ``s`` of length ``N``: at phase ``k`` node
           ``s[k]`` (1-based) may send; ``0`` means nobody.
-        * A 0/1 matrix of shape ``(N, nodes)``: several nodes per phase.
+        * A 0/1 (or boolean) matrix of shape ``(N, nodes)``: several nodes
+          per phase.
     nodes : int
         Number of sensors (``p2``) or actuators (``m2``).
     name : str
@@ -118,7 +119,8 @@ def schedule(spec: Any, nodes: int, name: str = "schedule") -> Schedule:
     Raises
     ------
     ValueError
-        If an index is out of ``0..nodes`` or a matrix has the wrong width.
+        If an index is out of ``0..nodes`` or a matrix has the wrong width
+        (or rows of unequal width).
 
     Examples
     --------
@@ -135,7 +137,14 @@ def schedule(spec: Any, nodes: int, name: str = "schedule") -> Schedule:
             raise ValueError(f"{name}: schedule is for {spec.nodes} nodes, "
                              f"expected {nodes}")
         return Schedule(spec.pattern.astype(int), name)
-    arr = np.asarray(spec)
+    try:
+        arr = np.asarray(spec)
+    except ValueError:  # ragged rows: numpy cannot even form the array
+        raise ValueError(f"{name}: a schedule matrix needs rows of equal "
+                         f"width ({nodes} columns, one per node), got "
+                         f"{spec!r}") from None
+    if arr.dtype == bool and arr.ndim == 2:
+        arr = arr.astype(int)  # a boolean matrix is a 0/1 matrix
     if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
         raise ValueError(f"{name}: expected None, an index vector or a 0/1 "
                          f"matrix, got {spec!r}")

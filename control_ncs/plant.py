@@ -42,7 +42,8 @@ class NetworkedStateSpace(ct.StateSpace):
         with :func:`control.sample_system` first).
     nmeas, ncon : int
         Number of measured outputs ``y`` (last outputs) and control inputs
-        ``u`` (last inputs), as in :func:`control.hinfsyn`.
+        ``u`` (last inputs), as in :func:`control.hinfsyn`. Required
+        (keyword-only; a missing one raises ``ControlArgument``).
     sensor_schedule, actuator_schedule : None, index vector or 0/1 matrix
         See :func:`control_ncs.network.schedule`. ``None``: everyone sends at
         every step.
@@ -66,7 +67,8 @@ class NetworkedStateSpace(ct.StateSpace):
     """
 
     def __init__(self, A: Any, B: Any, C: Any, D: Any, dt: Any = True, *,
-                 nmeas: int, ncon: int, sensor_schedule: Any = None,
+                 nmeas: int | None = None, ncon: int | None = None,
+                 sensor_schedule: Any = None,
                  actuator_schedule: Any = None, sensor_loss: float = 0.0,
                  actuator_loss: float = 0.0, shared_channel: bool = False,
                  name: str | None = None, inputs: Any = None,
@@ -216,7 +218,8 @@ class NetworkedStateSpace(ct.StateSpace):
                f"Plant (nmeas = {self.nmeas}, ncon = {self.ncon}):\n")
         return net + ct.StateSpace.__str__(
             ct.StateSpace(self.A, self.B, self.C, self.D, self.dt,
-                          inputs=self.input_labels, outputs=self.output_labels))
+                          inputs=self.input_labels, outputs=self.output_labels,
+                          states=self.state_labels))
 
 
 def _restore_nss(args: dict) -> NetworkedStateSpace:
@@ -268,6 +271,8 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         probability, ``D21``/``D22`` nonzero, shared-channel conflicts.
     ControlDimension
         Inconsistent shapes, ``nmeas``/``ncon`` out of range.
+    ControlArgument
+        ``nmeas``/``ncon`` missing or not an int.
     TypeError
         Unknown keyword.
 

@@ -123,6 +123,10 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
         op = second_moment_operator(sys)
         # A PSD start lies in the cone where the Perron eigenvector lives.
         v0 = np.eye(n).reshape(-1)
+        # 𝒯(I) = Σ p Π Πᵀ over all mode products Π of a period, so it is zero
+        # only when every Π is: then 𝒯 = 0 and ARPACK would fail on it.
+        if not np.any(op.matvec(v0)):
+            return 0.0
         try:
             vals = eigs(op, k=1, which="LM", v0=v0, tol=tol,
                         ncv=min(n * n - 1, 30), maxiter=5000,

@@ -208,7 +208,8 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     ------
     ValueError
         If a static gain can never close the loop because no phase schedules
-        a sensor and an actuator together (e.g. a shared channel, MATH §4).
+        a sensor and an actuator together (e.g. a shared channel, MATH §4),
+        or if ``K`` has non-finite entries.
     ControlDimension
         If the gain has the wrong shape.
 

@@ -20,7 +20,8 @@ from .jump import JumpPlant, JumpStateSpace
 from .lmi import DEFAULT_MARGIN, SolveReport, read_gains, solve, synthesis_model
 from .plant import NetworkedStateSpace
 from .strategies import build, loop_closes
-from .verify import Certificate, SynthesisError, check_certificate, certified_index
+from .verify import (Certificate, SynthesisError, certify_index,
+                     check_certificate)
 
 __all__ = ["passivesyn", "SynthesisResult", "SynthesisError"]
 
@@ -237,20 +238,27 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     eta, decay, structure = _checks(P, eta, decay, controller, actuator, form,
                                     structure, plant)
     attempts = []
-    last_cert = None
+    last_cert = last_report = None
+    tried = set()
     for scale, backoff in RETRIES:
-        if eta is not None and backoff:
-            continue  # a fixed η has nothing to back off from
         target = eta
         if eta is None and backoff:
             if not attempts or attempts[0].value is None:
-                break
+                continue  # the first solve gave no optimum to back off from
             best = attempts[0].value
             target = best - backoff * max(1.0, abs(best))
+        if (scale, target) in tried:
+            continue  # a fixed η has nothing to back off from
+        tried.add((scale, target))
         model = synthesis_model(plant, target, decay, margin * scale,
                                 structure, form)
         report = solve(model.problem, solver, **solver_options)
         attempts.append(report)
+        if report.infeasible and len(attempts) > 1:
+            # Only the first problem decides feasibility: a retry asks for
+            # more (a larger margin, or an η taken from an inaccurate
+            # optimum that may lie above the true one).
+            continue
         if report.infeasible:
             raise SynthesisError(
                 f"passivesyn: the LMI is infeasible (solver {report.solver}, "
@@ -264,21 +272,21 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
             continue
         gains, Pcert = read_gains(model, plant)
         CL = plant.close(gains)
-        if eta is None:
-            sup = certified_index(CL, Pcert, decay=decay)
-            eta_ok = sup - 1e-9 * max(1.0, abs(sup))
-        else:
-            eta_ok = eta
-        cert = check_certificate(CL, Pcert, eta_ok, decay=decay)
-        last_cert = cert
+        cert = (certify_index(CL, Pcert, decay=decay) if eta is None
+                else check_certificate(CL, Pcert, eta, decay=decay))
+        eta_ok = cert.eta
+        last_cert, last_report = cert, report
         if cert.verified and report.ok:
             return _finish(plant, model, gains, CL, cert, eta_ok,
                            attempts[0].value if eta is None and
                            attempts[0].value is not None else
                            (eta if eta is not None else eta_ok), decay,
                            form, structure, report, attempts)
-    report = attempts[-1]
+    # The last attempt that produced a gain says why it was refused; with
+    # none, the solver never produced an answer to check.
+    report = last_report if last_cert is not None else attempts[-1]
     figures = dict(status=report.status, solver=report.solver,
+                   statuses=[a.status for a in attempts],
                    **(last_cert.figures() if last_cert else {}))
     if last_cert is None:
         reason, what = "solver_failed", f"the solver failed ({report.message})"
@@ -288,9 +296,10 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         reason = "not_verified"
         what = "the gain fails the exact check: " + "; ".join(last_cert.failures)
     raise SynthesisError(
-        f"passivesyn: no verified gain ({what}; status {report.status!r} "
-        f"after {len(attempts)} attempts, (margin, back-off) = "
-        f"{[(margin * m, b) for m, b in RETRIES]})", reason, figures)
+        f"passivesyn: no verified gain ({what}; statuses "
+        f"{[a.status for a in attempts]} after {len(attempts)} attempts, "
+        f"(margin, back-off) = {[(margin * m, b) for m, b in RETRIES]})",
+        reason, figures)
 
 
 def _finish(plant, model, gains, CL, cert, eta_ok, eta_solver, decay, form,

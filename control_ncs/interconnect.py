@@ -1,0 +1,258 @@
+"""Interconnections of a jump system with deterministic LTI systems (MATH §7).
+
+:func:`jump_feedback` closes a loop around a
+:class:`~control_ncs.jump.JumpStateSpace` with an ordinary discrete-time LTI
+system and keeps the result a jump system (for simulation, mean-square
+stability, stochastic passivity). :func:`lift_lti` lifts an LTI system over
+``N`` steps, so that it can be interconnected with the lifted face of a
+periodic jump system.
+
+What python-control's own functions say about a JumpStateSpace
+----------------------------------------------------------------
+A ``JumpStateSpace`` *is* a :class:`control.StateSpace`, and its matrices
+are its exact **mean system** (MATH §7): for deterministic inputs ``w``,
+``E z`` obeys them exactly. For a period ``N > 1`` the face is that periodic
+mean lifted over one period (sampling time ``N·dt``, inputs
+``w[0], …, w[N-1]`` and outputs stacked time-major, named ``'w[0][k]'``).
+Every python-control function therefore makes an exact statement, but only
+about the mean:
+
+* ``control.step_response`` / ``impulse_response`` / ``forced_response``
+  (and ``control.step_info``): ``E z`` for that deterministic input. With
+  ``N > 1`` they see the lifted system, where a step of the lifted input
+  ``w[j][k]`` is a pulse train at phase ``k``; the per-step step response,
+  with its spread, is :func:`control_ncs.simulate.step_response`.
+* ``control.bode_plot`` / ``frequency_response``: the steady-state ``E z``
+  for sinusoidal deterministic ``w`` (for ``N > 1``, of the lifted system up
+  to the Nyquist frequency of ``N·dt``). Nothing about the spread around the
+  mean.
+* ``control.nyquist_plot``, ``poles``, ``stability_margins``: stability *in
+  the mean* of a loop with a deterministic LTI system. Mean-square
+  stability (:func:`control_ncs.ms_radius` < 1, MATH §5) is stronger: the
+  mean can converge while ``E‖ξ‖²`` diverges, never the other way round.
+* ``control.feedback(sys, G)``, ``series``, ``parallel`` with a deterministic
+  LTI ``G`` of the same ``dt`` (for ``N > 1``, with ``lift_lti(G, N)``):
+  a plain ``StateSpace``, the mean of the interconnected jump system.
+  ``series`` and ``parallel`` are always exact. ``feedback`` is exact when
+  ``G`` has no direct feedthrough (``D_G = 0``: the input the jump system
+  receives at time ``t`` then depends on the past only, hence not on the
+  mode drawn at ``t``), and also when ``D`` and one of ``B``, ``C`` of the
+  jump system are the same in every mode -- as in every static-gain loop of
+  :func:`control_ncs.feedback` (``B = B1``, ``D = D11``). Otherwise the
+  algebraic loop through ``D_G`` multiplies two mode-dependent matrices and
+  ``feedback`` of the means is only an approximation of the mean;
+  :func:`jump_feedback` is exact in every case, and is the interconnection
+  to simulate and to analyse.
+* ``control.ispassive(sys)``: passivity of the mean system, i.e. for
+  deterministic inputs only. It is **not** stochastic passivity (MATH §6),
+  which covers inputs that depend on the past -- as they do in any feedback
+  loop -- and is what control_ncs certifies. Stochastic passivity implies
+  that the mean system is passive, not conversely; with losses the
+  certified index is lower.
+"""
+
+from __future__ import annotations
+
+import numbers
+from typing import Any
+
+import numpy as np
+import control as ct
+from control.exception import ControlArgument, ControlDimension
+
+from ._checks import discrete_dt, no_extra_kwargs, real_array
+from .jump import JumpStateSpace, _lifted_names, as_jump, lift
+from .plant import NetworkedStateSpace
+
+__all__ = ["jump_feedback", "lift_lti"]
+
+
+def _deterministic(other: Any, rows: int, cols: int) -> ct.StateSpace:
+    """``other`` as a StateSpace with ``rows`` outputs and ``cols`` inputs."""
+    if isinstance(other, (JumpStateSpace, NetworkedStateSpace)):
+        raise ControlArgument(
+            f"other: expected a deterministic LTI system, got a "
+            f"{type(other).__name__} (its StateSpace face is a mean or a plant "
+            f"without its network, not a deterministic system)")
+    if isinstance(other, ct.LTI):
+        G = other if isinstance(other, ct.StateSpace) else ct.ss(other)
+    elif isinstance(other, (numbers.Number, np.ndarray, list, tuple)):
+        K = real_array(other, "other", ndim=(0, 2))
+        if K.ndim == 0:
+            if rows != cols:
+                raise ControlDimension(
+                    f"other: a scalar gain needs as many inputs as outputs, "
+                    f"the loop needs {rows} × {cols}")
+            K = K * np.eye(rows)
+        G = ct.ss(np.zeros((0, 0)), np.zeros((0, K.shape[1])),
+                  np.zeros((K.shape[0], 0)), K, None, name="gain")
+    else:
+        raise ControlArgument(f"other: expected an LTI system (StateSpace, "
+                              f"TransferFunction) or a gain, got "
+                              f"{type(other).__name__}")
+    if (G.noutputs, G.ninputs) != (rows, cols):
+        raise ControlDimension(
+            f"other: expected {cols} inputs (the jump system's outputs) and "
+            f"{rows} outputs (its inputs), got {G.ninputs} inputs and "
+            f"{G.noutputs} outputs")
+    return G
+
+
+def _common_dt(step: float | bool, dt: Any) -> float | bool:
+    if dt is None or dt is True:
+        return step
+    other = discrete_dt(dt, "other.dt")
+    if step is True:
+        return other
+    if not np.isclose(step, other, rtol=1e-12, atol=0):
+        raise ValueError(f"other.dt: sampling periods differ: the jump system "
+                         f"steps with dt = {step}, other has dt = {other}")
+    return step
+
+
+def jump_feedback(sys: Any, other: Any = 1, sign: float = -1, *,
+                  name: str | None = None, **kwargs: Any) -> JumpStateSpace:
+    """Feedback loop of a jump system with a deterministic LTI system.
+
+    Like :func:`control.feedback` (``sys`` in the forward path, ``other`` in
+    the feedback path, ``u_sys = w + sign · y_other``, ``u_other = z``), but
+    the result stays a jump system: each mode ``i`` of each phase ``k`` of the
+    result is :func:`control.feedback` of mode ``(k, i)`` of ``sys`` with
+    ``other``, with the same probabilities. ``other`` is time-invariant, so
+    any period ``N`` works. The state is ``[ξ; x_other]``.
+
+    Its StateSpace face is the exact mean of the loop (MATH §7). It equals
+    ``control.feedback(sys, other, sign)`` (for ``N > 1``:
+    ``control.feedback(sys, lift_lti(other, N), sign)``) when ``other`` is
+    strictly proper, or when ``D`` and one of ``B``, ``C`` of ``sys`` do not
+    depend on the mode (every static-gain loop of
+    :func:`control_ncs.feedback`); see the module notes.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time control.StateSpace
+    other : StateSpace, TransferFunction, scalar or 2-D array, optional
+        Deterministic discrete-time system with the same ``dt`` (or an
+        unspecified one), or a static gain; default 1 (unity feedback).
+    sign : float, optional
+        Feedback sign (default -1, negative feedback).
+    name : str, optional
+
+    Returns
+    -------
+    JumpStateSpace
+        Same inputs and outputs as ``sys``; ``info`` adds a ``'feedback'``
+        entry (other's name, matrices and ``dt``, and ``sign``).
+
+    Raises
+    ------
+    ValueError
+        If the loop is not well posed in some mode (``I - sign·D_other·D_i``
+        singular), ``other`` is continuous-time, or the sampling periods
+        differ.
+    ControlArgument
+        If ``other`` is a jump or networked system.
+    ControlDimension
+        If the dimensions do not match.
+
+    Examples
+    --------
+    A lossy loop in series with an integrator-like filter:
+
+    >>> from control_ncs.interconnect import jump_feedback
+    >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+    >>> G = ct.ss([[0.5]], [[1.0]], [[0.2]], [[0.0]], True)
+    >>> loop = jump_feedback(sys, G)
+    >>> loop.nmodes, loop.nstates
+    (2, 2)
+    >>> bool(np.allclose(loop.A, ct.feedback(sys, G).A))
+    True
+    """
+    no_extra_kwargs("jump_feedback", kwargs)
+    J = as_jump(sys, "sys")
+    M = J.modes
+    m, p = M.B.shape[-1], M.C.shape[-2]
+    G = _deterministic(other, m, p)
+    dt = _common_dt(J.dt_step, G.dt)
+    s = float(real_array(sign, "sign", ndim=0))
+    A2, B2, C2, D2 = (np.asarray(X, float) for X in (G.A, G.B, G.C, G.D))
+    n2 = A2.shape[0]
+
+    # control.StateSpace.feedback, written for every (phase, mode) at once.
+    F = np.eye(m) - s * np.einsum("ij,kmjl->kmil", D2, M.D)
+    rank = np.linalg.matrix_rank(F)
+    bad = np.argwhere(rank != m)
+    if bad.size:
+        k, i = bad[0]
+        raise ValueError(
+            f"jump_feedback: the loop is not well posed in mode {i} at phase "
+            f"{k}: I - sign·D_other·D_mode is singular, so the algebraic loop "
+            f"has no unique solution")
+    rhs = np.broadcast_to(np.concatenate([D2, C2], axis=1),
+                          F.shape[:2] + (m, p + n2))
+    E_D2_C2 = np.linalg.solve(F, rhs)
+    E_D2, E_C2 = E_D2_C2[..., :p], E_D2_C2[..., p:]
+    T1 = np.eye(p) + s * M.D @ E_D2
+    T2 = np.eye(m) + s * E_D2 @ M.D
+    A = np.concatenate([
+        np.concatenate([M.A + s * M.B @ E_D2 @ M.C, s * M.B @ E_C2], axis=-1),
+        np.concatenate([B2 @ T1 @ M.C, A2 + s * B2 @ M.D @ E_C2], axis=-1)],
+        axis=-2)
+    B = np.concatenate([M.B @ T2, B2 @ M.D @ T2], axis=-2)
+    C = np.concatenate([T1 @ M.C, s * M.D @ E_C2], axis=-1)
+    D = M.D @ T2
+
+    states = list(J.jump_states) + [f"{G.name}.{x}" for x in G.state_labels]
+    info = dict(J.info, feedback=dict(
+        other=G.name, sign=s, dt=G.dt, matrices=(A2, B2, C2, D2)))
+    return JumpStateSpace(A, B, C, D, M.probabilities, dt,
+                          nominal=J.nominal_mode, name=name,
+                          inputs=J.jump_inputs, outputs=J.jump_outputs,
+                          states=states, info=info)
+
+
+def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
+    """A discrete-time LTI system lifted over ``period`` steps.
+
+    The lifted system maps ``[u[jN]; …; u[jN+N-1]]`` to
+    ``[y[jN]; …; y[jN+N-1]]`` (time-major, as the face of a
+    :class:`~control_ncs.jump.JumpStateSpace` with period ``N``) with
+    sampling time ``N·dt``; signals are named ``'u[0][k]'``. Use it to
+    interconnect python-control systems with the lifted face, e.g.
+    ``control.feedback(loop, lift_lti(G, loop.period))``.
+
+    Parameters
+    ----------
+    sys : StateSpace or TransferFunction
+        Discrete-time (``dt`` True or > 0).
+    period : int
+        ``N >= 1``.
+
+    Returns
+    -------
+    control.StateSpace
+
+    Examples
+    --------
+    >>> from control_ncs.interconnect import lift_lti
+    >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], 0.1)
+    >>> GL = lift_lti(G, 2)
+    >>> GL.A.tolist(), GL.dt, GL.input_labels
+    ([[0.25]], 0.2, ['u[0][0]', 'u[0][1]'])
+    """
+    no_extra_kwargs("lift_lti", kwargs)
+    if not isinstance(sys, ct.LTI) or isinstance(sys, JumpStateSpace):
+        raise ControlArgument(f"sys: expected a deterministic LTI system, got "
+                              f"{type(sys).__name__}")
+    G = sys if isinstance(sys, ct.StateSpace) else ct.ss(sys)
+    dt = discrete_dt(G.dt, "sys.dt")
+    if isinstance(period, (bool, np.bool_)) or not isinstance(
+            period, (int, np.integer)) or period < 1:
+        raise ValueError(f"period: expected an int >= 1, got {period!r}")
+    N = int(period)
+    mats = lift(*(np.repeat(np.asarray(X, float)[None], N, axis=0)
+                  for X in (G.A, G.B, G.C, G.D)))
+    return ct.StateSpace(*mats, True if dt is True else dt * N,
+                         inputs=_lifted_names(G.input_labels, N),
+                         outputs=_lifted_names(G.output_labels, N),
+                         states=list(G.state_labels), name=f"{G.name}$lifted")
