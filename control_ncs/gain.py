@@ -24,10 +24,10 @@ class PeriodicGain:
     ----------
     gains : array_like, shape (N, m2, nk) or (m2, nk)
         ``K_k`` for ``k = 0..N-1``. What ``K_k`` multiplies depends on the
-        controller: the received measurement ``ŷ`` (``'static'``), the
-        estimate ``x̂`` (``'predictor'``), with the last applied input
-        appended (``[ŷ; u⁻]`` or ``[x̂; u⁻]``) for the ``'predictor'`` with a
-        ``'hold'`` actuator.
+        controller: the received measurement ``ŷ`` (``'static'``, with either
+        actuator), the estimate ``x̂`` (``'predictor'`` with a ``'zero'``
+        actuator), or ``[x̂; u⁻]``, the estimate and the last applied input
+        (``'predictor'`` with a ``'hold'`` actuator).
     controller : {'static', 'predictor'}
     actuator : {'zero', 'hold'}
     result : object, optional

@@ -342,16 +342,12 @@ class JumpStateSpace(ct.StateSpace):
                                self.jump_outputs, self.jump_states, self.info))
 
     def __eq__(self, other: object) -> bool:
+        # Equal systems: same modes, step, signal names and loss-free mode.
         return (type(other) is type(self) and self.modes == other.modes
                 and self.dt_step == other.dt_step
                 and self.jump_inputs == other.jump_inputs
                 and self.jump_outputs == other.jump_outputs
-                and np.array_equal(self.nominal_mode, other.nominal_mode)
-                if self.nominal_mode is not None or other.nominal_mode is not None
-                else type(other) is type(self) and self.modes == other.modes
-                and self.dt_step == other.dt_step
-                and self.jump_inputs == other.jump_inputs
-                and self.jump_outputs == other.jump_outputs)
+                and np.array_equal(self.nominal_mode, other.nominal_mode))
 
     __hash__ = None
 
