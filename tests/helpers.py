@@ -186,9 +186,3 @@ def fourth_moment_rate(sys):
                  for i in range(A.shape[1]))
         T = Tk @ T
     return np.max(np.abs(np.linalg.eigvals(T))) ** (1 / sys.period)
-
-
-def outer_samples(a, b=None):
-    """Per-trial outer products: ``(trials, i, [j,] T)`` → ``(trials, i, j, T)``."""
-    b = a if b is None else b
-    return np.einsum("sit,sjt->sijt", a, b)

@@ -8,7 +8,6 @@ from control.exception import ControlArgument, ControlDimension
 from control_ncs import (build, feedback, is_mss, jss, mode_probabilities,
                          moments, ms_radius, nss, schedule)
 
-from helpers import random_plant, scalar_plant
 
 # n = 2, w ∈ R¹, u ∈ R¹, z ∈ R¹, y = x ∈ R²
 A = np.array([[1.1, 0.2], [0.0, 0.7]])

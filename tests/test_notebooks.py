@@ -1,0 +1,52 @@
+"""The teaching notebooks are the five stories of issue 6, committed without outputs.
+
+Executing them is nbmake's job (``pytest --nbmake notebooks/``); these tests
+check what is committed: exactly the five notebooks, valid nbformat, and no
+outputs or execution counts left in any code cell.
+"""
+
+from pathlib import Path
+
+import nbformat
+import pytest
+
+NOTEBOOKS = Path(__file__).resolve().parent.parent / "notebooks"
+
+EXPECTED = [
+    "01_lossy_scheduled_network.ipynb",
+    "02_mean_square_stability.ipynb",
+    "03_passive_synthesis.ipynb",
+    "04_shared_channel_predictor.ipynb",
+    "05_why_passivity.ipynb",
+]
+
+
+def _read(name):
+    return nbformat.read(str(NOTEBOOKS / name), as_version=4)
+
+
+def test_notebooks_folder_holds_exactly_the_five_stories():
+    found = sorted(p.name for p in NOTEBOOKS.glob("*.ipynb"))
+    assert found == EXPECTED
+
+
+@pytest.mark.parametrize("name", EXPECTED)
+def test_notebook_is_valid_nbformat(name):
+    nbformat.validate(_read(name))
+
+
+@pytest.mark.parametrize("name", EXPECTED)
+def test_notebook_outputs_are_stripped(name):
+    cells = [c for c in _read(name).cells if c.cell_type == "code"]
+    assert cells, f"{name} has no code cells"
+    for i, cell in enumerate(cells):
+        assert cell.get("outputs", []) == [], f"{name}: code cell {i} has outputs"
+        assert cell.get("execution_count") is None, \
+            f"{name}: code cell {i} has execution_count {cell['execution_count']}"
+
+
+@pytest.mark.parametrize("name", EXPECTED)
+def test_notebook_tells_its_story_in_markdown(name):
+    cells = _read(name).cells
+    assert cells[0].cell_type == "markdown" and cells[0].source.startswith("# ")
+    assert any(c.cell_type == "markdown" for c in cells[1:])
