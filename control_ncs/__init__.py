@@ -13,7 +13,8 @@ from .strategies import build, feedback
 from .stability import ms_radius, is_mss, second_moment_operator
 from .moments import moments, MomentsResponse
 from .verify import (Certificate, CertificationError, SynthesisError,
-                     check_certificate, certified_index, dissipation_matrices)
+                     check_certificate, certified_index, certify_index,
+                     dissipation_matrices)
 from .passivity import (ispassive, get_input_ff_index, mean_input_ff_index,
                         frequency_ff_index, passivity_certificate,
                         PassivityResult)
@@ -31,7 +32,8 @@ __all__ = [
     "ms_radius", "is_mss", "second_moment_operator",
     "moments", "MomentsResponse",
     "Certificate", "CertificationError", "SynthesisError",
-    "check_certificate", "certified_index", "dissipation_matrices",
+    "check_certificate", "certified_index", "certify_index",
+    "dissipation_matrices",
     "ispassive", "get_input_ff_index", "mean_input_ff_index",
     "frequency_ff_index", "passivity_certificate", "PassivityResult",
     "passivesyn", "SynthesisResult",

@@ -77,6 +77,25 @@ def check_solver(solver: str | None) -> str:
     return name
 
 
+#: When nothing verifies with the default solver (Clarabel), synthesis and
+#: analysis ask this solver once, if installed (never when the caller names a
+#: solver). Measured (tests/test_synthesis.py, tests/test_passivity.py): on
+#: 54 seeded plants with sensor schedules (n = 2..5, N = 2, 3), 26 admit no
+#: structured gain and Clarabel stops with InsufficientProgress as η runs off
+#: to -∞ (or once claims 'optimal' at η = -2.8e14 with X indefinite); CVXOPT
+#: proves 25 of them infeasible in 0.1-0.3 s each. Re-certifying a given η
+#: within ~1e-8 of the index, Clarabel ends 'optimal_inaccurate' with
+#: λmax(Θ) ≈ +1e-8 where CVXOPT's answer passes the exact check.
+FALLBACK_SOLVER = "CVXOPT"
+
+
+def fallback_solver(solver: str | None) -> str | None:
+    """The solver to ask once when nothing verified, or None (see above)."""
+    if solver is None and FALLBACK_SOLVER in cp.installed_solvers():
+        return FALLBACK_SOLVER
+    return None
+
+
 #: Keywords that :meth:`cvxpy.Problem.solve` itself accepts for any solver.
 CVXPY_SOLVE_KEYWORDS = frozenset((
     "verbose", "warm_start", "gp", "qcp", "requires_grad", "enforce_dpp",
@@ -159,16 +178,28 @@ class AnalysisModel:
     problem: cp.Problem
     P: list
     eta: Any
-    margin: float
+    margin: Any          # ε, or the variable t when the margin is maximised
 
 
-def analysis_model(sys: JumpStateSpace, eta: float | None, margin: float,
-                   decay: float = 1.0) -> AnalysisModel:
-    """Build the LMI of MATH §6 (maximise ``η`` when ``eta`` is None)."""
+def analysis_model(sys: JumpStateSpace, eta: float | None,
+                   margin: float | None, decay: float = 1.0) -> AnalysisModel:
+    """Build the LMI of MATH §6 (maximise ``η`` when ``eta`` is None).
+
+    ``margin=None`` (with a given ``eta``) maximises the strictness margin
+    ``t`` itself: ``Θ_k ≼ -t I``, ``P_k ≽ t I``. Its answer is the most
+    interior certificate, the one most likely to pass the exact check when
+    ``η`` lies within a fixed margin of the index; ``t ≤ 0`` at the optimum
+    means no strict certificate exists.
+    """
     A, B, p = sys.modes.A, sys.modes.B, sys.modes.probabilities
     _, _, Cbar, Dbar = sys.modes.mean()
     N, n, m = sys.period, A.shape[-1], B.shape[-1]
-    eps = margin * data_scale(A, B, sys.modes.C, sys.modes.D)
+    if margin is None:
+        if eta is None:
+            raise ValueError("analysis_model: margin=None needs a given eta")
+        t = cp.Variable(name="margin")
+    else:
+        t = margin * data_scale(A, B, sys.modes.C, sys.modes.D)
     P = [cp.Variable((n, n), symmetric=True, name=f"P{k}") for k in range(N)]
     e = cp.Variable(name="eta") if eta is None else float(eta)
     cons = []
@@ -186,12 +217,14 @@ def analysis_model(sys: JumpStateSpace, eta: float | None, margin: float,
         # measured on a loop from passivesyn with ms_radius = 1 - 1e-6, the
         # absolute margin certified η = -4.7e5 where the synthesis P proves
         # 1.5285 (tests/test_passivity.py).
-        slack = cp.bmat([[P[k], np.zeros((n, m))],
-                         [np.zeros((m, n)), np.eye(m)]])
-        cons += [_sym(quad + supply) << -eps * slack,
-                 P[k] >> eps * np.eye(n)]
-    objective = cp.Maximize(e) if eta is None else cp.Minimize(0)
-    return AnalysisModel(cp.Problem(objective, cons), P, e, eps)
+        slack = (np.eye(n + m) if margin is None else
+                 cp.bmat([[P[k], np.zeros((n, m))],
+                          [np.zeros((m, n)), np.eye(m)]]))
+        cons += [_sym(quad + supply) << -t * slack,
+                 P[k] >> t * np.eye(n)]
+    objective = (cp.Maximize(t) if margin is None else
+                 cp.Maximize(e) if eta is None else cp.Minimize(0))
+    return AnalysisModel(cp.Problem(objective, cons), P, e, t)
 
 
 # -- synthesis: MATH §8, §8b, §10 ----------------------------------------------

@@ -26,7 +26,8 @@ from scipy.optimize import minimize_scalar
 
 from ._checks import no_extra_kwargs
 from .jump import as_jump
-from .lmi import DEFAULT_MARGIN, SolveReport, analysis_model, solve
+from .lmi import (DEFAULT_MARGIN, SolveReport, analysis_model,
+                  fallback_solver, solve)
 from .stability import ms_radius
 from .verify import (Certificate, CertificationError, certify_index,
                      check_certificate)
@@ -43,10 +44,13 @@ __all__ = ["ispassive", "get_input_ff_index", "mean_input_ff_index",
 INDEX_ATTEMPTS = ((1.0, None), (1.0, 1e-6), (1.0, 1e-4), (1.0, 1e-3),
                   (1e2, None))
 #: For a given η: the LMI with its margin, a 100× larger one, and last the
-#: non-strict LMI (margin 0), for an η within O(ε) of the index where the
-#: margin alone makes the LMI infeasible; its answer is checked exactly like
-#: any other. Measured: needed to re-certify the η that passivesyn returns.
-LEVEL_ATTEMPTS = ((1.0, None), (1e2, None), (0.0, None))
+#: LMI that maximises its own margin (multiplier None), for an η so close to
+#: the index that a fixed margin makes the LMI infeasible; its answer is the
+#: most interior certificate and is checked exactly like any other.
+#: Measured: needed to re-certify the η that passivesyn returns (1e-6
+#: below what its certificate proves); the non-strict LMI (margin 0)
+#: instead returns boundary points that fail the exact check.
+LEVEL_ATTEMPTS = ((1.0, None), (1e2, None), (None, None))
 
 
 @dataclass
@@ -58,8 +62,9 @@ class PassivityResult:
     passive : bool
         True: certified by ``certificate``. False: ``reason`` says why.
     eta : float
-        Dissipation level certified (for an index: just below the
-        supremum ``certificate.eta_sup`` the certificate proves).
+        Dissipation level certified (for an index: a relative 1e-6 below
+        the supremum ``certificate.eta_sup`` the certificate proves, see
+        :func:`control_ncs.verify.certify_index`).
     certificate : Certificate or None
         Exact verification figures (``P_k``, ``λmax(Θ_k)``, ``ms_radius``).
     report : SolveReport or None
@@ -67,7 +72,8 @@ class PassivityResult:
     reason : str
         ``'certified'``, ``'not_mss'``, ``'feedthrough'`` (``D̄ + D̄ᵀ ≻ 2ηI``
         fails, a necessary condition), ``'infeasible'`` (the LMI has no
-        solution).
+        solution with its margin, and the margin-maximising LMI gives no
+        certificate that passes the exact check).
     """
 
     passive: bool
@@ -119,8 +125,11 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     Raises
     ------
     CertificationError
-        If the solver fails, or its answer fails the exact checks even after
-        a retry with a larger margin (the figures are on the exception).
+        If no attempt (``INDEX_ATTEMPTS`` or ``LEVEL_ATTEMPTS``, then the
+        fallback solver) gives an answer that passes the exact checks:
+        ``reason`` is ``'solver_failed'``, ``'inaccurate'``,
+        ``'not_verified'`` or, for an index, ``'infeasible'`` (a retry was
+        reported infeasible); the figures are on the exception.
     """
     sys = as_jump(sys)
     _square(sys)
@@ -133,18 +142,24 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         return PassivityResult(False, float(ifp_index), None, None,
                                "feedthrough")
     fixed = ifp_index is not None
-    plan = list(LEVEL_ATTEMPTS if fixed else INDEX_ATTEMPTS)
+    plan = [(scale, backoff, solver) for scale, backoff in
+            (LEVEL_ATTEMPTS if fixed else INDEX_ATTEMPTS)]
+    if fallback_solver(solver):
+        plan.append(((None if fixed else 1.0), None, fallback_solver(solver)))
     attempts, last, best, refuted = [], None, None, False
     while plan:
-        scale, backoff = plan.pop(0)
+        scale, backoff, name = plan.pop(0)
         target = ifp_index
         if backoff is not None:
             if best is None:
                 continue  # the first solve gave no optimum to back off from
             target = best - backoff * max(1.0, abs(best))
-        model = analysis_model(sys, target, margin * scale, decay)
-        report = solve(model.problem, solver, **solver_options)
-        attempts.append((margin * scale, target, report.status))
+        level = None if scale is None else margin * scale
+        model = analysis_model(sys, target, level, decay)
+        # the caller's options are for the solver the caller chose
+        report = solve(model.problem, name,
+                       **(solver_options if name == solver else {}))
+        attempts.append((level, target, report.solver, report.status))
         if len(attempts) == 1:
             best = report.value
         if report.infeasible:
@@ -152,7 +167,7 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
             if fixed:
                 refuted = True
                 # a larger margin is infeasible too; a smaller one may not be
-                plan = [a for a in plan if a[0] < scale]
+                plan = [a for a in plan if a[0] is None]
                 continue
             if len(attempts) == 1:
                 break
@@ -160,10 +175,17 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         if report.status not in ("optimal", "optimal_inaccurate"):
             last = (report, None, "solver_failed")
             continue
+        if scale is None and report.value is not None and report.value <= 0:
+            # the largest margin is not positive: no strict certificate
+            # (unless another solver's answer verifies after all)
+            last, refuted = (report, None, "infeasible"), True
+            continue
         P = np.array([Pk.value for Pk in model.P])
         cert = (check_certificate(sys, P, float(ifp_index), decay=decay)
                 if fixed else certify_index(sys, P, decay=decay))
-        if cert.verified and report.ok:
+        # For a given η the exact check is the proof, whatever the solver's
+        # status; an index also claims optimality, which needs 'optimal'.
+        if cert.verified and (report.ok or fixed):
             return PassivityResult(True, cert.eta, cert, report, "certified")
         last = (report, cert, "not_verified" if report.ok else "inaccurate")
     report, cert, reason = last
@@ -183,7 +205,7 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
             + ("; ".join(cert.failures) if cert is not None else "")}[reason]
     raise CertificationError(
         f"passivity: no certificate could be verified ({what}; attempts "
-        f"(margin, eta, status): {attempts})", reason, figures)
+        f"(margin, eta, solver, status): {attempts})", reason, figures)
 
 
 def ispassive(sys: Any, ifp_index: float = 0.0, **kwargs: Any) -> bool:
@@ -206,7 +228,9 @@ def ispassive(sys: Any, ifp_index: float = 0.0, **kwargs: Any) -> bool:
     Returns
     -------
     bool
-        False means: a necessary condition fails, or the LMI is infeasible.
+        False means: a necessary condition fails, or no certificate was
+        found (the LMI is infeasible with its margin, and the LMI that
+        maximises its margin gives none that passes the exact check).
 
     Examples
     --------
@@ -222,8 +246,10 @@ def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
     """Largest certified input-feedforward passivity index (stochastic).
 
     The supremum of ``η`` for which a certificate ``P_k`` with ``Θ_k ≺ 0``
-    exists (MATH §6); the value returned is certified exactly (just below
-    the supremum the solver's ``P_k`` proves). For a loss-free ``N = 1`` loop
+    exists (MATH §6); the value returned is certified exactly, a relative
+    1e-6 below the supremum the solver's ``P_k`` proves (room for any later
+    check, e.g. :func:`ispassive`, to re-certify it). For a loss-free
+    ``N = 1`` loop
     it equals :func:`control.get_input_ff_index` and, for a stable system,
     :func:`frequency_ff_index`.
 
@@ -249,8 +275,8 @@ def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
 
     >>> import control as ct
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> round(get_input_ff_index(G), 6)
-    0.333333
+    >>> round(get_input_ff_index(G), 5)
+    0.33333
     """
     result = passivity_certificate(sys, None, **kwargs)
     if result.reason == "not_mss":

@@ -17,7 +17,8 @@ from control.exception import ControlArgument, ControlDimension
 from ._checks import choice
 from .gain import ACTUATORS, CONTROLLERS, PeriodicGain
 from .jump import JumpPlant, JumpStateSpace
-from .lmi import DEFAULT_MARGIN, SolveReport, read_gains, solve, synthesis_model
+from .lmi import (DEFAULT_MARGIN, SolveReport, fallback_solver,
+                  read_gains, solve, synthesis_model)
 from .plant import NetworkedStateSpace
 from .strategies import build, loop_closes
 from .verify import (Certificate, SynthesisError, certify_index,
@@ -29,9 +30,14 @@ __all__ = ["passivesyn", "SynthesisResult", "SynthesisError"]
 #: checks: (margin multiplier, relative back-off of ``η`` below the first
 #: attempt's optimum). A maximum sits on the boundary of the feasible set,
 #: where interior-point answers are least accurate; a retry therefore solves
-#: the feasibility problem a little below it. Measured on the predictor with
-#: a hold actuator (tests/test_synthesis.py): the maximisation ends
-#: 'optimal_inaccurate', the feasibility problem at 1e-3 below is 'optimal'.
+#: the feasibility problem a little below it. Measured (loss-free plants
+#: with unstable A, tests/test_passivity.py): the maximisation ends
+#: 'optimal_inaccurate', the feasibility problem 1e-3 below is 'optimal',
+#: at a cost of ~9e-4 of η; trying 1e-5 and 1e-4 first rescued 1 of 3 such
+#: cases, so they are not tried. A retry reported infeasible proves nothing
+#: (its η comes from an inaccurate optimum): only the problem as posed, with
+#: the default or the fallback solver (``lmi.FALLBACK_SOLVER``), decides
+#: infeasibility.
 RETRIES = ((1.0, 0.0), (1.0, 1e-3), (1e2, 1e-2))
 
 FORMS = ("merged", "paper")
@@ -46,7 +52,9 @@ class SynthesisResult:
     ----------
     gain : PeriodicGain
     eta : float
-        Certified dissipation (the one returned).
+        Certified dissipation (the one returned): the requested one, or a
+        relative 1e-6 below the supremum the certificate proves
+        (:func:`control_ncs.verify.certify_index`).
     eta_solver : float
         The solver's objective value (``η`` maximised), or the requested one.
     decay : float
@@ -218,7 +226,9 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     ------
     SynthesisError
         The LMI is infeasible, the solver failed or was inaccurate, or the
-        answer failed the exact checks; ``reason`` and ``figures`` say which.
+        answer failed the exact checks, after the retries (``RETRIES``) and,
+        without ``solver=``, one solve of the problem as posed by
+        ``lmi.FALLBACK_SOLVER``; ``reason`` and ``figures`` say which.
     ValueError, ControlDimension, ControlArgument
         The pre-solve checks: ``dim w ≠ dim z``, ``D11 + D11ᵀ ⊁ 2ηI``,
         ``y ≠ x``, a static gain that can never close the loop.
@@ -238,25 +248,33 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     eta, decay, structure = _checks(P, eta, decay, controller, actuator, form,
                                     structure, plant)
     attempts = []
-    last_cert = last_report = None
+    last_cert = last_report = best = None
     tried = set()
-    for scale, backoff in RETRIES:
+    plan = [(scale, backoff, solver) for scale, backoff in RETRIES]
+    if fallback_solver(solver):
+        plan.append((1.0, 0.0, fallback_solver(solver)))
+    for scale, backoff, name in plan:
         target = eta
         if eta is None and backoff:
-            if not attempts or attempts[0].value is None:
+            if best is None:
                 continue  # the first solve gave no optimum to back off from
-            best = attempts[0].value
             target = best - backoff * max(1.0, abs(best))
-        if (scale, target) in tried:
+        if (scale, target, name) in tried:
             continue  # a fixed η has nothing to back off from
-        tried.add((scale, target))
+        tried.add((scale, target, name))
+        # the problem as posed (not a retry asking for more)
+        original = scale == 1.0 and target == eta
         model = synthesis_model(plant, target, decay, margin * scale,
                                 structure, form)
-        report = solve(model.problem, solver, **solver_options)
+        # the caller's options are for the solver the caller chose
+        report = solve(model.problem, name,
+                       **(solver_options if name == solver else {}))
         attempts.append(report)
-        if report.infeasible and len(attempts) > 1:
-            # Only the first problem decides feasibility: a retry asks for
-            # more (a larger margin, or an η taken from an inaccurate
+        if original and best is None and eta is None:
+            best = report.value
+        if report.infeasible and not original:
+            # Only the problem as posed decides feasibility: a retry asks
+            # for more (a larger margin, or an η taken from an inaccurate
             # optimum that may lie above the true one).
             continue
         if report.infeasible:
@@ -267,21 +285,21 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
                    f"passes the sufficient '{structure}' condition")
                 + f" for eta={'max' if eta is None else eta}, decay={decay}",
                 "infeasible", dict(status=report.status, solver=report.solver,
-                                   structure=structure))
+                                   structure=structure,
+                                   statuses=[a.status for a in attempts]))
         if report.status not in ("optimal", "optimal_inaccurate"):
             continue
         gains, Pcert = read_gains(model, plant)
         CL = plant.close(gains)
         cert = (certify_index(CL, Pcert, decay=decay) if eta is None
                 else check_certificate(CL, Pcert, eta, decay=decay))
-        eta_ok = cert.eta
         last_cert, last_report = cert, report
         if cert.verified and report.ok:
-            return _finish(plant, model, gains, CL, cert, eta_ok,
-                           attempts[0].value if eta is None and
-                           attempts[0].value is not None else
-                           (eta if eta is not None else eta_ok), decay,
-                           form, structure, report, attempts)
+            eta_solver = eta if eta is not None else (
+                best if best is not None else cert.eta)
+            return _finish(plant, model, gains, CL, cert, cert.eta,
+                           eta_solver, decay, form, structure, report,
+                           attempts)
     # The last attempt that produced a gain says why it was refused; with
     # none, the solver never produced an answer to check.
     report = last_report if last_cert is not None else attempts[-1]
