@@ -1,0 +1,13 @@
+"""Benchmarks of control_ncs against its alternatives (issue 7).
+
+``python -m benchmarks`` (about 15 minutes on the project's 2-core machine)
+writes ``docs/benchmarks.md`` and ``docs/benchmarks_scaling.png``;
+``python -m benchmarks --quick`` runs every section at tiny sizes (seconds).
+
+Modules: ``common`` (seeded plants, timing, memory-capped subprocesses,
+versions), ``worker`` (the subprocess side), ``bench_synthesis`` (§1, §2),
+``bench_stability`` (§3), ``bench_simulate`` (§4), ``bench_passivity``
+(§5), ``report`` (tables), ``notes`` (the analysis appended to the report),
+and ``riccati`` — a PROTOTYPE of a Riccati-type synthesis route, not part of
+the package.
+"""

@@ -12,8 +12,9 @@ NOTES = r'''
 What the tables show:
 
 * **Plain cvxpy + Clarabel does not fit.** §2a: peak memory grows like
-  n^3.5 and one interior-point iteration like n^5; at n = 64 the build dies
-  in the capped subprocess on a 2.4 GB allocation. During development one
+  n^3 and one interior-point iteration like n^4.5–5 over n = 16–32 (memory
+  steepening to n^3.7 from 32 to 48); at n = 64 the build dies in the
+  capped subprocess on a 2.4 GB allocation. During development one
   iteration at n = 48 took 412 s and 14.0 GB (same probe, run once, not in
   the timed run). Clarabel stores and factors a dense s(s+1)/2 block per
   PSD cone (s = 2n + m1 after its chordal split); nothing in the existing
@@ -22,13 +23,15 @@ What the tables show:
   grows like n^4 (§2b: n = 16 → 32); during development the n = 64, N = 4
   run was killed after 400 s at 12.1 GB.
 * **SCS** (`solver='SCS', eps=1e-6, max_iters=20000`) with a **fixed η**
-  returns a verified gain at n = 64 (§2b), in a time close to the 2-minute
-  limit on this loaded machine and with little room; with **η maximised** it
-  ends `optimal_inaccurate` on every attempt and passivesyn raises (§2b,
-  n = 16), as expected of a first-order method on the boundary of the
-  feasible set.
+  returns a verified gain at n = 64 (§2b) in 80–113 s over four full runs on
+  this shared machine: inside the limit, but only just. With **η
+  maximised** SCS needs passivesyn's back-off retries (three attempts) and
+  is an order of magnitude slower than with η fixed already at n = 16, with
+  an η about 1 % below the optimum; at n = 64 it would far exceed the
+  limit. **CVXOPT** with η maximised fails (`solver_error`) at n = 16.
 * **Prototype (benchmarks/riccati.py)**: with the full state known at every
-  phase (`structure='full'`: any actuator schedule, no sensor schedule),
+  phase (`structure='full'`: in the package, the static controller with the
+  zero actuator, no sensor schedule, any actuator schedule),
   `Θ_k ≺ 0` is, after a Schur complement on its `w` block, the Riccati
   inequality `r² P_k ≻ G_k(K; P_{k+1})`, where `G_k` is a matrix quadratic in
   `K` with a Loewner-order minimiser `K* = −H⁻¹L`. Iterating
@@ -48,8 +51,9 @@ What the tables show:
 `solver='riccati'` route in `passivesyn`, and `'auto'` choosing it for
 `structure == 'full'` above n ≈ 24 (where §1 shows Clarabel taking tens of
 seconds). The LMI stays the route for `'block'`/`'extended'` (sensor
-schedules, predictor with partial knowledge), where the gain is structured
-and no Riccati minimiser exists.
+schedules, the predictor, the hold actuator: the gain sees only part of
+the state), where the gain is structured and the Loewner minimiser over
+`K` does not exist.
 
 1. New module `control_ncs/riccati.py`: the functions `_Data`, `_wsum`,
    `_step`, `_iterate`, `_search` of benchmarks/riccati.py unchanged
@@ -145,7 +149,8 @@ is small; at n = 4 it removes most of the time of every retry.
 §1 and §1b: with Clarabel's default chordal decomposition, the paper form's
 mutually-zero mode rows are split off, so both forms become cliques of side
 2n + m1 (four per phase in the paper form, two in the merged one); the
-measured paper/merged ratio is the 2–6× of §1 (growing with n), not the
+measured paper/merged ratio is the 1.5–5× of §1 (growing with n,
+shrinking with N), not the
 (5/3)⁶ ≈ 21× of a dense factorisation. With chordal decomposition off
 (§1b) the ratio is larger, as the dense count predicts. The merged form is
 still the right default; the 4× target is missed at the sizes where the
@@ -156,23 +161,32 @@ route above), not by the merge.
 ### 7.4 Passivity index of a given system (loss-free and lossy)
 
 §5: at n = 4 and 16 the package is within a small factor of
-`control.get_input_ff_index` (and agrees to ~1e-6 relative, certified);
-at n = 32 and above Clarabel is an order of magnitude slower than cvxopt,
-because the analysis LMI's constraint matrix is dense (every entry of
-AᵀPA depends on every Pᵢⱼ) and Clarabel factors the full KKT system; at
-n = 64 it did not finish in the capped 60 s (during development: 292 s,
-against 23 s for control's cvxopt). Passing `solver='CVXOPT'` through the
-existing API recovers control's speed with the package's exact
-verification. Proposed change in `passivity.passivity_certificate`: when
-`solver is None` and the state dimension is ≥ 24 and CVXOPT is installed,
-use CVXOPT (or the Riccati iteration of 7.1 without a gain,
-`riccati_ff_index` in the prototype, which needs no solver at all but is
-only ~1e-5 accurate near the supremum as it stands).
+`control.get_input_ff_index` and agrees with it and with the KYP frequency
+test to ~2e-6 relative, with an exactly checked certificate. From n = 32 on
+Clarabel is an order of magnitude slower than control's cvxopt code,
+because the analysis LMI's constraint matrix is dense (every entry of AᵀPA
+depends on every Pᵢⱼ) and Clarabel factors the whole KKT system; at
+n = 64 it did not finish in the capped 60 s (a development run took 292 s,
+against 23 s for control). `solver='CVXOPT'` through cvxpy is no way out:
+it fails with `solver_error` at n = 32 and 64 (control's own cvxopt call,
+which builds the LMI basis itself, works). The Riccati iteration without a
+gain (`riccati_ff_index` in the prototype) needs no solver; at n = 64 it is
+faster than control's cvxopt, but near the supremum it converges slowly, so
+its certified value is 1e-5 to 2e-4 (relative) low, and at small n it is
+slower than the LMI. Proposed change in `passivity.passivity_certificate`
+(not prototyped beyond `riccati_ff_index`): above n ≈ 24, for a loss-free
+N = 1 system take the KYP frequency value ν (`frequency_ff_index`, exact
+up to its grid refinement) as the target and produce the certificate with
+one Riccati run at η = ν(1 − 1e-6), no bisection, then `check_certificate`
+as now; for lossy or periodic systems, the bisected iteration. Either way
+no interior-point solve of an n(n+1)/2-variable dense LMI.
 
 ### 7.5 simulate against the forced_response loop
 
 §4: `simulate` is tens of times faster than both baselines at n = 4 but
-only a few times at n = 32. The 50× target is missed at n = 32 because the
+only 6–10 times at n = 32 (the ratios moved by up to 2× between our
+full runs on the shared machine; §4 interleaves the routes to limit
+that). The 50× target is missed at n = 32 because the
 baselines' cost per trial-step is Python call overhead, independent of n
 (python-control steps a discrete system in a Python loop), while
 `simulate` is bound by arithmetic and by memory traffic that grows with n:
