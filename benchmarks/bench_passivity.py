@@ -6,7 +6,7 @@ import time
 import warnings
 
 from .common import median_time, random_stable_ss, run_capped
-from .report import Section, fmt_mb, fmt_t, fmt_x
+from .report import Section, fmt_t, fmt_x
 
 
 def _rel(a, b):

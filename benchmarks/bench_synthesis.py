@@ -73,7 +73,7 @@ def forms(quick: bool) -> Section:
         for form in ("merged", "paper"):
             res[form] = _timed_syn(P, ETA, form, repeats, budget)
         data[(n, N)] = res
-        m, p = res["merged"], res["paper"]
+        m = res["merged"]
         for form, r in res.items():
             if "error" in r:
                 rows.append([n, N, form, "–", r["error"], "", "", "", "", ""])
@@ -114,15 +114,10 @@ def forms(quick: bool) -> Section:
                 + ". There the solver is fast and cvxpy's canonicalisation "
                 "of the `bmat` blocks dominates; see §2c for the measured "
                 "reduction (cvxpy Parameters, compile once).", "")
-    ratios = {n: data[(n, 1)]["paper"]["total"] / data[(n, 1)]["merged"]["total"]
-              for n in (16, 24) if (n, 1) in data
-              and "error" not in data[(n, 1)]["paper"]
-              and "error" not in data[(n, 1)]["merged"]}
     ratios_N = {(n, N): r["paper"]["total"] / r["merged"]["total"]
                 for (n, N), r in data.items() if n in (16, 24)
                 and "error" not in r["paper"] and "error" not in r["merged"]}
     if ratios_N:
-        worst = min(ratios_N.values())
         met = all(v >= 4 for v in ratios_N.values())
         sec.targets.append(Target(
             "merged ≥ 4× faster than paper at n = 16 and 24",
@@ -351,10 +346,6 @@ def routes(quick: bool, riccati_ref: dict | None = None) -> Section:
     if ricf:
         sec.series["Riccati prototype fixed η, N=4"] = sorted(
             (n, r["total"]) for n, r in ricf.items())
-    hit = [r for label, spec, r in results if spec["n"] == 64
-           and r.get("ok") and r["total"] < 120]
-    existing = [(label, r) for label, spec, r in results if spec["n"] == 64
-                and not label.startswith("Riccati")]
     if not quick:
         def line(pred):
             return "; ".join(
@@ -439,7 +430,6 @@ def param_model(plant, width_check=None):
 
 
 def compile_reduction(quick: bool) -> Section:
-    import cvxpy as cp
     from control_ncs.lmi import solve
     from control_ncs.strategies import build
     sec = Section("2c. Reducing cvxpy's compile time: build once with "

@@ -89,11 +89,10 @@ def run_demo(outdir: str = "demo-output", *, trials: int = 200, seed: int = 0,
     dict
         ``{'files': [...], 'eta': ..., 'ms_radius': ...}`` and more figures.
     """
-    import matplotlib
     import matplotlib.pyplot as plt
 
     from .moments import moments
-    from .passivity import get_input_ff_index, mean_input_ff_index
+    from .passivity import mean_input_ff_index
     from .stability import ms_radius
     from .strategies import feedback
     from .synthesis import passivesyn

@@ -368,7 +368,7 @@ class JumpStateSpace(ct.StateSpace):
             head += (f"Closed loop of a networked plant: controller={kind!r}, "
                      f"actuator={self.info.get('actuator')!r}\n")
         what = ("Mean system (exact E z for deterministic w)" if self.period == 1
-                else f"Mean system lifted over one period (dt = N·dt)")
+                else "Mean system lifted over one period (dt = N·dt)")
         return head + what + ":\n" + ct.StateSpace.__str__(self.mean())
 
 

@@ -12,7 +12,6 @@ import math
 from typing import Any
 
 import numpy as np
-from control.exception import ControlArgument
 
 __all__ = ["Schedule", "schedule", "mode_probabilities"]
 

@@ -282,7 +282,7 @@ def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
     if result.reason == "not_mss":
         raise CertificationError(
             "get_input_ff_index: sys is not mean-square stable "
-            f"(ms_radius ≥ 1, or ≥ r² with a decay bound); no passivity "
+            "(ms_radius ≥ 1, or ≥ r² with a decay bound); no passivity "
             "index exists", "not_stable", dict(ms_radius=ms_radius(sys)))
     if not result.passive:
         # sys is mean-square stable, so some η is certifiable (MATH §6: the

@@ -9,7 +9,7 @@ import control as ct
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, matrix, no_extra_kwargs
-from .network import (Schedule, common_period, loss_probability,
+from .network import (common_period, loss_probability,
                       mode_probabilities, schedule)
 
 __all__ = ["NetworkedStateSpace", "nss"]

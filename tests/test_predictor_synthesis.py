@@ -203,7 +203,6 @@ def test_predictor_feasible_exactly_when_each_loss_below_one_over_a_squared(
     assert feasible(P, controller="predictor") == expected
     if expected:
         K, CL, eta = passivesyn(P, controller="predictor")
-        gains = K.gains
         plant = (np.array([[a]]), np.zeros((1, 1)), np.ones((1, 1)),
                  np.zeros((1, 1)), np.ones((1, 1)), np.zeros((1, 1)),
                  np.ones((1, 1)), np.ones((1, 1)))
