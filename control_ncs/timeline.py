@@ -39,7 +39,11 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
     3
     """
     import matplotlib.pyplot as plt
+    from control.exception import ControlArgument
 
+    if not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
+                              f"got {type(P).__name__}")
     if steps is None:
         steps = max(8, 2 * P.period)
     if ax is None:

@@ -15,6 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from control.exception import ControlDimension
+
+from ._checks import real_array
 from .jump import as_jump
 from .stability import ms_radius
 
@@ -203,11 +206,15 @@ def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0
         and ``ms_radius < min(1, r²)``.
     """
     sys = as_jump(sys)
-    P = np.asarray(P, float)
+    n, N = sys.modes.A.shape[-1], sys.period
+    P = real_array(P, "P", ndim=(2, 3))
     if P.ndim == 2:
         P = P[None]
-    if P.shape[0] == 1 and sys.period > 1:
-        P = np.repeat(P, sys.period, axis=0)
+    if P.shape[0] == 1 and N > 1:
+        P = np.repeat(P, N, axis=0)
+    if P.shape != (N, n, n):
+        raise ControlDimension(f"P: expected shape ({N}, {n}, {n}) or ({n}, {n}) "
+                               f"(one P_k per phase), got {np.shape(P)}")
     P = 0.5 * (P + P.transpose(0, 2, 1))
     thetas = dissipation_matrices(sys, P, eta, decay=decay)
     theta_max = np.array([np.linalg.eigvalsh(T).max() for T in thetas])

@@ -302,3 +302,18 @@ def test_unknown_ms_radius_method_raises_control_argument():
 def test_bad_nominal_mode_raises_value_error():
     with pytest.raises(ValueError, match="^nominal:"):
         jss(**jump_args(), nominal=[2])
+
+
+def test_check_certificate_rejects_a_certificate_of_the_wrong_shape():
+    import control as ct
+    from control_ncs import check_certificate
+    G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    with pytest.raises(ControlDimension, match="^P:"):
+        check_certificate(G, np.ones((3, 3)), 0.1)
+
+
+def test_schedule_plot_needs_a_networked_plant():
+    import control as ct
+    from control_ncs import schedule_plot
+    with pytest.raises(ControlArgument, match="^P:"):
+        schedule_plot(ct.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], True))
