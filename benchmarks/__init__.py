@@ -7,7 +7,5 @@ writes ``docs/benchmarks.md`` and ``docs/benchmarks_scaling.png``;
 Modules: ``common`` (seeded plants, timing, memory-capped subprocesses,
 versions), ``worker`` (the subprocess side), ``bench_synthesis`` (§1, §2),
 ``bench_stability`` (§3), ``bench_simulate`` (§4), ``bench_passivity``
-(§5), ``report`` (tables), ``notes`` (the analysis appended to the report),
-and ``riccati`` — a PROTOTYPE of a Riccati-type synthesis route, not part of
-the package.
+(§5), ``report`` (tables), ``notes`` (the analysis appended to the report).
 """

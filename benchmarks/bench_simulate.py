@@ -30,9 +30,9 @@ from .report import Section, Target, fmt_t, fmt_x
 
 def closed_loop(n: int, seed: int = 0):
     """A verified closed loop (N = 1, two modes) of ``random_plant(n)``,
-    with the gain of the Riccati prototype at η = 0.5."""
-    from .riccati import riccati_passivesyn
-    K, CL, eta, res = riccati_passivesyn(random_plant(n, 1, seed), 0.5)
+    with a gain from ``passivesyn(..., solver='riccati')`` at η = 0.5."""
+    from control_ncs import passivesyn
+    K, CL, eta = passivesyn(random_plant(n, 1, seed), 0.5, solver="riccati")
     return CL
 
 

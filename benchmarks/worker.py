@@ -7,8 +7,8 @@ caps the address space, watches the resident memory and enforces a timeout.
 
 Jobs (``"job"``):
 
-* ``"passivesyn"``: ``passivesyn(random_plant(n, N), eta, solver=..., **opts)``;
-* ``"riccati"``: the prototype of :mod:`benchmarks.riccati`;
+* ``"passivesyn"``: ``passivesyn(random_plant(n, N), eta, solver=..., **opts)``
+  (``solver`` None: the package's automatic choice);
 * ``"ff_index"``: ``passivity_certificate(random_stable_ss(n))``;
 * ``"ms_dense"``: ``ms_radius(random_loop(n, N), method='dense')``;
 * ``"clarabel_probe"``: the plain cvxpy + Clarabel build of the merged LMI
@@ -42,15 +42,12 @@ def main(arg: str) -> dict:
                                   **opts)
             res = K.result
             out.update(ok=True, eta=e, ms_radius=res.ms_radius,
+                       solver=res.report.solver,
+                       sweeps=res.report.iterations,
                        attempts=len(res.attempts),
                        compile=sum(a.compile_time for a in res.attempts),
                        solve=sum(a.solve_time for a in res.attempts),
                        status=[a.status for a in res.attempts])
-        elif spec["job"] == "riccati":
-            from benchmarks.riccati import riccati_passivesyn
-            K, CL, e, res = riccati_passivesyn(P, eta, decay=decay, **opts)
-            out.update(ok=True, eta=e, ms_radius=res.certificate.ms_radius,
-                       sweeps=res.sweeps, bisections=res.bisections)
         elif spec["job"] == "clarabel_probe":
             from control_ncs.lmi import solve, synthesis_model
             from control_ncs.strategies import build

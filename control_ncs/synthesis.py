@@ -3,7 +3,11 @@
 ``K, CL, eta = passivesyn(P, ...)`` in the manner of :func:`control.hinfsyn`.
 The LMI is built for the generic plant of MATH §10 (``lmi.py``), so every
 controller kind and schedule goes through one code path; every gain returned
-has passed the exact checks of ``verify.py``.
+has passed the exact checks of ``verify.py``. Loops whose gain sees the
+whole state (``structure='full'``) can instead go through the monotone
+Riccati iteration of ``riccati.py`` (``solver='riccati'``, chosen
+automatically above ``RICCATI_THRESHOLD`` states); its gains pass the same
+checks.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from .jump import JumpPlant, JumpStateSpace
 from .lmi import (DEFAULT_MARGIN, SolveReport, fallback_solver,
                   read_gains, solve, synthesis_model)
 from .plant import NetworkedStateSpace
+from .riccati import riccati_synthesis
 from .strategies import build, loop_closes
 from .verify import (Certificate, SynthesisError, certify_index,
                      check_certificate)
@@ -40,6 +45,33 @@ __all__ = ["passivesyn", "SynthesisResult", "SynthesisError"]
 #: infeasibility.
 RETRIES = ((1.0, 0.0), (1.0, 1e-3), (1e2, 1e-2))
 
+#: With ``solver=None`` and no solver options, a loop whose structure
+#: resolves to ``'full'`` with more states than this is designed by the
+#: Riccati iteration (``control_ncs.riccati``) instead of the LMI.
+#: Measured (η maximised, passivesyn end to end with the exact checks,
+#: ``benchmarks.common.random_plant(n, N, seed=0)``, one run each on a
+#: shared 2-core machine), Clarabel / Riccati: n=4: 0.05/0.03 s (N=1),
+#: 0.21/0.12 s (N=4); n=6: 0.17/0.05, 1.05/1.16; n=8: 0.19/0.29,
+#: 0.58/0.19; n=10: 0.57/0.37, 6.2/0.49; n=12: 4.3/0.37, 14.1/3.4;
+#: n=16 (N=1): 7.7/3.2. From n = 10 on Riccati wins every case, and
+#: Clarabel starts ending 'optimal_inaccurate' (its retry backs off 1e-3,
+#: so Riccati's η is then higher); at n <= 8 the two are within a factor of
+#: about 3 either way, and on small plants with a wide η range (the random
+#: plants of tests/test_riccati.py, n = 2..5) Clarabel is 10-50x faster and
+#: its η is closer to the supremum (1e-6 against Riccati's bisection
+#: tolerance 1e-4). Hence the LMI up to 8 states.
+RICCATI_THRESHOLD = 8
+
+#: Largest state dimension at which an automatically chosen Riccati
+#: iteration that runs out of sweeps (inconclusive) is followed by the LMI:
+#: Clarabel still solves n = 16 in seconds to tens of seconds (benchmarks
+#: §1), while at n = 24, N = 4 it already takes minutes.
+RICCATI_FALLBACK_MAX = 16
+
+#: Options of the Riccati route (``solver='riccati'``), passed through
+#: ``**solver_options``; any other raises TypeError.
+RICCATI_OPTIONS = ("rtol", "max_sweeps", "probe_sweeps")
+
 FORMS = ("merged", "paper")
 STRUCTURES = ("auto", "full", "block", "extended")
 
@@ -56,22 +88,31 @@ class SynthesisResult:
         relative 1e-6 below the supremum the certificate proves
         (:func:`control_ncs.verify.certify_index`).
     eta_solver : float
-        The solver's objective value (``η`` maximised), or the requested one.
+        The solver's objective value (``η`` maximised), or the requested one;
+        for the Riccati route, the level its bisection reached.
     decay : float
         Decay bound ``r`` (1 = none); ``ms_radius < r²`` is checked.
     certificate : Certificate
         ``P_k = X_k⁻¹`` and the exact figures: ``λmax(Θ_k)``, ``λmin(P_k)``,
         ``ms_radius``, ``eta_sup``.
     X, Y : ndarray
-        LMI variables per phase (``Y`` zero-padded to ``(N, nu, nx)``).
+        LMI variables per phase (``Y`` zero-padded to ``(N, nu, nx)``); for
+        the Riccati route ``X_k = P_k⁻¹`` and ``Y_k = K_k X_k`` (the LMI
+        variables its certificate corresponds to).
     form : {'merged', 'paper'}
+        The LMI's form; ``'merged'`` for the Riccati route (``form`` is
+        ignored there: modes are always merged).
     structure : {'full', 'block', 'extended'}
         Which LMI certified the gain: ``'full'`` is exact (feasible iff a
         certified gain exists); ``'block'`` and ``'extended'`` are sufficient.
     width : int
-        Side of each LMI block ``Ψ_k``.
+        Side of each LMI block ``Ψ_k``; for the Riccati route, the side
+        ``n + m1`` of the matrices ``Θ_k`` it certifies (it works with
+        ``n × n`` matrices only).
     report : SolveReport
         Solver, status, compile and solve times of the successful solve.
+        Riccati route: solver ``'RICCATI'``, status ``'optimal'``, compile
+        time 0, solve time = the iteration's, ``iterations`` = its sweeps.
     attempts : list of SolveReport
         Every solve made, including retries.
     plant : JumpPlant
@@ -205,11 +246,23 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         coordinate at every phase, else ``'extended'``. ``'block'`` and
         ``'extended'`` are sufficient conditions (MATH §8).
     solver : str, optional
-        Installed cvxpy solver (default Clarabel).
+        An installed cvxpy solver for the LMI, or ``'riccati'``
+        (case-insensitive) for the monotone Riccati iteration of
+        :mod:`control_ncs.riccati` (needs ``structure`` to resolve to
+        ``'full'``; no cvxpy, memory ``O(N n²)``; ``form`` does not apply to
+        it). None (default): the Riccati iteration when the structure
+        resolves to ``'full'``, the plant has more than
+        ``RICCATI_THRESHOLD`` states and no solver options are given (if
+        that iteration is inconclusive and the plant has at most
+        ``RICCATI_FALLBACK_MAX`` states, Clarabel after it), else Clarabel.
     margin : float, optional
-        Relative strictness margin of the LMIs.
+        Relative strictness margin of the LMIs (for the Riccati iteration:
+        the ``εI`` added at each step, relative to the data's scale).
     **solver_options
-        Passed to the solver.
+        Passed to the solver. For ``solver='riccati'``: ``rtol``
+        (bisection tolerance on ``η``, default 1e-4), ``max_sweeps``
+        (default 20000), ``probe_sweeps`` (per bisection level, default
+        3000); see :func:`control_ncs.riccati.riccati_synthesis`.
 
     Returns
     -------
@@ -229,9 +282,16 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         answer failed the exact checks, after the retries (``RETRIES``) and,
         without ``solver=``, one solve of the problem as posed by
         ``lmi.FALLBACK_SOLVER``; ``reason`` and ``figures`` say which.
+        Riccati route: ``'infeasible'`` when the iteration diverges (a
+        proof that the LMI with its margin is infeasible),
+        ``'solver_failed'`` when it runs out of sweeps (inconclusive),
+        ``'not_verified'`` when its gain fails the exact checks (no retries).
     ValueError, ControlDimension, ControlArgument
         The pre-solve checks: ``dim w ≠ dim z``, ``D11 + D11ᵀ ⊁ 2ηI``,
-        ``y ≠ x``, a static gain that can never close the loop.
+        ``y ≠ x``, a static gain that can never close the loop,
+        ``solver='riccati'`` for a loop whose structure is not ``'full'``.
+    TypeError
+        An option the Riccati iteration does not know.
 
     Examples
     --------
@@ -242,11 +302,39 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     >>> K, CL, eta = passivesyn(P, decay=0.9)
     >>> K.result.certificate.verified, bool(ms_radius(CL) < 0.81)
     (True, True)
+
+    The same by the Riccati iteration:
+
+    >>> K, CL, eta = passivesyn(P, decay=0.9, solver='riccati')
+    >>> K.result.report.solver, bool(ms_radius(CL) < 0.81)
+    ('RICCATI', True)
     """
     plant = build(P, controller, actuator) if isinstance(
         P, NetworkedStateSpace) else None
     eta, decay, structure = _checks(P, eta, decay, controller, actuator, form,
                                     structure, plant)
+    riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
+    if riccati and structure != "full":
+        raise ValueError(
+            f"solver: 'riccati' needs structure 'full' (the gain sees every "
+            f"state at every phase); this loop resolves to structure "
+            f"{structure!r} (controller={controller!r}, actuator="
+            f"{actuator!r}, sensor schedule or predictor): use an LMI solver")
+    chosen = (solver is None and not solver_options and structure == "full"
+              and plant.shape["nx"] > RICCATI_THRESHOLD)
+    if riccati:
+        return _riccati(plant, eta, decay, margin, solver_options)
+    if chosen:
+        try:
+            return _riccati(plant, eta, decay, margin, solver_options)
+        except SynthesisError as err:
+            # Chosen for the caller, not by them: an inconclusive iteration
+            # (out of sweeps, e.g. a tight decay bound) falls back to the LMI
+            # while the LMI is still affordable; a divergence is a proof of
+            # infeasibility and stands.
+            if (err.reason != "solver_failed"
+                    or plant.shape["nx"] > RICCATI_FALLBACK_MAX):
+                raise
     attempts = []
     last_cert = last_report = best = None
     tried = set()
@@ -297,9 +385,10 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         if cert.verified and report.ok:
             eta_solver = eta if eta is not None else (
                 best if best is not None else cert.eta)
-            return _finish(plant, model, gains, CL, cert, cert.eta,
-                           eta_solver, decay, form, structure, report,
-                           attempts)
+            X, Y = _variables(model, plant)
+            return _finish(plant, X, Y, gains, CL, cert, cert.eta,
+                           eta_solver, decay, form, structure, model.width,
+                           report, attempts)
     # The last attempt that produced a gain says why it was refused; with
     # none, the solver never produced an answer to check.
     report = last_report if last_cert is not None else attempts[-1]
@@ -320,21 +409,54 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         reason, figures)
 
 
-def _finish(plant, model, gains, CL, cert, eta_ok, eta_solver, decay, form,
-            structure, report, attempts):
+def _variables(model, plant):
+    """The LMI's ``X_k`` and ``Y_k`` (zero-padded to ``(N, nu, nx)``)."""
     s = plant.shape
-    N = plant.period
-    Y = np.zeros((N, s["nu"], s["nx"]))
+    Y = np.zeros((plant.period, s["nu"], s["nx"]))
     for k, Yv in enumerate(model.Y):
         if Yv is not None:
             known, active, _ = model.blocks[k]
             Y[k][np.ix_(active, known)] = Yv.value
     X = np.array([np.asarray(Xk.value, float) for Xk in model.X])
+    return X, Y
+
+
+def _riccati(plant, eta, decay, margin, options):
+    """The Riccati route (``structure='full'``), checked like the LMI's."""
+    unknown = set(options) - set(RICCATI_OPTIONS)
+    if unknown:
+        raise TypeError(
+            f"passivesyn() got solver option(s) {sorted(unknown)} not "
+            f"accepted by solver='riccati' (known: {list(RICCATI_OPTIONS)})")
+    res = riccati_synthesis(plant, eta, decay=decay, margin=margin, **options)
+    report = SolveReport("optimal", "RICCATI", 0.0, res.time, res.time,
+                         res.sweeps, res.eta, options=dict(options))
+    CL = plant.close(res.gains)
+    cert = (certify_index(CL, res.P, decay=decay) if eta is None
+            else check_certificate(CL, res.P, eta, decay=decay))
+    if not cert.verified:
+        raise SynthesisError(
+            "passivesyn: no verified gain (the Riccati gain fails the exact "
+            "check: " + "; ".join(cert.failures) + ")", "not_verified",
+            dict(status=report.status, solver=report.solver,
+                 statuses=[report.status], **cert.figures()))
+    s, N = plant.shape, plant.period
+    X = np.array([np.linalg.inv(Pk) for Pk in res.P])
+    X = 0.5 * (X + X.transpose(0, 2, 1))
+    # K_k E_k is the full gain (E_k selects every coordinate)
+    Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
+    return _finish(plant, X, Y, res.gains, CL, cert, cert.eta,
+                   res.eta if eta is None else eta, decay, "merged", "full",
+                   s["nx"] + s["nw"], report, [report])
+
+
+def _finish(plant, X, Y, gains, CL, cert, eta_ok, eta_solver, decay, form,
+            structure, width, report, attempts):
     info = plant.info
     K = PeriodicGain(gains, info["controller"], info["actuator"])
     result = SynthesisResult(
         K, float(eta_ok), float(eta_solver), decay, cert,
-        X, Y, form, structure, model.width, report, attempts, plant)
+        X, Y, form, structure, width, report, attempts, plant)
     K.result = result
     CL.info["synthesis"] = result
     return K, CL, float(eta_ok)

@@ -103,8 +103,10 @@ def dissipation_matrices(sys: Any, P: np.ndarray, eta: float, *,
     out = []
     for k in range(sys.period):
         F = np.concatenate([A[k], B[k]], axis=2)  # (M, n, n + m)
-        T = np.einsum("i,iab,bc,icd->ad", p[k], F.transpose(0, 2, 1),
-                      _next(P, k), F)
+        # Σ_i p_i F_iᵀ P F_i as batched matrix products (BLAS): a plain
+        # 4-operand einsum loops in C without BLAS (0.7 s at n = 64).
+        PF = _next(P, k) @ F                       # (M, n, n + m)
+        T = np.tensordot(p[k], F.transpose(0, 2, 1) @ PF, axes=1)
         T[:n, :n] -= decay ** 2 * P[k]
         T[n:, :n] -= Cbar[k]
         T[:n, n:] -= Cbar[k].T

@@ -273,3 +273,24 @@ def test_periodic_system_can_be_stable_though_each_phase_is_not():
                         x0=[1.0, 1.0])
     sq = np.sum(xs**2, axis=1).mean(axis=0)
     assert sq[10] < 1e-3 * sq[0]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_deterministic_periodic_shortcut_matches_dense_and_matrix_free(seed):
+    # one live mode per phase (a different one at each phase, the others at
+    # probability zero): 'auto' takes ρ(Φ)^(2/N) from the n×n monodromy
+    rng = np.random.default_rng([seed, 41])
+    N, M, n = 3, 2, 5
+    A = rng.standard_normal((N, M, n, n)) / np.sqrt(n)
+    p = np.zeros((N, M))
+    p[np.arange(N), rng.integers(0, M, N)] = 1.0
+    sys = jss(A, np.ones((n, 1)), np.ones((1, n)), [[0.0]], p)
+    auto = ms_radius(sys)
+    assert auto == pytest.approx(ms_radius(sys, method="dense"), rel=1e-9)
+    assert auto == pytest.approx(ms_radius(sys, method="matrix-free"),
+                                 rel=1e-6)
+    phi = np.eye(n)
+    for k in range(N):
+        phi = A[k, np.flatnonzero(p[k])[0]] @ phi
+    assert auto == pytest.approx(
+        np.max(np.abs(np.linalg.eigvals(phi))) ** (2 / N), rel=1e-12)
