@@ -4,11 +4,17 @@ Models are built as functions of the data (cvxpy's idiom: build, then solve
 in one place). Strictness margins are relative to the scale of the data, so
 that a problem and its rescaled copy are treated alike (MATH §8). Nothing
 here decides whether a result is *true*: ``verify.py`` does that exactly.
+
+Every number of the data enters a problem as a cvxpy Parameter, so a problem
+is compiled once per shape and thread and reused (see ``CACHE_SIZE``).
 """
 
 from __future__ import annotations
 
+import threading
 import time
+import weakref
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -130,6 +136,7 @@ def solve(problem: cp.Problem, solver: str | None = None,
     name = check_solver(solver)
     check_options(name, options)
     opts = dict(CLARABEL_DEFAULTS) if name == cp.CLARABEL else {}
+    opts.update(_cache.compile_options.get(problem, {}))
     opts.update(options)
     start = time.perf_counter()
     message = ""
@@ -159,10 +166,6 @@ def solve(problem: cp.Problem, solver: str | None = None,
                        None if value is None else float(value), message, opts)
 
 
-def _sym(M: cp.Expression) -> cp.Expression:
-    return 0.5 * (M + M.T)
-
-
 def data_scale(*mats: np.ndarray) -> float:
     """A scale for the margins: the largest spectral norm among the data."""
     norms = [np.linalg.norm(M.reshape(-1, M.shape[-1]), 2) for M in mats
@@ -170,15 +173,189 @@ def data_scale(*mats: np.ndarray) -> float:
     return max([1.0] + norms)
 
 
-# -- analysis: MATH §6 ---------------------------------------------------------
-@dataclass
-class AnalysisModel:
-    """The analysis LMI: ``Θ_k(P, η) ≼ -ε diag(P_k, I)``, ``P_k ≽ ε I``."""
+# -- compiled problems, reused: one per shape ---------------------------------
+# cvxpy's compilation of these LMIs costs more than Clarabel's solve up to
+# n ≈ 8 (docs/benchmarks.md §1: 53-74 % of passivesyn's time at n = 4). Every
+# number of the data therefore enters a problem as a cvxpy Parameter (DPP), and
+# a problem is built and compiled once per *shape*: retries, η sweeps and other
+# plants of the same sizes only load new parameter values, and cvxpy re-applies
+# them to its cached compilation (a few ms) instead of recompiling.
 
-    problem: cp.Problem
-    P: list
-    eta: Any
-    margin: Any          # ε, or the variable t when the margin is maximised
+#: Compiled problems kept per thread (least recently used dropped first).
+#: passivesyn uses two shapes per call (η maximised, then fixed-η retries) and
+#: passivity_certificate up to three (η maximised, fixed η, margin
+#: maximised): six let a loop of synthesis and analysis of one loop shape
+#: hit the cache throughout. A compiled problem keeps its parametrised
+#: problem data alive (they grow like the LMI's coefficient matrix, ~n⁴ for
+#: the analysis LMI), so the bound is kept small.
+CACHE_SIZE = 6
+
+#: From this many parameter entries on, a cached problem is compiled with
+#: cvxpy's COO backend (cvxpy itself switches at 1000): its C++ backend slows
+#: down as the parameter entries that multiply variables grow. Measured (cold
+#: compile, one run): synthesis n = 16, N = 1 (683 entries) 72 ms with C++,
+#: 53 ms with COO; n = 8, N = 1 (≈ 200 entries) 44 and 49 ms.
+COO_FROM = 500
+
+
+class _Cache(threading.local):
+    """Per-thread LRU cache: threads never share (or solve) one Problem."""
+
+    def __init__(self) -> None:
+        self.entries: OrderedDict = OrderedDict()
+        self.hits = 0
+        self.misses = 0
+        # compile options of the cached problems, read by solve()
+        self.compile_options = weakref.WeakKeyDictionary()
+
+
+_cache = _Cache()
+
+
+def _cache_info() -> dict:
+    """This thread's cache: ``hits``, ``misses``, ``size``, ``maxsize``."""
+    return dict(hits=_cache.hits, misses=_cache.misses,
+                size=len(_cache.entries), maxsize=CACHE_SIZE)
+
+
+def _cache_clear() -> None:
+    """Empty this thread's cache and reset its statistics."""
+    _cache.entries.clear()
+    _cache.hits = _cache.misses = 0
+
+
+class _Template:
+    """A problem of one shape whose data are all Parameters (DPP).
+
+    ``owner`` is the model whose data the parameters hold; a model loads
+    its own values before its problem is handed out, so two models of one
+    shape never solve each other's data.
+    """
+
+    def __init__(self, problem: cp.Problem, params: dict, **parts: Any):
+        self.problem, self.params, self.parts = problem, params, parts
+        self.owner = None
+        if sum(param.size for param in params.values()) >= COO_FROM:
+            _cache.compile_options[problem] = dict(canon_backend="COO")
+
+    def load(self, owner: Any, values: dict) -> None:
+        if self.owner is not owner:
+            for key, value in values.items():
+                self.params[key].value = value
+            self.owner = owner
+
+
+def _template(key: tuple, build) -> _Template:
+    entries = _cache.entries
+    template = entries.get(key)
+    if template is None:
+        _cache.misses += 1
+        template = entries[key] = build()
+        while len(entries) > CACHE_SIZE:
+            entries.popitem(last=False)
+    else:
+        _cache.hits += 1
+        entries.move_to_end(key)
+    return template
+
+
+class _Model:
+    """A view of a cached problem loaded with one set of data.
+
+    ``problem`` is shared by every model of the same shape (in one thread):
+    solve it and read the variables' values before building the next model
+    of that shape, as :func:`solve` then :func:`read_gains` do.
+    """
+
+    def __init__(self, template: _Template, values: dict):
+        self._template, self._values = template, values
+        template.load(self, values)
+
+    @property
+    def problem(self) -> cp.Problem:
+        """The cvxpy problem, holding this model's data."""
+        self._template.load(self, self._values)
+        return self._template.problem
+
+    def _check_current(self) -> None:
+        if self._template.owner is not self:
+            raise RuntimeError(
+                "the problem of this model was since loaded with another "
+                "model's data (models of one shape share a compiled problem, "
+                "lmi.CACHE_SIZE); solve model.problem again before reading it")
+
+
+def _param(params: dict, key: Any, shape: tuple = ()) -> cp.Parameter:
+    name = "_".join(str(part) for part in
+                    (key if isinstance(key, tuple) else (key,)))
+    params[key] = cp.Parameter(shape, name=name)
+    return params[key]
+
+
+def _lower(n: int) -> np.ndarray:
+    """Column-major positions in ``vec(M)`` of the lower triangle of M."""
+    i, j = np.tril_indices(n)
+    order = np.lexsort((i, j))
+    return (i + n * j)[order]
+
+
+def _quad_map(terms: list, n: int, m: int) -> np.ndarray:
+    """``Σ p_i G_iᵀ P G_i`` as a matrix acting on the lower triangle of P.
+
+    Returns ``Q`` with ``Q @ vec(P)[lower(n)]`` the lower triangle of the
+    sum (column-major) for symmetric ``P``, ``G_i`` of shape (n, n+m).
+    ``parameter × P × parameter`` is not DPP; this linear map of ``P`` is,
+    and the triangles make it a quarter of ``Σ p_i G_iᵀ ⊗ G_iᵀ`` (MATH §6).
+    """
+    # vec(Gᵀ P G) = (Gᵀ ⊗ Gᵀ) vec(P), column-major
+    K = sum(w * np.kron(G.T, G.T) for w, G in terms)
+    lower_n, lower_nm = _lower(n), _lower(n + m)
+    i, j = lower_n % n, lower_n // n
+    # P_ij (i > j) stands at (i, j) and at (j, i) of vec(P)
+    Q = K[:, lower_n] + np.where(i != j, 1.0, 0.0) * K[:, j + n * i]
+    return Q[lower_nm]
+
+
+def _symmetric_scatter(n: int) -> np.ndarray:
+    """``S`` with ``S @ v`` = vec of the symmetric M whose lower triangle
+    is ``v`` (column-major).
+
+    cvxpy constrains the symmetric part ``(M + Mᵀ)/2`` of a semidefinite
+    argument, but solvers that read whole matrices (CVXOPT) need ``M``
+    itself symmetric. The LMIs here are symmetric by construction, with
+    each coefficient at ``(i, j)`` and ``(j, i)``, and never symmetrised
+    explicitly: that would double the work of cvxpy's parametrised
+    compilation, which grows with the parameter entries multiplying
+    variables.
+    """
+    lower = _lower(n)
+    i, j = lower % n, lower // n
+    S = np.zeros((n * n, lower.size))
+    S[lower, np.arange(lower.size)] = 1.0
+    S[j + n * i, np.arange(lower.size)] = 1.0
+    return S
+
+
+# -- analysis: MATH §6 ---------------------------------------------------------
+class AnalysisModel(_Model):
+    """The analysis LMI: ``Θ_k(P, η) ≼ -ε diag(P_k, I)``, ``P_k ≽ ε I``.
+
+    Attributes
+    ----------
+    problem : cvxpy.Problem
+    P : list of cvxpy.Variable
+        ``P_k`` per phase.
+    eta : cvxpy.Variable or float
+        ``η`` when maximised, else the given value.
+    margin : cvxpy.Variable or float
+        The absolute margin ``ε`` (relative margin times the data's scale),
+        or the variable ``t`` when the margin is maximised.
+    """
+
+    def __init__(self, template, values, eta, margin):
+        super().__init__(template, values)
+        self.P = template.parts["P"]
+        self.eta, self.margin = eta, margin
 
 
 def analysis_model(sys: JumpStateSpace, eta: float | None,
@@ -190,58 +367,101 @@ def analysis_model(sys: JumpStateSpace, eta: float | None,
     interior certificate, the one most likely to pass the exact check when
     ``η`` lies within a fixed margin of the index; ``t ≤ 0`` at the optimum
     means no strict certificate exists.
+
+    The problem is compiled once per shape (period, sizes, which of ``η``
+    and the margin is maximised) and reused in this thread.
     """
     A, B, p = sys.modes.A, sys.modes.B, sys.modes.probabilities
     _, _, Cbar, Dbar = sys.modes.mean()
     N, n, m = sys.period, A.shape[-1], B.shape[-1]
-    if margin is None:
-        if eta is None:
-            raise ValueError("analysis_model: margin=None needs a given eta")
-        t = cp.Variable(name="margin")
-    else:
-        t = margin * data_scale(A, B, sys.modes.C, sys.modes.D)
+    if margin is None and eta is None:
+        raise ValueError("analysis_model: margin=None needs a given eta")
+    key = ("analysis", N, n, m, Cbar.shape[-2], eta is None, margin is None)
+    template = _template(key, lambda: _analysis_template(*key[1:]))
+    values = {"decay2": float(decay) ** 2}
+    if eta is not None:
+        values["eta"] = float(eta)
+    if margin is not None:
+        eps = margin * data_scale(A, B, sys.modes.C, sys.modes.D)
+        values["margin"] = eps
+    for k in range(N):
+        G = np.concatenate([A[k], B[k]], axis=-1)
+        values[("quad", k)] = _quad_map(
+            [(p[k, i], G[i]) for i in np.flatnonzero(p[k] > 0)], n, m)
+        values[("C", k)] = Cbar[k]
+        values[("Dsym", k)] = Dbar[k] + Dbar[k].T
+    return AnalysisModel(
+        template, values,
+        template.parts["eta"] if eta is None else float(eta),
+        template.parts["margin"] if margin is None else eps)
+
+
+def _analysis_template(N, n, m, nz, maximise_eta, maximise_margin):
+    params: dict = {}
+    d2 = _param(params, "decay2")
+    e = cp.Variable(name="eta") if maximise_eta else _param(params, "eta")
+    t = (cp.Variable(name="margin") if maximise_margin
+         else _param(params, "margin"))
     P = [cp.Variable((n, n), symmetric=True, name=f"P{k}") for k in range(N)]
-    e = cp.Variable(name="eta") if eta is None else float(eta)
     cons = []
+    lower_n, lower_nm = _lower(n), _lower(n + m)
+    scatter = _symmetric_scatter(n + m)
     for k in range(N):
         Pn = P[(k + 1) % N]
-        live = np.flatnonzero(p[k] > 0)
-        quad = sum(p[k, i] * (np.hstack([A[k, i], B[k, i]]).T @ Pn
-                              @ np.hstack([A[k, i], B[k, i]])) for i in live)
+        quad = cp.reshape(
+            scatter @ (_param(params, ("quad", k),
+                              (lower_nm.size, lower_n.size))
+                       @ cp.vec(Pn, order="F")[lower_n]),
+            (n + m, n + m), order="F")
+        C = _param(params, ("C", k), (nz, n))
         supply = cp.bmat([
-            [-decay ** 2 * P[k], -Cbar[k].T],
-            [-Cbar[k], 2 * e * np.eye(m) - Dbar[k] - Dbar[k].T]])
+            [-d2 * P[k], -C.T],
+            [-C, 2 * e * np.eye(m) - _param(params, ("Dsym", k), (m, m))]])
         # The (1,1) block is homogeneous in P, so its margin is relative to
         # P_k (a decay margin 1 - ε). An absolute ε·I there forces
         # ‖P‖ ≳ ε / (1 - ms_radius) and, through the supply coupling, costs η:
         # measured on a loop from passivesyn with ms_radius = 1 - 1e-6, the
         # absolute margin certified η = -4.7e5 where the synthesis P proves
         # 1.5285 (tests/test_passivity.py).
-        slack = (np.eye(n + m) if margin is None else
+        slack = (np.eye(n + m) if maximise_margin else
                  cp.bmat([[P[k], np.zeros((n, m))],
                           [np.zeros((m, n)), np.eye(m)]]))
-        cons += [_sym(quad + supply) << -t * slack,
-                 P[k] >> t * np.eye(n)]
-    objective = (cp.Maximize(t) if margin is None else
-                 cp.Maximize(e) if eta is None else cp.Minimize(0))
-    return AnalysisModel(cp.Problem(objective, cons), P, e, t)
+        # symmetric by construction (see _symmetric_scatter)
+        cons += [quad + supply << -t * slack, P[k] >> t * np.eye(n)]
+    objective = (cp.Maximize(t) if maximise_margin else
+                 cp.Maximize(e) if maximise_eta else cp.Minimize(0))
+    return _Template(cp.Problem(objective, cons), params, P=P, eta=e, margin=t)
 
 
 # -- synthesis: MATH §8, §8b, §10 ----------------------------------------------
-@dataclass
-class SynthesisModel:
-    """The synthesis LMI ``Ψ_k ≼ -ε I`` and how to read a gain from it."""
+class SynthesisModel(_Model):
+    """The synthesis LMI ``Ψ_k ≼ -ε I`` and how to read a gain from it.
 
-    problem: cp.Problem
-    X: list
-    Z: list              # X_k (block/full) or the slack G_k (extended)
-    Y: list
-    blocks: list         # per phase: (known, active, Zs variable) for gains
-    eta: Any
-    margin: float
-    structure: str
-    form: str
-    width: int           # side of each Ψ_k
+    Attributes
+    ----------
+    problem : cvxpy.Problem
+    X, Z, Y : list
+        Per phase: ``X_k``; ``X_k`` (block/full) or the slack ``G_k``
+        (extended); ``Y_k`` on (active inputs × known coordinates), or None.
+    blocks : list
+        Per phase: (known coordinates, active inputs, variable ``Z_s`` on
+        the known coordinates) for reading gains.
+    eta : cvxpy.Variable or float
+        ``η`` when maximised, else the given value.
+    margin : float
+        Absolute margin ``ε`` (relative margin times the data's scale).
+    structure, form : str
+    width : int
+        Side of each ``Ψ_k``.
+    """
+
+    def __init__(self, template, values, eta, margin, structure, form):
+        super().__init__(template, values)
+        parts = template.parts
+        self.X, self.Z, self.Y = parts["X"], parts["Z"], parts["Y"]
+        self.blocks, self.width = parts["blocks"], parts["width"]
+        self.eta, self.margin = eta, margin
+        self.structure, self.form = structure, form
 
 
 def _selector(idx: np.ndarray, size: int) -> np.ndarray:
@@ -261,22 +481,64 @@ def synthesis_model(plant: JumpPlant, eta: float | None, decay: float,
     block-diagonal carries the structure: sufficient, never more
     conservative than ``'block'``). ``form``: ``'merged'`` (coinciding modes
     merged, MATH §8) or ``'paper'`` (one row per network mode, eq. 15).
+
+    The problem is compiled once per shape (sizes, period, known
+    coordinates, active inputs and number of modes of each phase, form,
+    structure, whether ``η`` is maximised) and reused in this thread.
     """
     if form == "merged":
         plant = plant.merged()
     s = plant.shape
-    N, nx, nu, nw = plant.period, s["nx"], s["nu"], s["nw"]
+    N, nx, nu, nw, nz = plant.period, s["nx"], s["nu"], s["nw"], s["nz"]
     p = plant.probabilities
+    phases, live = [], []
+    for k in range(N):
+        known, active = plant.known_coordinates(k), plant.active_inputs(k)
+        if structure == "full" and known.size not in (0, nx):
+            raise ValueError("structure='full' needs E_k = I at every phase")
+        live.append(np.flatnonzero(p[k] > 0))
+        phases.append((tuple(known), tuple(active), live[k].size))
+    key = ("synthesis", form, structure, N, nx, nu, nw, nz, eta is None,
+           tuple(phases))
+    template = _template(key, lambda: _synthesis_template(
+        N, nx, nu, nw, nz, phases, eta is None, structure))
     Czbar = np.einsum("km,kmij->kij", p, plant.Cz)
     Dubar = np.einsum("km,kmij->kij", p, plant.Du)
     Dwbar = np.einsum("km,kmij->kij", p, plant.Dw)
     eps = margin * data_scale(plant.A, plant.Bu, plant.Bw, plant.Cz,
                               plant.Du, plant.Dw)
-    X, Z, Y, blocks, cons = [], [], [], [], []
-    for k in range(N):
-        known = plant.known_coordinates(k)
+    values = {"margin": eps, "decay2": float(decay) ** 2}
+    if eta is not None:
+        values["eta"] = float(eta)
+    for k, (known, active, _) in enumerate(phases):
+        active = list(active)
+        has_y = bool(known) and bool(active)
+        values[("Cz", k)] = Czbar[k]
+        values[("Dsym", k)] = Dwbar[k] + Dwbar[k].T
+        if has_y:
+            values[("Du", k)] = Dubar[k][:, active]
+        # √p_ki times the data, as one parameter: √p × A × X is not DPP
+        for a, i in enumerate(live[k]):
+            root = np.sqrt(p[k, i])
+            values[("A", k, a)] = root * plant.A[k, i]
+            values[("Bw", k, a)] = root * plant.Bw[k, i]
+            if has_y:
+                values[("Bu", k, a)] = root * plant.Bu[k, i][:, active]
+    return SynthesisModel(
+        template, values,
+        template.parts["eta"] if eta is None else float(eta), eps,
+        structure, form)
+
+
+def _synthesis_template(N, nx, nu, nw, nz, phases, maximise_eta, structure):
+    params: dict = {}
+    eps = _param(params, "margin")
+    d2 = _param(params, "decay2")
+    e = cp.Variable(name="eta") if maximise_eta else _param(params, "eta")
+    X, Z, Y, blocks = [], [], [], []
+    for k, (known, active, _) in enumerate(phases):
+        known, active = np.array(known, int), np.array(active, int)
         rest = np.setdiff1d(np.arange(nx), known)
-        active = plant.active_inputs(k)
         Es, Er = _selector(known, nx), _selector(rest, nx)
         split = structure != "full" and rest.size > 0 and known.size > 0
         if structure == "extended" and split:
@@ -292,8 +554,6 @@ def synthesis_model(plant: JumpPlant, eta: float | None, decay: float,
             Xk = Es.T @ Xs @ Es + Er.T @ Xr @ Er
             Zk, Zs = Xk, Xs
         else:
-            if structure == "full" and rest.size and known.size:
-                raise ValueError("structure='full' needs E_k = I at every phase")
             Xk = cp.Variable((nx, nx), symmetric=True, name=f"X{k}")
             Zk, Zs = Xk, Xk
         # Y_k is zero on unknown coordinates and unaddressed inputs, exactly.
@@ -303,40 +563,38 @@ def synthesis_model(plant: JumpPlant, eta: float | None, decay: float,
         Z.append(Zk)
         Y.append(Yv)
         blocks.append((known, active, Zs))
-    e = cp.Variable(name="eta") if eta is None else float(eta)
     width = 0
-    for k in range(N):
-        Xn = X[(k + 1) % N]
-        Zk, Xk = Z[k], X[k]
-        Yk = _y_full(Y[k], blocks[k], nu, nx)
+    cons = []
+    for k, (known, active, M) in enumerate(phases):
+        Xn, Zk, Xk, Yv = X[(k + 1) % N], Z[k], X[k], Y[k]
+        Sk = _selector(blocks[k][0], nx)
         # extended form: -Gᵀ X⁻¹ G ≼ X - G - Gᵀ replaces -X (de Oliveira et al.)
-        top = (-decay ** 2 * Xk if Zk is Xk
-               else decay ** 2 * (Xk - Zk - Zk.T))
-        L21 = -(Czbar[k] @ Zk + Dubar[k] @ Yk)
-        L22 = 2 * e * np.eye(nw) - Dwbar[k] - Dwbar[k].T
-        live = np.flatnonzero(p[k] > 0)
-        rows1 = [np.sqrt(p[k, i]) * (plant.A[k, i] @ Zk + plant.Bu[k, i] @ Yk)
-                 for i in live]
-        rows2 = [np.sqrt(p[k, i]) * plant.Bw[k, i] for i in live]
-        M = len(live)
+        top = (-d2 * Xk if Zk is Xk else d2 * (Xk - Zk - Zk.T))
+        L21 = -(_param(params, ("Cz", k), (nz, nx)) @ Zk)
+        if Yv is not None:
+            # Du_k Y_k, Y_k = S_activeᵀ Yv S_known: (Du_k S_activeᵀ) Yv S_known
+            L21 = L21 - _param(params, ("Du", k), (nz, len(active))) @ Yv @ Sk
+        L22 = 2 * e * np.eye(nw) - _param(params, ("Dsym", k), (nw, nw))
+        rows1, rows2 = [], []
+        for a in range(M):
+            row = _param(params, ("A", k, a), (nx, nx)) @ Zk
+            if Yv is not None:
+                row = row + _param(params, ("Bu", k, a),
+                                   (nx, len(active))) @ Yv @ Sk
+            rows1.append(row)
+            rows2.append(_param(params, ("Bw", k, a), (nx, nw)))
         grid = [[top, L21.T] + [r.T for r in rows1],
                 [L21, L22] + [r.T for r in rows2]]
         for a in range(M):
             grid.append([rows1[a], rows2[a]] + [
                 -Xn if b == a else np.zeros((nx, nx)) for b in range(M)])
-        Psi = cp.bmat(grid)
         width = nx + nw + M * nx
-        cons += [_sym(Psi) << -eps * np.eye(width), Xk >> eps * np.eye(nx)]
-    objective = cp.Maximize(e) if eta is None else cp.Minimize(0)
-    return SynthesisModel(cp.Problem(objective, cons), X, Z, Y, blocks, e, eps,
-                          structure, form, width)
-
-
-def _y_full(Yv, block, nu, nx):
-    known, active, _ = block
-    if Yv is None:
-        return np.zeros((nu, nx))
-    return _selector(active, nu).T @ Yv @ _selector(known, nx)
+        # symmetric by construction (see _symmetric_scatter)
+        cons += [cp.bmat(grid) << -eps * np.eye(width),
+                 Xk >> eps * np.eye(nx)]
+    objective = cp.Maximize(e) if maximise_eta else cp.Minimize(0)
+    return _Template(cp.Problem(objective, cons), params, X=X, Z=Z, Y=Y,
+                     blocks=blocks, eta=e, width=width)
 
 
 def read_gains(model: SynthesisModel, plant: JumpPlant
@@ -346,6 +604,7 @@ def read_gains(model: SynthesisModel, plant: JumpPlant
     ``K_k E_k = Y_k Z_k⁻¹`` is computed block-wise, so the zero pattern that
     the structure imposes (silent sensors, unaddressed actuators) is exact.
     """
+    model._check_current()
     s = plant.shape
     N, nx, nu = plant.period, s["nx"], s["nu"]
     gains = np.zeros((N, nu, s["nk"]))
