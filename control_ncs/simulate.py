@@ -30,12 +30,23 @@ depend on ``chunk``, the first ``k`` trials of a run are the run with
 ``trials=k``, and adding noise does not change the mode sequences (common
 random numbers when comparing designs).
 
-Memory
-------
-Trials are processed in chunks of ``chunk`` trials, time step by time step,
-modes grouped (no Python loop over trials). Besides its result, a run holds
-``O(chunk · T · (1 + r + n + p + m))`` floats. :func:`simulate` returns every
-path (``trials · T · (n + p + m)`` floats); the ensemble responses keep only
+Engine and memory
+-----------------
+Trials are processed in chunks of ``chunk`` trials, time step by time step
+(no Python loop over trials). The modes of a phase differ by low rank (a
+lost message removes a term ``B_u K``): with ``M_i - M_b = U_i V_i`` for the
+base mode ``b`` (``M = [C D; A B]``), one step of all trials is the product
+``[z; ξ⁺] = [M_b U] [ξ; w; s]`` with ``s = V_i [ξ; w]`` kept for the trials in
+mode ``i`` and zeroed for the others -- no grouping of trials by mode. The
+paths are stored time-major, one ``[ξ; w; s; z]`` × trials slab per step,
+and each product writes ``z_t`` and ``ξ_{t+1}`` in place; the
+``[signal, trial, time]`` arrays of :class:`SamplePaths` are views of that
+storage, so every value is written once and never transposed or copied.
+Besides its result, a run holds ``O(chunk · T · (1 + q + 2r))`` floats for
+its random numbers (``q`` modes per phase besides the base mode), and an
+ensemble response one chunk's storage.
+:func:`simulate` returns every path (``trials · T · (n + p + m)`` floats,
+plus ``rank`` rows of ``s`` per step); the ensemble responses keep only
 ``keep_paths`` full paths and accumulate mean and covariance chunk by chunk,
 so their memory is bounded unless quantiles are asked for (exact quantiles
 need every trial's outputs, ``p · trials · T`` floats; pass
@@ -48,7 +59,7 @@ import contextlib
 import functools
 import math
 from dataclasses import dataclass
-from typing import Any, Iterator, Sequence
+from typing import Any, Iterator, NamedTuple, Sequence
 
 import numpy as np
 import control as ct
@@ -67,8 +78,17 @@ __all__ = ["simulate", "SamplePaths", "EnsembleResponse", "forced_response",
 
 #: Streams keyed by the run's entropy (fixed: changing them changes results).
 _MODES, _NOISE, _INITIAL = 0, 1, 2
-#: Working-memory budget of one chunk, in floats (32 MB).
+#: Working memory of one chunk (its random numbers), in floats (32 MB).
 _CHUNK_FLOATS = 1 << 22
+#: Trials per chunk: one step touches its rows of the storage for every
+#: trial of the chunk, ``rows × chunk`` floats, kept within a core's cache.
+_STEP_FLOATS = 1 << 15
+#: OpenBLAS multiplies on one thread up to m·n·k = 2**18 (default build) and
+#: on all threads above. A product per step that waits for a second thread
+#: stalls for whole scheduler slices on a busy machine (measured 5-80×
+#: slower), so each product covers at most that many trials' columns (but
+#: at least _MIN_COLUMNS, where call overhead would dominate).
+_GEMM_SERIAL, _MIN_COLUMNS = 1 << 18, 16
 #: Default horizon: steps until the mean-square transient has decayed by this
 #: factor (an RMS factor of 1 %), within [_MIN_STEPS, _MAX_STEPS].
 _SETTLE, _MIN_STEPS, _MAX_STEPS, _UNSTABLE_STEPS = 1e-4, 20, 1000, 50
@@ -93,7 +113,10 @@ class SamplePaths(ct.TimeResponseData):
     time]`` and ``inputs`` ``[input, trial, time]``, where the inputs are the
     realised ``w`` of each trial (deterministic part plus sampled white
     noise), so that every path can be replayed. It differs from its base
-    class only in :meth:`plot`'s defaults.
+    class only in :meth:`plot`'s defaults, and in memory layout: ``x``,
+    ``y`` and ``u`` are views of one time-major array (see the module
+    notes), not C-contiguous; ``numpy.ascontiguousarray`` makes a
+    contiguous copy where one is needed.
 
     Attributes
     ----------
@@ -320,6 +343,7 @@ class _Run:
     """A validated run: everything but the trial range."""
 
     sys: JumpStateSpace
+    phases: list                 # _Phase per phase k
     time: np.ndarray
     w: np.ndarray                # (m, T) deterministic part of w
     x0: np.ndarray               # (n,)
@@ -354,7 +378,6 @@ def _prepare(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
     sys = as_jump(sys)
     n = sys.modes.A.shape[-1]
     m = sys.modes.B.shape[-1]
-    p = sys.modes.C.shape[-2]
     t = time_grid(sys, timepts)
     w = input_signal(inputs, m, t.size)
     x0 = _initial(initial_state, n)
@@ -362,70 +385,191 @@ def _prepare(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
     spread = _psd_factor(initial_covariance, n, "initial_covariance")
     trials = _count(trials, "trials")
     chunk = _count(chunk, "chunk", allow_none=True)
-    if chunk is None:
-        r = 0 if noise is None else noise.shape[1]
-        per_trial = t.size * (1 + r + n + p + m) + n
-        chunk = max(1, _CHUNK_FLOATS // per_trial)
-    return _Run(sys, t, w, x0, noise, spread, _root_entropy(seed), trials,
-                min(chunk, trials))
+    run = _Run(sys, _phases(sys.modes), t, w, x0, noise, spread,
+               _root_entropy(seed), trials, trials)
+    run.chunk = min(trials, _default_chunk(run) if chunk is None else chunk)
+    return run
 
 
-def _simulate_chunk(run: _Run, a: int, b: int, bar: Any = None
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Paths of trials ``a .. b-1``: states, outputs and realised inputs,
-    shaped (trial, time, signal)."""
-    sys = run.sys
-    modes = sys.modes
-    p_mode = modes.probabilities
-    N = sys.period
-    AT, BT, CT, DT = (np.swapaxes(X, -1, -2) for X in
-                      (modes.A, modes.B, modes.C, modes.D))
-    n, m, p = AT.shape[-1], BT.shape[-2], CT.shape[-1]
-    c, T = b - a, run.time.size
-    live = [np.flatnonzero(p_mode[k] > 0) for k in range(N)]
-    cdf = np.cumsum(p_mode, axis=1)
+class _Phase(NamedTuple):
+    """One phase's step as a single product: ``[z; ξ⁺] = G [ξ; w; s]``.
+
+    ``G = [M_b, U]`` holds the base mode's ``M_b = [C D; A B]`` and the left
+    factors of the other modes' differences ``M_i - M_b = U_i V_i``; ``s`` is
+    ``V_i [ξ; w]`` for the trials in mode ``i`` and zero for the others.
+    Network modes differ by low rank (a lost message removes the rank-``m``
+    term ``B_u K``), so this costs about one product per step for all
+    trials, with no gather or scatter of trials by mode.
+    """
+
+    G: np.ndarray                 # (p + n, n + m + r)
+    V: np.ndarray                 # (r, n + m)
+    parts: tuple                  # ((mode, rows of s), ...) for the non-base modes
+
+
+def _phases(modes: Any) -> list[_Phase]:
+    n, m = modes.B.shape[-2:]
+    eps = np.finfo(float).eps
+    phases = []
+    for k in range(modes.period):
+        M = np.concatenate([np.concatenate([modes.C[k], modes.D[k]], axis=2),
+                            np.concatenate([modes.A[k], modes.B[k]], axis=2)],
+                           axis=1)
+        p_k = modes.probabilities[k]
+        live = np.flatnonzero(p_k > 0)
+        base = live[np.argmax(p_k[live])]
+        U, V, parts, r = [], [], [], 0
+        for i in live:
+            delta = M[i] - M[base]
+            # Factor only the rows and columns where the modes differ, so a
+            # signal a mode does not touch gets exact zeros (e.g. noise never
+            # leaks into a state it does not drive).
+            rows = np.flatnonzero(np.any(delta != 0, axis=1))
+            cols = np.flatnonzero(np.any(delta != 0, axis=0))
+            if i == base or rows.size == 0:
+                continue
+            u, sv, vt = np.linalg.svd(delta[np.ix_(rows, cols)],
+                                      full_matrices=False)
+            tol = max(delta.shape) * eps * max(np.linalg.norm(M[i], 2),
+                                               np.linalg.norm(M[base], 2))
+            rank = int(np.count_nonzero(sv > tol))
+            if rank == 0:
+                continue
+            Ui = np.zeros((M.shape[1], rank))
+            Ui[rows] = u[:, :rank] * sv[:rank]
+            Vi = np.zeros((rank, n + m))
+            Vi[:, cols] = vt[:rank]
+            U.append(Ui)
+            V.append(Vi)
+            parts.append((int(i), slice(r, r + rank)))
+            r += rank
+        G = np.concatenate([M[base]] + U, axis=1)
+        V = np.concatenate(V) if V else np.zeros((0, n + m))
+        phases.append(_Phase(G, V, tuple(parts)))
+    return phases
+
+
+def _mode_masks(run: _Run, a: int, c: int) -> np.ndarray | None:
+    """``mask[t, j]``: 1.0 for the trials in the ``j``-th non-base mode of
+    phase ``t mod N`` at step ``t``, else 0.0; shape (T, q, c)."""
+    phases = run.phases
+    q = max(len(ph.parts) for ph in phases)
+    if q == 0:
+        return None
+    T, N = run.time.size, len(phases)
+    cdf = np.cumsum(run.sys.modes.probabilities, axis=1)
     cdf /= cdf[:, -1:]
-    draws = run.uniforms(_MODES, a, c, T) if any(len(g) > 1 for g in live) \
-        else None
-    noisy = run.noise is not None
-    if noisy:
+    lower = np.concatenate([np.zeros((N, 1)), cdf[:, :-1]], axis=1)
+    # mode i iff cdf[i-1] <= u < cdf[i] (searchsorted(cdf, u, 'right') == i)
+    draws = run.uniforms(_MODES, a, c, T).T
+    mask = np.empty((T, q, c))
+    for k, ph in enumerate(phases):
+        u = draws[k::N]
+        for j, (i, _) in enumerate(ph.parts):
+            lo, hi, out = lower[k, i], cdf[k, i], mask[k::N, j]
+            if lo <= 0.0:
+                np.less(u, hi, out=out)
+            elif hi >= 1.0:
+                np.greater_equal(u, lo, out=out)
+            else:
+                np.logical_and(u >= lo, u < hi, out=out)
+    return mask
+
+
+def _default_chunk(run: _Run) -> int:
+    rows = _Storage.rows(run)
+    q = max(len(ph.parts) for ph in run.phases)
+    r = 0 if run.noise is None else run.noise.shape[1]
+    by_memory = _CHUNK_FLOATS // (run.time.size * (1 + q + 2 * r) + 1)
+    return max(1, min(by_memory, _STEP_FLOATS // rows))
+
+
+@dataclass
+class _Storage:
+    """Paths of ``trials`` trials as one array of step slabs.
+
+    ``slabs[t] = [ξ_t; w_t; s_t; z_t]`` (rows) × trials (columns), for
+    ``t = 0..T`` (``ξ_T`` is computed but not a path value). The product of
+    step ``t`` reads rows ``[ξ_t; w_t; s_t]`` of slab ``t`` and writes
+    ``z_t`` and ``ξ_{t+1}``, adjacent rows, so every value is written once,
+    in place, by the product that computes it: the result needs no
+    transposition or copy. ``states``, ``outputs`` and ``inputs`` are
+    (signal, trial, time) views of it.
+    """
+
+    slabs: np.ndarray            # (T + 1, R, trials)
+    n: int
+    m: int
+    zrow: int                    # first row of z in a slab
+
+    @staticmethod
+    def layout(run: _Run) -> tuple[int, int, int]:
+        """``n``, ``m`` and the first row of ``z`` in a slab."""
+        n, n_m = run.x0.size, run.phases[0].V.shape[1]
+        return n, n_m - n, n_m + max(ph.V.shape[0] for ph in run.phases)
+
+    @staticmethod
+    def rows(run: _Run) -> int:
+        n, _, zrow = _Storage.layout(run)
+        return zrow + run.phases[0].G.shape[0] - n
+
+    @classmethod
+    def empty(cls, run: _Run, trials: int) -> _Storage:
+        slabs = np.empty((run.time.size + 1, cls.rows(run), trials))
+        return cls(slabs, *cls.layout(run))
+
+    def views(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """States, outputs, inputs, each (signal, trial, time)."""
+        T, n = self.slabs.shape[0] - 1, self.n
+        s = self.slabs[:T]
+        return (s[:, :n].transpose(1, 2, 0),
+                s[:, self.zrow:].transpose(1, 2, 0),
+                s[:, n:n + self.m].transpose(1, 2, 0))
+
+
+def _simulate_chunk(run: _Run, a: int, b: int, store: _Storage,
+                    first: int = 0, bar: Any = None) -> None:
+    """Simulate trials ``a .. b-1`` into columns ``first + (0 .. b-a-1)``
+    of ``store``."""
+    n, m, zrow = store.n, store.m, store.zrow
+    c, T = b - a, run.time.size
+    slabs = store.slabs[:, :, first:first + c]
+    flat = store.slabs.reshape(-1, store.slabs.shape[2])[:, first:first + c]
+    R = slabs.shape[1]
+    phases = run.phases
+    N = len(phases)
+    slabs[:T, n:n + m] = run.w.T[:, :, None]
+    if run.noise is not None:
         r = run.noise.shape[1]
         white = run.normals(_NOISE, a, c, T * r).reshape(c, T, r)
-    x = np.repeat(run.x0[None], c, axis=0)
+        slabs[:T, n:n + m] += np.matmul(run.noise, white.transpose(1, 2, 0))
+    slabs[0, :n] = run.x0[:, None]
     if run.spread is not None:
         r0 = run.spread.shape[1]
-        x += run.normals(_INITIAL, a, c, r0) @ run.spread.T
-    X = np.empty((c, T, n))
-    Z = np.empty((c, T, p))
-    W = np.empty((c, T, m))
-    x_next = np.empty_like(x)
-    everyone = slice(None)
+        slabs[0, :n] += run.spread @ run.normals(_INITIAL, a, c, r0).T
+    mask = _mode_masks(run, a, c)
+    width = max(_MIN_COLUMNS, _GEMM_SERIAL // max(ph.G.size for ph in phases))
+    blocks = [slice(j, j + width) for j in range(0, c, width)]
     for t in range(T):
-        k = t % N
-        wt = run.w[:, t]
-        X[:, t] = x
-        if noisy:
-            W[:, t] = wt + white[:, t] @ run.noise.T
-        else:
-            W[:, t] = wt
-        if len(live[k]) == 1:
-            groups = [(live[k][0], everyone)]
-        else:
-            drawn = np.searchsorted(cdf[k], draws[:, t], side="right")
-            groups = [(i, np.flatnonzero(drawn == i)) for i in live[k]]
-        for i, idx in groups:
-            xi = x[idx]
-            if noisy:
-                wi = W[idx, t]
-                x_next[idx] = xi @ AT[k, i] + wi @ BT[k, i]
-                Z[idx, t] = xi @ CT[k, i] + wi @ DT[k, i]
+        G, V, parts = phases[t % N]
+        row = t * R
+        r = V.shape[0]
+        if r:
+            s = flat[row + n + m:row + n + m + r]
+            np.matmul(V, flat[row:row + n + m], out=s)
+            if len(parts) == 1:
+                s *= mask[t, 0]
             else:
-                x_next[idx] = xi @ AT[k, i] + wt @ BT[k, i]
-                Z[idx, t] = xi @ CT[k, i] + wt @ DT[k, i]
-        x, x_next = x_next, x
+                for q, (_, rows) in enumerate(parts):
+                    s[rows] *= mask[t, q]
+        into, out = flat[row:row + n + m + r], flat[row + zrow:row + R + n]
+        if len(blocks) == 1:
+            np.matmul(G, into, out=out)
+        else:
+            for cols in blocks:
+                np.matmul(G, into[:, cols], out=out[:, cols])
         if bar is not None:
             bar.update(1)
-    return X, Z, W
 
 
 def _progress_bar(progress: bool, total: int, desc: str):
@@ -443,29 +587,24 @@ def _signal_labels(sys: JumpStateSpace) -> dict:
                 input_labels=sys.jump_inputs, sysname=sys.name)
 
 
-def _empty_paths(run: _Run, trials: int, title: str) -> SamplePaths:
-    # Zeros are allocated lazily by the OS, so the copy TimeResponseData
-    # makes of them costs one array, which is then filled in place.
+def _empty_paths(run: _Run, trials: int, title: str
+                 ) -> tuple[SamplePaths, _Storage]:
+    """Paths to be filled in place, and the storage they view."""
+    # TimeResponseData copies the arrays it is given (np.array), which for
+    # millions of trial-steps costs as much as simulating them: it is built
+    # on zero-length placeholders and the views of the storage are attached.
     s = run.sys
     n, m, p = (len(s.jump_states), len(s.jump_inputs), len(s.jump_outputs))
-    T = run.time.size
-    return SamplePaths(
-        run.time, np.zeros((p, trials, T)), np.zeros((n, trials, T)),
-        np.zeros((m, trials, T)), issiso=False, squeeze=False,
+    paths = SamplePaths(
+        run.time[:0], np.empty((p, trials, 0)), np.empty((n, trials, 0)),
+        np.empty((m, trials, 0)), issiso=False, squeeze=False,
         multi_trace=True, trace_labels=[f"trial {i}" for i in range(trials)],
         trace_types=["forced"] * trials, plot_inputs=False, title=title,
         **_signal_labels(s))
-
-
-def _store(paths: SamplePaths, a: int, X: np.ndarray, Z: np.ndarray,
-           W: np.ndarray) -> None:
-    b = min(a + X.shape[0], paths.ntraces)
-    if b <= a:
-        return
-    c = b - a
-    paths.x[:, a:b] = X[:c].transpose(2, 0, 1)
-    paths.y[:, a:b] = Z[:c].transpose(2, 0, 1)
-    paths.u[:, a:b] = W[:c].transpose(2, 0, 1)
+    store = _Storage.empty(run, trials)
+    paths.t = run.time
+    paths.x, paths.y, paths.u = store.views()
+    return paths, store
 
 
 # -- public functions ---------------------------------------------------------
@@ -479,9 +618,8 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     Simulates ``ξ[t+1] = A[k,i] ξ[t] + B[k,i] w[t]``,
     ``z[t] = C[k,i] ξ[t] + D[k,i] w[t]`` (``k = t mod N``) with the mode ``i``
     of every trial drawn at every step with probability
-    ``sys.modes.probabilities[k, i]``. All trials advance together: at each
-    step the trials are grouped by mode and each mode's matrices act on its
-    group.
+    ``sys.modes.probabilities[k, i]``. All trials advance together, one
+    matrix product per step for all modes (see the module notes).
 
     Parameters
     ----------
@@ -508,7 +646,8 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
         Covariance of a Gaussian ``ξ[0]`` (default zero: known initial state).
     chunk : int, optional
         Trials simulated together; bounds the working memory. Default: as
-        many as fit in about 32 MB. Does not change the result.
+        many as keep one step's data in a core's cache (about 256 kB). Does
+        not change the result.
     progress : bool, optional
         Show a progress bar (needs the optional package ``tqdm``).
 
@@ -551,11 +690,11 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
                    seed=seed, noise_covariance=noise_covariance,
                    initial_covariance=initial_covariance, chunk=chunk)
     title = f"Sample paths of {run.sys.name} ({run.trials} trials)"
-    paths = _empty_paths(run, run.trials, title)
+    paths, store = _empty_paths(run, run.trials, title)
     nchunks = -(-run.trials // run.chunk)
     with _progress_bar(progress, nchunks * run.time.size, "simulate") as bar:
         for a, b in run.chunks():
-            _store(paths, a, *_simulate_chunk(run, a, b, bar))
+            _simulate_chunk(run, a, b, store, a, bar)
     return paths
 
 
@@ -580,24 +719,32 @@ def _ensemble(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
     s, T = run.sys, run.time.size
     n, p = len(s.jump_states), len(s.jump_outputs)
     title = f"{what} of {s.name} ({run.trials} trials)"
-    paths = _empty_paths(run, keep, title)
+    if chunk is None:       # the chunk's storage is working memory here
+        per_trial = (T + 1) * _Storage.rows(run)
+        run.chunk = min(run.chunk, max(1, _CHUNK_FLOATS // per_trial))
+    paths, kept = _empty_paths(run, keep, title)
+    store = _Storage.empty(run, run.chunk)
+    zrow = store.zrow
     everything = np.empty((p, run.trials, T)) if levels else None
     count, mean, M2 = 0, np.zeros((T, p)), np.zeros((T, p, p))
     states_sum = np.zeros((T, n))
     nchunks = -(-run.trials // run.chunk)
     with _progress_bar(progress, nchunks * T, kind) as bar:
         for a, b in run.chunks():
-            X, Z, W = _simulate_chunk(run, a, b, bar)
-            _store(paths, a, X, Z, W)
+            c = b - a
+            _simulate_chunk(run, a, b, store, 0, bar)
+            slabs = store.slabs[:, :, :c]
+            if a < keep:
+                kept.slabs[:, :, a:min(b, keep)] = slabs[:, :, :keep - a]
+            Z = slabs[:T, zrow:]                        # (T, p, trial)
             if everything is not None:
-                everything[:, a:b] = Z.transpose(2, 0, 1)
-            states_sum += X.sum(axis=0)
+                everything[:, a:b] = Z.transpose(1, 2, 0)
+            states_sum += slabs[:T, :n].sum(axis=2)
             # Chan et al.'s pairwise update of mean and scatter: exact and
             # stable, and needs one chunk at a time.
-            c = b - a
-            mean_c = Z.mean(axis=0)
-            dev = Z - mean_c
-            M2_c = np.einsum("cti,ctj->tij", dev, dev)
+            mean_c = Z.mean(axis=2)
+            dev = Z - mean_c[:, :, None]
+            M2_c = np.einsum("tic,tjc->tij", dev, dev)
             delta = mean_c - mean
             total = count + c
             M2 += M2_c + np.einsum("ti,tj->tij", delta, delta) * (count * c

@@ -14,6 +14,7 @@ from control.exception import ControlArgument, ControlDimension
 
 import control_ncs as cn
 import importlib
+from helpers import random_jump
 
 # the package exports the function simulate(), which hides the submodule
 simulate_module = importlib.import_module("control_ncs.simulate")
@@ -236,6 +237,72 @@ def test_chunking_does_not_change_the_paths():
 def test_first_trials_do_not_depend_on_the_number_of_trials():
     few, many = run(3, trials=20), run(3, trials=200)
     np.testing.assert_allclose(many.outputs[:, :20], few.outputs, rtol=1e-12,
+                               atol=1e-14)
+
+
+def reference_paths(sys, T, inputs, x0, trials, seed):
+    """Trial by trial and step by step, from the documented mode stream
+    (trial ``i`` reads uniforms ``i·T .. i·T+T-1``, mode ``i`` of phase
+    ``k`` where the cumulative probabilities first exceed the uniform),
+    driven by the realised ``inputs`` [input, trial, time]."""
+    entropy = simulate_module._root_entropy(seed)
+    modes = sys.modes
+    cdf = np.cumsum(modes.probabilities, axis=1)
+    cdf /= cdf[:, -1:]
+    n, p = modes.A.shape[-1], modes.C.shape[-2]
+    X, Z = np.empty((n, trials, T)), np.empty((p, trials, T))
+    for j in range(trials):
+        bits = np.random.PCG64(np.random.SeedSequence(entropy,
+                                                      spawn_key=(0,)))
+        bits.advance(j * T)
+        u = np.random.Generator(bits).random(T)
+        x = np.array(x0, dtype=float)
+        for t in range(T):
+            k = t % sys.period
+            i = np.searchsorted(cdf[k], u[t], side="right")
+            w = inputs[:, j, t]
+            X[:, j, t] = x
+            Z[:, j, t] = modes.C[k, i] @ x + modes.D[k, i] @ w
+            x = modes.A[k, i] @ x + modes.B[k, i] @ w
+    return X, Z
+
+
+def test_paths_follow_the_documented_streams_mode_by_mode():
+    # Three phases: dense (full-rank) mode differences, a mode that never
+    # occurs, and a phase with one possible mode.
+    rng = np.random.default_rng(42)
+    base = random_jump(rng, n=3, N=3, M=4, m=2, p=2)
+    prob = [[0.5, 0.3, 0.2, 0.0], [0.0, 0.6, 0.0, 0.4], [0.0, 0.0, 1.0, 0.0]]
+    m = base.modes
+    sys = cn.jss(m.A, m.B, m.C, m.D, prob)
+    T, x0 = 13, [1.0, -0.5, 0.2]
+    paths = simulate(sys, T, [[1.0], [0.3]], x0, trials=40, seed=6,
+                     noise_covariance=0.5 * np.eye(2))
+    X, Z = reference_paths(sys, T, paths.inputs, x0, 40, 6)
+    np.testing.assert_allclose(paths.states, X, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(paths.outputs, Z, rtol=1e-10, atol=1e-12)
+
+
+def test_products_split_by_trials_give_the_same_paths(monkeypatch):
+    whole = run(9, trials=120, chunk=120)
+    monkeypatch.setattr(simulate_module, "_GEMM_SERIAL", 1)
+    monkeypatch.setattr(simulate_module, "_MIN_COLUMNS", 7)   # 18 products
+    split = run(9, trials=120, chunk=120)
+    np.testing.assert_allclose(split.outputs, whole.outputs, rtol=1e-12,
+                               atol=1e-14)
+    np.testing.assert_allclose(split.states, whole.states, rtol=1e-12,
+                               atol=1e-14)
+
+
+def test_ensemble_paths_are_the_sample_paths_of_the_same_seed():
+    CL = closed_loop("static-hold")
+    kw = dict(trials=50, seed=8, noise_covariance=0.1 * np.eye(2))
+    r = forced_response(CL, 9, [[1.0], [0.0]], keep_paths=None, chunk=16,
+                        **kw)
+    paths = simulate(CL, 9, [[1.0], [0.0]], **kw)
+    np.testing.assert_allclose(r.paths.outputs, paths.outputs, rtol=1e-12,
+                               atol=1e-14)
+    np.testing.assert_allclose(r.paths.inputs, paths.inputs, rtol=1e-12,
                                atol=1e-14)
 
 
