@@ -234,6 +234,21 @@ def test_chunking_does_not_change_the_paths():
                                    atol=1e-14)
 
 
+@pytest.mark.parametrize("workers", [1, 2, 3])
+def test_worker_threads_do_not_change_the_paths(workers):
+    # many small chunks, so that several threads really run side by side
+    one = run(5, trials=150, chunk=7, workers=1)
+    many = run(5, trials=150, chunk=7, workers=workers)
+    for name in ("outputs", "states", "inputs"):
+        assert np.array_equal(getattr(many, name), getattr(one, name)), name
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, True])
+def test_bad_workers_raise_naming_the_argument(workers):
+    with pytest.raises(ValueError, match="^workers: "):
+        run(5, trials=10, workers=workers)
+
+
 def test_first_trials_do_not_depend_on_the_number_of_trials():
     few, many = run(3, trials=20), run(3, trials=200)
     np.testing.assert_allclose(many.outputs[:, :20], few.outputs, rtol=1e-12,
