@@ -110,7 +110,7 @@ def _scaling(sections: list, png: str) -> Section:
             "them understate the asymptotic growth. The steep curves are the "
             "interior-point routes (one Clarabel iteration, passivesyn) and "
             "the dense ms_radius; the flat ones are the matrix-free "
-            "ms_radius and the Riccati prototype (O(n³) per sweep, sweeps "
+            "ms_radius and the Riccati routes (O(n³) per sweep or solve, sweeps "
             "roughly independent of n).", "")
     return sec
 
