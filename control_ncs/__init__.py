@@ -19,7 +19,6 @@ from .passivity import (ispassive, get_input_ff_index, mean_input_ff_index,
                         frequency_ff_index, passivity_certificate,
                         PassivityResult)
 from .synthesis import passivesyn, SynthesisResult
-from .riccati import riccati_synthesis, riccati_index, RiccatiResult
 from .simulate import (simulate, SamplePaths, EnsembleResponse,
                        forced_response, step_response, impulse_response,
                        initial_response, plot_ensemble)
@@ -38,7 +37,6 @@ __all__ = [
     "ispassive", "get_input_ff_index", "mean_input_ff_index",
     "frequency_ff_index", "passivity_certificate", "PassivityResult",
     "passivesyn", "SynthesisResult",
-    "riccati_synthesis", "riccati_index", "RiccatiResult",
     "simulate", "SamplePaths", "EnsembleResponse", "forced_response",
     "step_response", "impulse_response", "initial_response", "plot_ensemble",
     "jump_feedback", "lift_lti", "schedule_plot",

@@ -77,3 +77,53 @@ def choice(value: Any, name: str, allowed: Iterable[str]) -> str:
     if value not in allowed:
         raise ControlArgument(f"{name}: expected one of {allowed}, got {value!r}")
     return value
+
+
+def positive_int(value: Any, name: str, allow_none: bool = False
+                 ) -> int | None:
+    """An int ``>= 1`` (not a bool), or None when allowed."""
+    if value is None and allow_none:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name}: expected an int >= 1"
+                         f"{' or None' if allow_none else ''}, got {value!r}")
+    return int(value)
+
+
+def positive_real(value: Any, name: str) -> float:
+    """A finite real number ``> 0``."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        out = np.nan
+    if isinstance(value, (bool, np.bool_)) or not (np.isfinite(out)
+                                                   and out > 0):
+        raise ValueError(f"{name}: expected a positive finite number, got "
+                         f"{value!r}")
+    return out
+
+
+def decay_bound(value: Any, name: str = "decay") -> float:
+    """A decay bound ``r`` in ``(0, 1]``; None means 1 (no bound)."""
+    if value is None:
+        return 1.0
+    r = positive_real(value, name)
+    if r > 1.0:
+        raise ValueError(f"{name}: expected r in (0, 1], got {value!r}")
+    return r
+
+
+def finite_real(value: Any, name: str, allow_none: bool = False
+                ) -> float | None:
+    """A finite real number (or None when allowed)."""
+    if value is None and allow_none:
+        return None
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        out = np.nan
+    if isinstance(value, (bool, np.bool_)) or not np.isfinite(out):
+        raise ValueError(f"{name}: expected a finite number"
+                         f"{' or None' if allow_none else ''}, got {value!r}")
+    return out

@@ -154,6 +154,9 @@ def solve(problem: cp.Problem, solver: str | None = None,
             raise
         status, message = "solver_error", f"{name} panicked: {err}"
     total = time.perf_counter() - start
+    template = _cache.templates.get(problem)
+    if template is not None:
+        template.solved = template.owner
     compile_time = float(getattr(problem, "compilation_time", None) or 0.0)
     stats = problem.solver_stats
     solve_time = getattr(problem, "_solve_time", None)
@@ -207,6 +210,9 @@ class _Cache(threading.local):
         self.misses = 0
         # compile options of the cached problems, read by solve()
         self.compile_options = weakref.WeakKeyDictionary()
+        # problem -> its template, so that solve() can record whose data
+        # were solved
+        self.templates = weakref.WeakKeyDictionary()
 
 
 _cache = _Cache()
@@ -229,20 +235,26 @@ class _Template:
 
     ``owner`` is the model whose data the parameters hold; a model loads
     its own values before its problem is handed out, so two models of one
-    shape never solve each other's data.
+    shape never solve each other's data. ``solved`` is the model whose data
+    were last solved (set by :func:`solve`); variables are read only when
+    both are the reader (``_Model._check_current``), and loading other data
+    clears the variables' values.
     """
 
     def __init__(self, problem: cp.Problem, params: dict, **parts: Any):
         self.problem, self.params, self.parts = problem, params, parts
-        self.owner = None
+        self.owner = self.solved = None
         if sum(param.size for param in params.values()) >= COO_FROM:
             _cache.compile_options[problem] = dict(canon_backend="COO")
+        _cache.templates[problem] = self
 
     def load(self, owner: Any, values: dict) -> None:
         if self.owner is not owner:
             for key, value in values.items():
                 self.params[key].value = value
-            self.owner = owner
+            for variable in self.problem.variables():
+                variable.value = None      # another model's solution
+            self.owner, self.solved = owner, None
 
 
 def _template(key: tuple, build) -> _Template:
@@ -278,11 +290,13 @@ class _Model:
         return self._template.problem
 
     def _check_current(self) -> None:
-        if self._template.owner is not self:
+        """Raise unless the variables hold the solution of this model's
+        data (its problem solved since it was last loaded)."""
+        if self._template.owner is not self or self._template.solved is not self:
             raise RuntimeError(
-                "the problem of this model was since loaded with another "
-                "model's data (models of one shape share a compiled problem, "
-                "lmi.CACHE_SIZE); solve model.problem again before reading it")
+                "this model's problem was not solved with its data since it "
+                "was loaded (models of one shape share a compiled problem, "
+                "lmi.CACHE_SIZE); solve(model.problem) before reading it")
 
 
 def _param(params: dict, key: Any, shape: tuple = ()) -> cp.Parameter:

@@ -36,7 +36,8 @@ from control.exception import ControlArgument, ControlDimension
 from scipy.linalg import (LinAlgError, eigvals, schur, solve_discrete_are,
                           solve_discrete_lyapunov)
 
-from ._checks import choice, no_extra_kwargs
+from ._checks import (choice, decay_bound, finite_real, no_extra_kwargs,
+                      positive_real, real_array)
 from .jump import as_jump
 from .lmi import (DEFAULT_MARGIN, SolveReport, analysis_model,
                   fallback_solver, solve)
@@ -554,6 +555,13 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     sys = as_jump(sys)
     _square(sys)
     choice(method, "method", METHODS)
+    ifp_index = finite_real(ifp_index, "ifp_index", allow_none=True)
+    margin = positive_real(margin, "margin")
+    decay = decay_bound(decay)
+    if sys.modes.A.shape[-1] == 0:
+        raise ControlDimension(
+            "sys: a passivity certificate needs at least one state (a static "
+            "system's index is λmin(D + Dᵀ)/2)")
     mats = _deterministic(sys)
     if method == "riccati" and mats is None:
         raise ControlArgument(
@@ -626,6 +634,7 @@ def _lmi_certificate(sys, ifp_index, decay, solver, margin, solver_options
             # (unless another solver's answer verifies after all)
             last, refuted = (report, None, "infeasible"), True
             continue
+        model._check_current()
         P = np.array([Pk.value for Pk in model.P])
         cert = (check_certificate(sys, P, float(ifp_index), decay=decay)
                 if fixed else certify_index(sys, P, decay=decay))
@@ -806,5 +815,8 @@ def frequency_ff_index(sys: Any, omega: Any = None, *,
     if omega is None:
         thetas = np.linspace(0.0, np.pi, points)
     else:
-        thetas = np.sort(np.asarray(omega, float).ravel() * dt)
+        thetas = np.sort(real_array(omega, "omega", ndim=(0, 1)).ravel()
+                         * dt)
+        if thetas.size == 0:
+            raise ValueError("omega: expected at least one frequency")
     return resp.minimum(thetas, resp.values(thetas)[0], omega is None)[0]

@@ -48,13 +48,14 @@ Verdicts at a fixed ``η``
   factorisation, with ``R_{N-1} ≻ 0``), every ``Θ_k ≺ 0`` holds for the
   current ``(P, K)``. The caller still checks it exactly
   (:func:`control_ncs.verify.check_certificate`).
-* **diverged**: ``R_k`` loses positive definiteness, or ``P`` exceeds
-  ``1e12`` times the scale of the data. Since every iterate lies below any
-  solution of the LMI with margin, the first is a proof that the LMI with
-  margin ``ε`` is infeasible; the second says any certificate would be
-  larger than double precision can verify. :func:`riccati_synthesis`
-  raises :class:`~control_ncs.verify.SynthesisError` with reason
-  ``'infeasible'``.
+* **diverged**: ``R_k`` loses positive definiteness. Since every iterate
+  lies below any solution of the LMI with margin, this proves that the LMI
+  with margin ``ε`` is infeasible: :class:`~control_ncs.verify.SynthesisError`
+  with reason ``'infeasible'``.
+* **blow-up**: ``P`` exceeds ``1e12`` times the scale of the data. Any
+  certificate would be at least as large, beyond what the exact check can
+  verify in double precision; the LMI is probably infeasible, but this is a
+  threshold, not a proof: reason ``'solver_failed'``.
 * **out of sweeps**: inconclusive (the iteration converges sublinearly near
   the supremum of ``η``); reason ``'solver_failed'``.
 
@@ -81,8 +82,9 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from control.exception import ControlDimension
+from control.exception import ControlArgument, ControlDimension
 
+from ._checks import decay_bound, positive_int, positive_real
 from .jump import JumpPlant, as_jump
 from .verify import SynthesisError
 
@@ -112,9 +114,12 @@ class RiccatiResult:
         The certificate candidate ``P_k`` (an iterate of the monotone
         sequence). Not yet checked exactly: the caller does that.
     eta : float
-        The requested ``η``, or the largest level found (a converged level,
-        or the supremum its ``P`` proves; always a level ``P`` certifies
-        in exact arithmetic).
+        The requested ``η``, or the largest level found: a converged level,
+        or the supremum its ``P`` proves (not itself certified: the strict
+        inequality holds only below it). Unchecked: :func:`passivesyn`
+        certifies a level below it with
+        :func:`control_ncs.verify.certify_index`, which is why these
+        functions are internal (``control_ncs.riccati``), not exported.
     sweeps : int
         Backward sweeps over the period, over all levels tried.
     bisections : int
@@ -231,8 +236,9 @@ def _iterate(data, eta, decay, eps, P0, max_sweeps, blowup):
     """Backward sweeps from ``P0`` at level ``eta``.
 
     Returns ``(status, P, K, sweeps)`` with status ``'converged'`` (the
-    current ``(P, K)`` satisfy every ``Θ_k ≺ 0``), ``'diverged'`` or
-    ``'max_sweeps'``.
+    current ``(P, K)`` satisfy every ``Θ_k ≺ 0``), ``'diverged'`` (some
+    ``R_k`` lost positive definiteness: the LMI with margin is infeasible),
+    ``'blowup'`` (``P`` beyond ``blowup``) or ``'max_sweeps'``.
     """
     N = len(data)
     n = data[0].n
@@ -244,7 +250,7 @@ def _iterate(data, eta, decay, eps, P0, max_sweeps, blowup):
         change = 0.0
         for k in reversed(range(N)):
             out = _step(data[k], P[(k + 1) % N], eta)
-            if out is None:
+            if out is None:          # R_k lost definiteness: a proof
                 return "diverged", P, K, sweep
             G, K[k] = out
             new = (G + eye) / r2
@@ -252,7 +258,9 @@ def _iterate(data, eta, decay, eps, P0, max_sweeps, blowup):
             P[k] = new
         top = float(np.max(np.abs(P)))
         if not np.isfinite(top) or top > blowup:
-            return "diverged", P, K, sweep
+            # a threshold, not a proof: any certificate would be at least
+            # this large, beyond what the exact check can verify
+            return "blowup", P, K, sweep
         # Phases 0..N-2 have residual εI by construction; the wrap-around
         # phase N-1 used the previous P_0. Its exact residual decides, once
         # the increments are small enough for it to possibly hold.
@@ -286,6 +294,13 @@ def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
                 f"{sweeps}): the LMI with margin {margin} is infeasible, no "
                 "gain has a certificate for this eta and decay",
                 "infeasible", dict(figures, sweeps=sweeps))
+        if status == "blowup":
+            raise SynthesisError(
+                f"riccati: inconclusive: P grew beyond {_BLOWUP:g} times the "
+                f"data scale at eta={eta} (sweep {sweeps}): any certificate "
+                "would be too large for double precision to verify; the LMI "
+                "is probably infeasible", "solver_failed",
+                dict(figures, sweeps=sweeps))
         if status == "max_sweeps":
             raise SynthesisError(
                 f"riccati: inconclusive: the iteration did not converge in "
@@ -312,11 +327,18 @@ def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
                 "solver_failed", dict(figures, sweeps=sweeps))
         width *= 8
         if width > 1e8 * max(1.0, abs(hi)):
+            if status == "diverged":
+                raise SynthesisError(
+                    "riccati: the iteration diverged for every eta down to "
+                    f"{trial:.3g}: no gain has a certificate (margin "
+                    f"{margin}, decay {decay})", "infeasible",
+                    dict(figures, sweeps=sweeps))
             raise SynthesisError(
-                "riccati: the iteration diverged for every eta down to "
-                f"{trial:.3g}: no mean-square stabilising gain has a "
-                f"certificate (margin {margin}, decay {decay})",
-                "infeasible", dict(figures, sweeps=sweeps))
+                "riccati: inconclusive: for every eta down to "
+                f"{trial:.3g}, P grew beyond {_BLOWUP:g} times the data "
+                "scale: probably no mean-square stabilising gain exists "
+                f"(margin {margin}, decay {decay})", "solver_failed",
+                dict(figures, sweeps=sweeps))
     lo = max(lo, min(_certified_sup(data, P, K, decay), hi))
     while hi - lo > rtol * max(1.0, abs(hi)):
         mid = 0.5 * (lo + hi)
@@ -333,17 +355,11 @@ def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
 
 
 def _options(rtol, max_sweeps, probe_sweeps, margin, decay):
-    if not 0.0 < decay <= 1.0:
-        raise ValueError(f"decay: expected r in (0, 1], got {decay}")
-    for name, value in (("max_sweeps", max_sweeps),
-                        ("probe_sweeps", probe_sweeps)):
-        if int(value) != value or value < 1:
-            raise ValueError(f"{name}: expected a positive integer, got "
-                             f"{value!r}")
-    for name, value in (("rtol", rtol), ("margin", margin)):
-        if not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{name}: expected a positive number, got "
-                             f"{value!r}")
+    """The iteration's options, checked: (rtol, max_sweeps, probe_sweeps,
+    margin, decay)."""
+    return (positive_real(rtol, "rtol"), positive_int(max_sweeps, "max_sweeps"),
+            positive_int(probe_sweeps, "probe_sweeps"),
+            positive_real(margin, "margin"), decay_bound(decay))
 
 
 def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
@@ -390,7 +406,12 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
         or ``'solver_failed'`` (out of sweeps: inconclusive).
     """
     start = time.perf_counter()
-    _options(rtol, max_sweeps, probe_sweeps, margin, decay)
+    rtol, max_sweeps, probe_sweeps, margin, decay = _options(
+        rtol, max_sweeps, probe_sweeps, margin, decay)
+    if not isinstance(plant, JumpPlant):
+        raise ControlArgument(
+            f"plant: expected a JumpPlant (control_ncs.build(P)), got "
+            f"{type(plant).__name__}")
     plant = plant.merged()
     s, N = plant.shape, plant.period
     nx = s["nx"]
@@ -454,9 +475,12 @@ def riccati_index(sys, *, decay: float = 1.0, margin: float = RICCATI_MARGIN,
     0.3333
     """
     start = time.perf_counter()
-    _options(rtol, max_sweeps, probe_sweeps, margin, decay)
+    rtol, max_sweeps, probe_sweeps, margin, decay = _options(
+        rtol, max_sweeps, probe_sweeps, margin, decay)
     sys = as_jump(sys)
     m = sys.modes
+    if m.A.shape[-1] == 0:
+        raise ControlDimension("sys: the iteration needs at least one state")
     if m.B.shape[-1] != m.C.shape[-2]:
         raise ControlDimension(
             f"sys: passivity needs as many inputs as outputs, got "

@@ -69,7 +69,7 @@ import matplotlib.pyplot as plt
 from control.exception import ControlArgument, ControlDimension
 from scipy.special import ndtri
 
-from ._checks import matrix, no_extra_kwargs, real_array
+from ._checks import matrix, no_extra_kwargs, positive_int, real_array
 from .jump import JumpStateSpace, as_jump
 from .moments import MomentsResponse, input_signal, moments, time_grid
 from .stability import ms_radius
@@ -118,7 +118,10 @@ class SamplePaths(ct.TimeResponseData):
     class only in :meth:`plot`'s defaults, and in memory layout: ``x``,
     ``y`` and ``u`` are views of one time-major array (see the module
     notes), not C-contiguous; ``numpy.ascontiguousarray`` makes a
-    contiguous copy where one is needed.
+    contiguous copy where one is needed. Any one of them keeps that whole
+    array alive, including the scratch rows of the step (one per unit of
+    rank by which the modes differ): to keep only the outputs of a large
+    run, keep ``numpy.array(paths.outputs)``.
 
     Attributes
     ----------
@@ -281,16 +284,6 @@ class EnsembleResponse:
 
 
 # -- argument checks ----------------------------------------------------------
-def _count(value: Any, name: str, allow_none: bool = False) -> int | None:
-    if value is None and allow_none:
-        return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(
-            value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name}: expected an int >= 1"
-                         f"{' or None' if allow_none else ''}, got {value!r}")
-    return int(value)
-
-
 def _psd_factor(value: Any, size: int, name: str) -> np.ndarray | None:
     """``L`` (size × rank) with ``L Lᵀ = value``; None for a zero matrix.
 
@@ -385,8 +378,8 @@ def _prepare(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
     x0 = _initial(initial_state, n)
     noise = _psd_factor(noise_covariance, m, "noise_covariance")
     spread = _psd_factor(initial_covariance, n, "initial_covariance")
-    trials = _count(trials, "trials")
-    chunk = _count(chunk, "chunk", allow_none=True)
+    trials = positive_int(trials, "trials")
+    chunk = positive_int(chunk, "chunk", allow_none=True)
     run = _Run(sys, _phases(sys.modes), t, w, x0, noise, spread,
                _root_entropy(seed), trials, trials)
     run.chunk = min(trials, _default_chunk(run) if chunk is None else chunk)
@@ -696,9 +689,9 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     run = _prepare(sys, timepts, inputs, initial_state, trials=trials,
                    seed=seed, noise_covariance=noise_covariance,
                    initial_covariance=initial_covariance, chunk=chunk)
+    workers = positive_int(workers, "workers", allow_none=True)
     title = f"Sample paths of {run.sys.name} ({run.trials} trials)"
     paths, store = _empty_paths(run, run.trials, title)
-    workers = _count(workers, "workers", allow_none=True)
     chunks = list(run.chunks())
     if workers is None:
         workers = _cpus()
@@ -713,11 +706,18 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
             # their own random streams, so the order of completion does not
             # matter (tests/test_simulate.py checks equality with one
             # worker). Measured (n = 32, 5000 trials, 2 cores): 1.3x.
+            # The bar is advanced here, in the calling thread, once per
+            # finished chunk (tqdm's counter is not updated under a lock).
             with ThreadPoolExecutor(workers) as pool:
-                for _ in pool.map(
-                        lambda ab: _simulate_chunk(run, ab[0], ab[1], store,
-                                                   ab[0], bar), chunks):
-                    pass
+                try:
+                    for _ in pool.map(
+                            lambda ab: _simulate_chunk(run, ab[0], ab[1],
+                                                       store, ab[0]), chunks):
+                        if bar is not None:
+                            bar.update(run.time.size)
+                except BaseException:
+                    pool.shutdown(wait=True, cancel_futures=True)
+                    raise
     return paths
 
 
@@ -726,7 +726,7 @@ def _cpus() -> int:
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:         # not on Linux
-        return os.cpu_count() or 1
+        return os.cpupositive_int() or 1
 
 
 def _quantile_levels(quantiles: Any) -> tuple:
@@ -745,7 +745,7 @@ def _ensemble(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
                    seed=seed, noise_covariance=noise_covariance,
                    initial_covariance=initial_covariance, chunk=chunk)
     levels = _quantile_levels(quantiles)
-    keep = _count(keep_paths, "keep_paths", allow_none=True)
+    keep = positive_int(keep_paths, "keep_paths", allow_none=True)
     keep = run.trials if keep is None else min(keep, run.trials)
     s, T = run.sys, run.time.size
     n, p = len(s.jump_states), len(s.jump_outputs)

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import choice
+from ._checks import choice, decay_bound, finite_real, positive_real
 from .gain import ACTUATORS, CONTROLLERS, PeriodicGain
 from .jump import JumpPlant, JumpStateSpace
 from .lmi import (DEFAULT_MARGIN, SolveReport, fallback_solver,
@@ -169,10 +169,8 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant):
         raise ControlArgument(
             f"P: synthesis needs the state measured, y = x (C2 = I, {n}x{n}), "
             f"got C2 of shape {P.C2.shape}")
+    eta = finite_real(eta, "eta", allow_none=True)
     if eta is not None:
-        eta = float(eta)
-        if not np.isfinite(eta):
-            raise ValueError(f"eta: expected a finite number or None, got {eta}")
         D = P.D11
         low = float(np.linalg.eigvalsh(D + D.T).min())
         if not low > 2 * eta:
@@ -180,11 +178,7 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant):
                 f"eta: D11 + D11ᵀ ≻ 2·eta·I is necessary (paper's Assumption 1, "
                 f"MATH §6), but λmin(D11 + D11ᵀ) = {low:.6g} ≤ 2·eta = "
                 f"{2 * eta:.6g}")
-    if decay is None:
-        decay = 1.0
-    decay = float(decay)
-    if not 0.0 < decay <= 1.0:
-        raise ValueError(f"decay: expected r in (0, 1], got {decay}")
+    decay = decay_bound(decay)
     choice(controller, "controller", CONTROLLERS)
     choice(actuator, "actuator", ACTUATORS)
     choice(form, "form", FORMS)
@@ -282,9 +276,10 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         answer failed the exact checks, after the retries (``RETRIES``) and,
         without ``solver=``, one solve of the problem as posed by
         ``lmi.FALLBACK_SOLVER``; ``reason`` and ``figures`` say which.
-        Riccati route: ``'infeasible'`` when the iteration diverges (a
-        proof that the LMI with its margin is infeasible),
-        ``'solver_failed'`` when it runs out of sweeps (inconclusive),
+        Riccati route: ``'infeasible'`` when some ``R_k`` loses positive
+        definiteness (a proof that the LMI with its margin is infeasible),
+        ``'solver_failed'`` when it runs out of sweeps or ``P`` grows beyond
+        what double precision can certify (inconclusive),
         ``'not_verified'`` when its gain fails the exact checks (no retries).
     ValueError, ControlDimension, ControlArgument
         The pre-solve checks: ``dim w ≠ dim z``, ``D11 + D11ᵀ ⊁ 2ηI``,
@@ -313,6 +308,7 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         P, NetworkedStateSpace) else None
     eta, decay, structure = _checks(P, eta, decay, controller, actuator, form,
                                     structure, plant)
+    margin = positive_real(margin, "margin")
     riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
     if riccati and structure != "full":
         raise ValueError(
@@ -411,6 +407,7 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
 
 def _variables(model, plant):
     """The LMI's ``X_k`` and ``Y_k`` (zero-padded to ``(N, nu, nx)``)."""
+    model._check_current()
     s = plant.shape
     Y = np.zeros((plant.period, s["nu"], s["nx"]))
     for k, Yv in enumerate(model.Y):

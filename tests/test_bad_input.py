@@ -317,3 +317,69 @@ def test_schedule_plot_needs_a_networked_plant():
     from control_ncs import schedule_plot
     with pytest.raises(ControlArgument, match="^P:"):
         schedule_plot(ct.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], True))
+
+
+# -- options of the routes added for speed (named ValueErrors) ------------------
+def scalar_synthesis_plant():
+    return nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+               nmeas=1, ncon=1, actuator_loss=0.1)
+
+
+@pytest.mark.parametrize("name, kwargs", [
+    ("rtol", dict(solver="riccati", rtol="x")),
+    ("rtol", dict(solver="riccati", rtol=None)),
+    ("max_sweeps", dict(solver="riccati", max_sweeps="x")),
+    ("max_sweeps", dict(solver="riccati", max_sweeps=True)),
+    ("max_sweeps", dict(solver="riccati", max_sweeps=float("inf"))),
+    ("margin", dict(solver="riccati", margin="x")),
+    ("margin", dict(margin=-1.0)),
+    ("decay", dict(decay=1.5)),
+    ("decay", dict(decay="x")),
+    ("eta", dict(eta=float("nan"))),
+])
+def test_passivesyn_bad_option_raises_naming_it(name, kwargs):
+    from control_ncs import passivesyn
+    with pytest.raises(ValueError, match=f"^{name}: "):
+        passivesyn(scalar_synthesis_plant(), **kwargs)
+
+
+@pytest.mark.parametrize("name, args, kwargs", [
+    ("ifp_index", ("x",), {}),
+    ("ifp_index", (float("nan"),), {}),
+    ("decay", (), dict(decay=-0.9)),
+    ("decay", (), dict(decay=1.5)),
+    ("margin", (), dict(margin=0.0)),
+])
+@pytest.mark.parametrize("method", ["auto", "lmi"])
+def test_passivity_certificate_bad_argument_raises_naming_it(name, args,
+                                                             kwargs, method):
+    from control_ncs import passivity_certificate
+    G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    with pytest.raises(ValueError, match=f"^{name}: "):
+        passivity_certificate(G, *args, method=method, **kwargs)
+
+
+def test_passivity_of_a_system_without_state_raises_control_dimension():
+    from control_ncs import get_input_ff_index
+    with pytest.raises(ControlDimension, match="^sys: "):
+        get_input_ff_index(ct.ss([], [], [], [[1.0]], True))
+
+
+def test_frequency_test_with_no_frequencies_raises_naming_omega():
+    from control_ncs import frequency_ff_index
+    G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    with pytest.raises(ValueError, match="^omega: "):
+        frequency_ff_index(G, omega=[])
+
+
+def test_riccati_synthesis_of_a_statespace_raises_control_argument():
+    from control_ncs.riccati import riccati_synthesis
+    with pytest.raises(ControlArgument, match="^plant: "):
+        riccati_synthesis(ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True))
+
+
+@pytest.mark.parametrize("workers", [0, 1.5, "2"])
+def test_simulate_bad_workers_raise_before_allocating(workers):
+    from control_ncs import simulate
+    with pytest.raises(ValueError, match="^workers: "):
+        simulate(jss(**jump_args()), 5, trials=10**9, workers=workers)

@@ -200,8 +200,32 @@ def test_each_model_solves_its_own_data():
     lmi.read_gains(model_a, a)
     assert close(lmi.solve(model_b.problem).value, value_b[0])
     # model_a's variables now hold model_b's answer: reading them is refused
-    with pytest.raises(RuntimeError, match="another model"):
+    with pytest.raises(RuntimeError, match="not solved with its data"):
         lmi.read_gains(model_a, a)
+
+
+def test_an_unsolved_model_never_reads_another_models_solution():
+    a, b = plants([11, 12])
+    model_a = lmi.synthesis_model(a, None, 1.0, 1e-7, "full", "merged")
+    lmi.solve(model_a.problem)
+    model_b = lmi.synthesis_model(b, None, 1.0, 1e-7, "full", "merged")
+    # model_b was built but never solved: the variables hold nothing of a's
+    with pytest.raises(RuntimeError, match="not solved with its data"):
+        lmi.read_gains(model_b, b)
+    assert all(X.value is None for X in model_b.X)
+
+
+def test_touching_a_solved_model_after_another_was_solved_is_refused():
+    a, b = plants([11, 12])
+    model_a = lmi.synthesis_model(a, None, 1.0, 1e-7, "full", "merged")
+    lmi.solve(model_a.problem)
+    model_b = lmi.synthesis_model(b, None, 1.0, 1e-7, "full", "merged")
+    lmi.solve(model_b.problem)
+    model_a.problem        # reloads a's data; the variables held b's answer
+    with pytest.raises(RuntimeError, match="not solved with its data"):
+        lmi.read_gains(model_a, a)
+    lmi.solve(model_a.problem)
+    lmi.read_gains(model_a, a)      # solved again: readable
 
 
 def test_compile_time_is_reported_for_reused_problems():

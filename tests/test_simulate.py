@@ -234,7 +234,7 @@ def test_chunking_does_not_change_the_paths():
                                    atol=1e-14)
 
 
-@pytest.mark.parametrize("workers", [1, 2, 3])
+@pytest.mark.parametrize("workers", [2, 3, None])
 def test_worker_threads_do_not_change_the_paths(workers):
     # many small chunks, so that several threads really run side by side
     one = run(5, trials=150, chunk=7, workers=1)
@@ -379,9 +379,10 @@ def test_timepts_must_be_spaced_by_dt():
 
 # -- progress and memory -------------------------------------------------------
 @pytest.mark.skipif(not tqdm_check(), reason="tqdm not installed")
-def test_progress_bar_is_shown(capsys):
+@pytest.mark.parametrize("workers", [1, 2])
+def test_progress_bar_is_shown(capsys, workers):
     simulate(closed_loop("static-zero"), 5, trials=10, seed=0, chunk=4,
-             progress=True)
+             workers=workers, progress=True)
     err = capsys.readouterr().err
     assert "simulate" in err and "15/15" in err      # 3 chunks × 5 steps
 
