@@ -93,15 +93,22 @@ def positive_int(value: Any, name: str, allow_none: bool = False
 
 def positive_real(value: Any, name: str) -> float:
     """A finite real number ``> 0``."""
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        out = np.nan
-    if isinstance(value, (bool, np.bool_)) or not (np.isfinite(out)
-                                                   and out > 0):
+    out = _real(value)
+    if not out > 0:
         raise ValueError(f"{name}: expected a positive finite number, got "
                          f"{value!r}")
     return out
+
+
+def _real(value: Any) -> float:
+    """``value`` as a finite float, or nan (bools are not numbers here)."""
+    if isinstance(value, (bool, np.bool_)):
+        return np.nan
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        return np.nan
+    return out if np.isfinite(out) else np.nan
 
 
 def decay_bound(value: Any, name: str = "decay") -> float:
@@ -119,11 +126,8 @@ def finite_real(value: Any, name: str, allow_none: bool = False
     """A finite real number (or None when allowed)."""
     if value is None and allow_none:
         return None
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        out = np.nan
-    if isinstance(value, (bool, np.bool_)) or not np.isfinite(out):
+    out = _real(value)
+    if np.isnan(out):
         raise ValueError(f"{name}: expected a finite number"
                          f"{' or None' if allow_none else ''}, got {value!r}")
     return out
