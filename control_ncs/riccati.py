@@ -73,7 +73,7 @@ certified, only possibly below the supremum by more than ``rtol``).
 References
 ----------
 MATH §6 (analysis LMI), §8 (synthesis), §10 (generic jump plant);
-docs/benchmarks.md §7.1 (measurements of the prototype).
+docs/benchmarks.md §2 and §7.1 (measurements of this route against the LMI).
 """
 
 from __future__ import annotations

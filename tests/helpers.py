@@ -186,3 +186,14 @@ def fourth_moment_rate(sys):
                  for i in range(A.shape[1]))
         T = Tk @ T
     return np.max(np.abs(np.linalg.eigvals(T))) ** (1 / sys.period)
+
+
+def kron_ms_radius(phases):
+    """``ρ(Π_k Σ_i p_i A_i ⊗ A_i)^(1/N)`` (MATH §5, Kronecker form), written
+    independently of ``control_ncs.ms_radius``: ``phases[k]`` lists
+    ``(p_i, A_i, ...)`` per mode."""
+    n = phases[0][0][1].shape[0]
+    T = np.eye(n * n)
+    for phase in phases:
+        T = sum(p * np.kron(A, A) for p, A, *_ in phase) @ T
+    return float(np.max(np.abs(np.linalg.eigvals(T)))) ** (1 / len(phases))

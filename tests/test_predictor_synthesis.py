@@ -14,6 +14,8 @@ import pytest
 import control_ncs as cn
 from control_ncs import SynthesisError, ispassive, nss, passivesyn
 
+from helpers import kron_ms_radius
+
 # -- the paper's kind of shared channel: N = 3, sensors at phases 0 and 1,
 #    the actuator at phase 2, one message per step ---------------------------
 A = np.array([[1.1, 0.3], [0.0, 0.9]])
@@ -76,14 +78,6 @@ def predictor_modes(gains, actuator, a1=ALPHA1, a2=ALPHA2, plant=None):
             modes.append((p, Acl, Bcl, Ccl, D11_))
         phases.append(modes)
     return phases
-
-
-def kron_ms_radius(phases):
-    n = phases[0][0][1].shape[0]
-    T = np.eye(n * n)
-    for modes in phases:
-        T = sum(p * np.kron(Ac, Ac) for p, Ac, *_ in modes) @ T
-    return float(np.max(np.abs(np.linalg.eigvals(T)))) ** (1 / len(phases))
 
 
 def theta_max(phases, P, eta):

@@ -20,6 +20,8 @@ import control_ncs
 from control_ncs import SynthesisError, feedback, ispassive, nss, passivesyn
 from control_ncs import lmi, synthesis
 
+from helpers import kron_ms_radius
+
 FEW = settings(max_examples=12, deadline=None, derandomize=True)
 
 
@@ -119,15 +121,6 @@ def modes(spec, gains):
         out.append([(1 - q, spec.A, spec.C1),
                     (q, spec.A + spec.B2 @ F, spec.C1 + spec.D12 @ F)])
     return out
-
-
-def kron_ms_radius(phases):
-    """``ρ(Π_k Σ_i p_i A_i ⊗ A_i)^(1/N)`` (MATH §5, Kronecker form)."""
-    n = phases[0][0][1].shape[0]
-    T = np.eye(n * n)
-    for phase in phases:
-        T = sum(p * np.kron(A, A) for p, A, *_ in phase) @ T
-    return float(np.max(np.abs(np.linalg.eigvals(T)))) ** (1 / len(phases))
 
 
 def thetas(phases, B, D, P, eta, decay=1.0):
