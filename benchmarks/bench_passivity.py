@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 import warnings
 
-from .common import median_time, random_stable_ss, run_capped
+from .common import random_stable_ss, run_capped
 from .report import Section, fmt_t, fmt_x
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import time
 import warnings
 
-import numpy as np
 
 from .common import (fit_exponent, median_time, random_plant, run_capped,
                      run_inline)
@@ -488,7 +487,7 @@ def compile_reduction(quick: bool) -> Section:
                 out = _sweep(calls, reuse)
                 res.setdefault(reuse, []).append(out)
             best = {k: min(v, key=lambda o: o[0]) for k, v in res.items()}
-            (t0, c0, s0), (t1, c1, s1) = best[False], best[True]
+            (t0, c0, _), (t1, c1, _) = best[False], best[True]
             data[(n, N, what)] = best
             rows.append([n, N, what, f"{fmt_t(t0)} ({fmt_t(c0)}, {pct(c0, t0)})",
                          f"{fmt_t(t1)} ({fmt_t(c1)}, {pct(c1, t1)})",

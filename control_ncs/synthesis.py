@@ -437,7 +437,7 @@ def _riccati(plant, eta, decay, margin, options):
             "check: " + "; ".join(cert.failures) + ")", "not_verified",
             dict(status=report.status, solver=report.solver,
                  statuses=[report.status], **cert.figures()))
-    s, N = plant.shape, plant.period
+    s = plant.shape
     X = np.array([np.linalg.inv(Pk) for Pk in res.P])
     X = 0.5 * (X + X.transpose(0, 2, 1))
     # K_k E_k is the full gain (E_k selects every coordinate)
