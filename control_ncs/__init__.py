@@ -42,4 +42,9 @@ __all__ = [
     "jump_feedback", "lift_lti", "schedule_plot",
 ]
 
-__version__ = "0.1.0"
+from importlib.metadata import PackageNotFoundError, version as _version
+
+try:
+    __version__ = _version("control_ncs")
+except PackageNotFoundError:  # imported from a source tree without install
+    __version__ = "0+unknown"
