@@ -34,6 +34,7 @@ ZOOM_POINTS = 33
 #: else (a tangency is a double eigenvalue, computed to ~√eps).
 CROSSING_TOL = 1e-5
 
+
 class _FrequencyResponse:
     """``G(e^{jθ}) = D + C (e^{jθ}I - A)⁻¹ B`` at many frequencies at once.
 
@@ -134,7 +135,8 @@ class _FrequencyResponse:
         """Frequencies in ``[0, π]`` where ``G + Gᴴ - 2ηI`` is singular.
 
         They are the unit-circle eigenvalues of the extended symplectic
-        pencil of the Riccati equation of :func:`_riccati_storage` with
+        pencil of the Riccati equation of
+        :func:`control_ncs.passivity._riccati_storage` with
         ``ε = 0`` (the pencil scipy's ``solve_discrete_are`` factors;
         van Dooren 1981): ``z`` is a finite eigenvalue of it iff
         ``det Φ(z) = 0`` for the Popov function

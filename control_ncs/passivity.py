@@ -126,8 +126,9 @@ class PassivityResult:
     reason : str
         One of the constants of :mod:`control_ncs.exceptions`:
         ``'certified'``, ``'not_mss'``, ``'feedthrough'``
-        (``D̄ + D̄ᵀ - 2ρ Σ p_i D_iᵀD_i ≻ 2ηI`` fails, a necessary condition), ``'infeasible'`` (the LMI has no
-        solution with its margin, and the margin-maximising LMI gives no
+        (``D̄ + D̄ᵀ - 2ρ Σ p_i D_iᵀD_i ≻ 2ηI`` fails, a necessary
+        condition), ``'infeasible'`` (the LMI has no solution with its
+        margin, and the margin-maximising LMI gives no
         certificate that passes the exact check; on the Riccati route: a
         frequency with ``λmin(G + Gᴴ)/2 ≤ η`` was found, so by the KYP
         lemma no certificate exists, see ``eta_upper``).

@@ -6,6 +6,14 @@ system: the eigenvalues of the dissipation matrices ``Θ_k`` of MATH §6 for
 the certificate ``P_k``, the eigenvalues of ``P_k`` themselves, and the
 spectral radius of the second-moment operator (MATH §5). The figures are
 kept on a :class:`Certificate`.
+
+One algebra kernel serves every route: :func:`dissipation_blocks` (``Θ_k``
+of one phase from raw per-mode arrays), :func:`ifp_supremum` (the Schur
+complement that gives the largest certified ``η``) and
+:func:`feedthrough_bound` (the necessary condition ``D̄ + D̄ᵀ ≻ 2ηI``). The
+public functions check their arguments once and call them.
+:class:`CertificationError` and :class:`SynthesisError` live in
+:mod:`control_ncs.exceptions` and are re-exported here.
 """
 
 from __future__ import annotations

@@ -148,6 +148,22 @@ def test_output_fb_index_on_a_lossy_loop_is_exactly_certified():
     assert not ispassive(J, rho + 1e-3 * max(1.0, abs(rho)))
 
 
+@pytest.mark.parametrize("rho", [0.1, -0.2])
+def test_input_index_at_a_fixed_output_level_matches_the_frequency_test(rho):
+    """KYP for the supply ``2wz - 2ρz² - 2ηw²`` of a stable SISO system:
+    the largest ``η`` is ``min_θ Re G - ρ |G|²``."""
+    G = two_z_over()
+    theta = np.linspace(0.0, np.pi, 200001)
+    Gz = 2 + 1 / (np.exp(1j * theta) - 0.5)
+    nu = float(np.min(Gz.real - rho * np.abs(Gz) ** 2))
+    result = passivity_certificate(G, None, ofp_index=rho)
+    assert result.passive and result.method == "lmi"
+    assert result.ofp_index == rho == result.certificate.ofp_index
+    assert nu - 1e-5 < result.eta < nu + 1e-9
+    assert cn.check_certificate(G, result.certificate.P, result.eta,
+                                ofp_index=rho).verified
+
+
 def test_riccati_method_refuses_an_output_feedback_level():
     with pytest.raises(ControlArgument, match="ofp_index"):
         passivity_certificate(two_z_over(), 0.0, ofp_index=0.1,
