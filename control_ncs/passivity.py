@@ -477,6 +477,40 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
                             solver_options)
 
 
+#: A zero-dynamics eigenvalue refutes every ρ only if its modulus exceeds
+#: the decay bound by this relative amount (the eigenvalues carry rounding).
+ZERO_DYNAMICS_TOL = 1e-8
+
+#: ... and only if D is this well conditioned (w = -D⁻¹Cξ is formed).
+ZERO_DYNAMICS_MAX_COND = 1e8
+
+
+def _zero_dynamics_refute(sys, ifp_index, decay) -> SolveReport | None:
+    """An exact "no ρ works" for a deterministic system, or None.
+
+    With ``D`` invertible, the inputs ``w = -D⁻¹Cξ`` keep ``z = 0``, so the
+    supply is ``-2η‖w‖² ≤ 0`` (``η ≥ 0``) whatever ``ρ``, and on them
+    ``Θ ≺ 0`` reads ``ξᵀ(A_zᵀPA_z - r²P)ξ < -2η‖w‖² ≤ 0`` with
+    ``A_z = A - BD⁻¹C``: the zero dynamics must have spectral radius below
+    ``r``. If they do not, no output-feedback level has a certificate.
+    """
+    mats = _deterministic(sys)
+    if mats is None or ifp_index < 0:
+        return None
+    A, B, C, D = mats
+    if not np.linalg.cond(D) < ZERO_DYNAMICS_MAX_COND:
+        return None
+    radius = float(np.abs(np.linalg.eigvals(A - B @ np.linalg.solve(D, C)))
+                   .max())
+    if not radius > decay * (1 + ZERO_DYNAMICS_TOL):
+        return None
+    return SolveReport(
+        "infeasible", "numpy.linalg.eigvals", 0.0, 0.0, 0.0,
+        message=f"the zero dynamics A - BD⁻¹C have spectral radius "
+        f"{radius:.10g} ≥ r = {decay:g}: on the inputs that keep z = 0 no "
+        "output-feedback level ρ can be certified")
+
+
 def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
                      solver_options) -> PassivityResult:
     """The LMI route of :func:`passivity_certificate` (any jump system).
@@ -492,6 +526,11 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
                                FEEDTHROUGH, ofp_index=float(ofp_index))
     free = ("eta" if ifp_index is None else
             "rho" if ofp_index is None else None)
+    if free == "rho":
+        refutation = _zero_dynamics_refute(sys, ifp_index, decay)
+        if refutation is not None:
+            return PassivityResult(False, float(ifp_index), None, refutation,
+                                   INFEASIBLE, ofp_index=np.nan)
     fixed = free is None
     plan = [(scale, backoff, solver) for scale, backoff in
             (LEVEL_ATTEMPTS if fixed else INDEX_ATTEMPTS)]
@@ -649,10 +688,13 @@ def _index(sys: Any, result: PassivityResult, name: str) -> None:
         # sys is mean-square stable, so for ρ = 0 some η is certifiable
         # (MATH §6: the (1,1) block is Lemma 1); an infeasible LMI here is
         # numerical, or, for ρ, the level of η held fixed is too high.
-        status = None if result.report is None else result.report.status
+        report = result.report
+        status = None if report is None else report.status
+        why = f": {report.message}" if report is not None and \
+            report.message else ""
         raise CertificationError(
             f"{name}: no index could be certified (reason {result.reason!r},"
-            f" solver status {status!r}) although sys is mean-square stable",
+            f" status {status!r}) although sys is mean-square stable{why}",
             result.reason, dict(status=status))
 
 
@@ -731,8 +773,10 @@ def get_output_fb_index(sys: Any, **kwargs: Any) -> float:
     Raises
     ------
     CertificationError
-        ``reason='not_mss'`` if ``sys`` is not mean-square stable; see
-        :func:`passivity_certificate` for the others.
+        ``reason='not_mss'`` if ``sys`` is not mean-square stable;
+        ``reason='infeasible'`` without a solve if ``sys`` is deterministic
+        and its zero dynamics ``A - BD⁻¹C`` are not Schur stable (no ``ρ``
+        works); see :func:`passivity_certificate` for the others.
 
     Examples
     --------

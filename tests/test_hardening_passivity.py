@@ -126,6 +126,17 @@ def test_output_fb_index_of_jump_system_uses_every_modes_output():
     assert ispassive(J.mean(), 0.7) and not ispassive(J, 0.7)
 
 
+def test_unstable_zero_dynamics_refute_every_output_feedback_level():
+    G = random_stable_ss(0)
+    zeros = np.linalg.eigvals(G.A - G.B @ np.linalg.solve(G.D, G.C))
+    assert np.abs(zeros).max() > 1.01
+    with pytest.raises(RuntimeError, match="infeasible"):
+        with_cvxopt_restored(ct.get_output_fb_index, G)
+    with pytest.raises(CertificationError, match="zero dynamics") as info:
+        get_output_fb_index(G)
+    assert info.value.reason == exceptions.INFEASIBLE
+
+
 def test_feedthrough_refutes_an_output_feedback_level_without_a_solve():
     result = passivity_certificate(switching_feedthrough(), 0.0,
                                    ofp_index=0.6)
