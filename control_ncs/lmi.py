@@ -636,3 +636,72 @@ def read_gains(model: SynthesisModel, plant: JumpPlant
         Kfull[np.ix_(active, known)] = Kv
         gains[k] = Kfull @ plant.E[k].T
     return gains, P
+
+
+# -- analysis with an output-feedback term (MATH §6, supply 2wᵀz - 2ρzᵀz - 2ηwᵀw)
+class SupplyModel:
+    """The analysis LMI with ``ρ`` (``ofp_index``): ``Θ_k ≼ -ε diag(P_k, I)``.
+
+    A plain (uncached) cvxpy problem: the ``ρ`` term is rare next to the
+    input-feedforward index of :func:`analysis_model`.
+
+    Attributes
+    ----------
+    problem : cvxpy.Problem
+    P : list of cvxpy.Variable
+    eta, rho, margin : cvxpy.Variable or float
+        The maximised one is a Variable, the others the given values.
+    """
+
+    def __init__(self, problem: cp.Problem, P: list, eta: Any, rho: Any,
+                 margin: Any):
+        self.problem, self.P = problem, P
+        self.eta, self.rho, self.margin = eta, rho, margin
+
+    def _check_current(self) -> None:
+        """Nothing to check: the problem is this model's own."""
+
+
+def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
+                 margin: float | None, decay: float = 1.0) -> SupplyModel:
+    """Build the LMI of MATH §6 with the supply ``2wᵀz - 2ρzᵀz - 2ηwᵀw``.
+
+    ``Θ_k`` gains ``2ρ Σ_i p_i [C_i D_i]ᵀ[C_i D_i]`` (``zᵀz`` is quadratic:
+    its expectation takes each mode's output matrices, not their mean; see
+    :func:`control_ncs.verify.dissipation_blocks`), linear in ``P``, ``η``
+    and ``ρ``. Exactly one of ``eta``, ``rho``, ``margin`` may be None: that
+    one is maximised (``margin=None``: the most interior certificate, as in
+    :func:`analysis_model`).
+    """
+    if [eta, rho, margin].count(None) > 1:
+        raise ValueError("supply_model: at most one of eta, rho, margin may "
+                         "be None")
+    A, B, C, D = sys.modes.A, sys.modes.B, sys.modes.C, sys.modes.D
+    p = sys.modes.probabilities
+    N, n, m = sys.period, A.shape[-1], B.shape[-1]
+    e = cp.Variable(name="eta") if eta is None else float(eta)
+    r = cp.Variable(name="rho") if rho is None else float(rho)
+    t = (cp.Variable(name="margin") if margin is None
+         else margin * data_scale(A, B, C, D))
+    P = [cp.Variable((n, n), symmetric=True, name=f"P{k}") for k in range(N)]
+    cons = []
+    for k in range(N):
+        Pn = P[(k + 1) % N]
+        live = np.flatnonzero(p[k] > 0)
+        F = [np.concatenate([A[k, i], B[k, i]], axis=1) for i in live]
+        H = [np.concatenate([C[k, i], D[k, i]], axis=1) for i in live]
+        quad = sum(p[k, i] * (Fi.T @ Pn @ Fi) for i, Fi in zip(live, F))
+        W = sum(p[k, i] * (Hi.T @ Hi) for i, Hi in zip(live, H))
+        Cbar = np.tensordot(p[k], C[k], axes=1)
+        Dbar = np.tensordot(p[k], D[k], axes=1)
+        supply = cp.bmat([[-float(decay) ** 2 * P[k], -Cbar.T],
+                          [-Cbar, 2 * e * np.eye(m) - Dbar - Dbar.T]])
+        M = quad + supply + 2 * r * W
+        slack = (np.eye(n + m) if margin is None else
+                 cp.bmat([[P[k], np.zeros((n, m))],
+                          [np.zeros((m, n)), np.eye(m)]]))
+        cons += [0.5 * (M + M.T) << -t * slack, P[k] >> t * np.eye(n)]
+    objective = (cp.Maximize(t) if margin is None else
+                 cp.Maximize(e) if eta is None else
+                 cp.Maximize(r) if rho is None else cp.Minimize(0))
+    return SupplyModel(cp.Problem(objective, cons), P, e, r, t)

@@ -1,9 +1,14 @@
 """Stochastic passivity analysis of jump systems (MATH §6), certified.
 
-Names mirror :mod:`control.passivity`: :func:`ispassive` and
-:func:`get_input_ff_index`, with the same supply-rate convention
-(``wᵀz - ν wᵀw``, equivalently MATH's ``2wᵀz - 2η wᵀw``), so that for a
+Names and signatures mirror :mod:`control.passivity`:
+``ispassive(sys, ofp_index=0, ifp_index=0)``, :func:`get_input_ff_index`
+and :func:`get_output_fb_index`, with the supply rate
+``wᵀz - ρ zᵀz - ν wᵀw`` (MATH's ``2wᵀz - 2ρ zᵀz - 2η wᵀw``), so that for a
 loss-free, time-invariant loop the numbers coincide with python-control's.
+When *both* indices are nonzero, python-control weights ``wᵀz`` by
+``1 + ρν`` (Kottenstette & Antsaklis' IF-OFP); here the weight stays 1, the
+rate whose expectation MATH §6 takes. With either index 0 (every index
+computation, and ``ispassive``'s defaults) the two conventions agree.
 
 Two different indices exist for a lossy loop, and they are named apart:
 
@@ -33,20 +38,24 @@ from typing import Any
 
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
-from scipy.linalg import (LinAlgError, eigvals, schur, solve_discrete_are,
+from scipy.linalg import (LinAlgError, solve_discrete_are,
                           solve_discrete_lyapunov)
 
+from . import kyp
 from ._checks import (choice, decay_bound, finite_real, no_extra_kwargs,
-                      positive_real, real_array)
-from .jump import as_jump
+                      positive_int, positive_real, real_array)
+from .exceptions import (CERTIFIED, FEEDTHROUGH, INACCURATE, INFEASIBLE,
+                         NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
+                         CertificationError)
 from .lmi import (DEFAULT_MARGIN, SolveReport, analysis_model,
-                  fallback_solver, solve)
+                  fallback_solver, solve, supply_model)
 from .stability import ms_radius
-from .verify import (Certificate, CertificationError, certify_index,
-                     check_certificate)
+from .verify import (Certificate, _system, certify_index, certify_ofp_index,
+                     check_certificate, feedthrough_bound)
 
-__all__ = ["ispassive", "get_input_ff_index", "mean_input_ff_index",
-           "frequency_ff_index", "passivity_certificate", "PassivityResult"]
+__all__ = ["ispassive", "get_input_ff_index", "get_output_fb_index",
+           "mean_input_ff_index", "frequency_ff_index",
+           "passivity_certificate", "PassivityResult"]
 
 #: Routes of :func:`passivity_certificate` (``method``). ``'auto'`` takes the
 #: Riccati route for every deterministic system, whatever its size. Measured
@@ -58,16 +67,9 @@ __all__ = ["ispassive", "get_input_ff_index", "mean_input_ff_index",
 #: cases vary 3-5× from run to run.
 METHODS = ("auto", "riccati", "lmi")
 
-#: Grid of the KYP frequency search on [0, π] (also frequency_ff_index's).
-KYP_POINTS = 2000
-
-#: Points of each local grid that refines a minimum of the KYP test (the
-#: bracket shrinks 16-fold per round: 8 rounds from the grid's spacing to
-#: 1e-12 rad).
-ZOOM_POINTS = 33
-
-#: Relative back-offs, below the KYP upper bound ν̂, of the levels at which
-#: the Riccati route solves its equation, in turn. The first is small
+#: Back-offs, below the KYP upper bound ν̂, of the levels at which the
+#: Riccati route solves its equation, in turn, in units of max(1, |ν̂|)
+#: (absolute below 1, relative above). The first is small
 #: because the exact check (verify.certify_index) backs off another 1e-6;
 #: measured on n = 4..64: 1e-7 below ν̂ the Riccati equation solves and its
 #: P passes the exact check, 1e-8 also does, so 1e-7 leaves a factor 10.
@@ -82,14 +84,10 @@ RICCATI_EPS_FRACTION = 0.25
 #: the Riccati route gives up and, under ``'auto'``, the LMI takes over.
 KYP_CORRECTIONS = 4
 
-#: An eigenvalue of the symplectic pencil counts as a unit-circle crossing
-#: when ``| |z| - 1 | <`` this. Only a candidate: ``λmin`` is evaluated there
-#: and kept only if lower, so a loose tolerance costs evaluations, nothing
-#: else (a tangency is a double eigenvalue, computed to ~√eps).
-CROSSING_TOL = 1e-5
-
 #: Attempts, in turn, until an answer passes the exact checks, as
-#: (margin multiplier, relative back-off of η or None). For an index: the
+#: (margin multiplier, back-off or None). The back-off lowers the maximised
+#: index below the first solve's optimum by back-off × max(1, |optimum|)
+#: (absolute below 1, relative above). For an index: the
 #: maximisation, then feasibility problems a little below its optimum (a
 #: maximum sits on the boundary, where interior-point answers end
 #: 'optimal_inaccurate'; measured on periodic lossy loops: at 1e-6 below,
@@ -115,17 +113,22 @@ class PassivityResult:
     passive : bool
         True: certified by ``certificate``. False: ``reason`` says why.
     eta : float
-        Dissipation level certified (for an index: a relative 1e-6 below
-        the supremum ``certificate.eta_sup`` the certificate proves, see
-        :func:`control_ncs.verify.certify_index`).
+        Input-feedforward level ``η`` certified. For an index: below the
+        supremum ``certificate.eta_sup`` that the certificate proves by the
+        first back-off of ``verify.INDEX_BACKOFFS`` that passes the exact
+        check, ``1e-6``, ``1e-5`` or ``1e-4`` times ``max(1, |sup|)``
+        (absolute below 1), see :func:`control_ncs.verify.certify_index`.
+        When ``ρ`` is maximised: the given ``ifp_index``.
     certificate : Certificate or None
         Exact verification figures (``P_k``, ``λmax(Θ_k)``, ``ms_radius``).
     report : SolveReport or None
         The solver's status and timings.
     reason : str
-        ``'certified'``, ``'not_mss'``, ``'feedthrough'`` (``D̄ + D̄ᵀ ≻ 2ηI``
-        fails, a necessary condition), ``'infeasible'`` (the LMI has no
-        solution with its margin, and the margin-maximising LMI gives no
+        One of the constants of :mod:`control_ncs.exceptions`:
+        ``'certified'``, ``'not_mss'``, ``'feedthrough'``
+        (``D̄ + D̄ᵀ - 2ρ Σ p_i D_iᵀD_i ≻ 2ηI`` fails, a necessary
+        condition), ``'infeasible'`` (the LMI has no solution with its
+        margin, and the margin-maximising LMI gives no
         certificate that passes the exact check; on the Riccati route: a
         frequency with ``λmin(G + Gᴴ)/2 ≤ η`` was found, so by the KYP
         lemma no certificate exists, see ``eta_upper``).
@@ -135,6 +138,10 @@ class PassivityResult:
         Riccati route: ``ν̂ = λmin(G + Gᴴ)/2`` at the lowest frequency found,
         an upper bound on the index (``ν ∈ (eta, eta_upper]`` for an index).
         NaN on the LMI route.
+    ofp_index : float
+        Output-feedback level ``ρ`` certified (0 unless asked for): the
+        given one, or, when maximised, the level the certificate passes at
+        (see :func:`control_ncs.verify.certify_ofp_index`).
 
     Notes
     -----
@@ -152,15 +159,17 @@ class PassivityResult:
     reason: str
     method: str = "lmi"
     eta_upper: float = np.nan
+    ofp_index: float = 0.0
 
 
-def _feedthrough_refutes(sys, ifp_index) -> bool:
-    """``D̄ + D̄ᵀ ≻ 2ηI`` fails: no certificate for ``η`` (MATH §6)."""
-    if ifp_index is None:
+def _feedthrough_refutes(sys, ifp_index, ofp_index=0.0) -> bool:
+    """The necessary feedthrough condition fails for ``(ρ, η)``: no
+    certificate (MATH §6, :func:`control_ncs.verify.feedthrough_bound`)."""
+    if ifp_index is None or ofp_index is None:
         return False
-    _, _, _, Dbar = sys.modes.mean()
-    sym_min = min(np.linalg.eigvalsh(D + D.T).min() for D in Dbar)
-    return not sym_min > 2 * ifp_index
+    bound, _ = feedthrough_bound(sys.modes.probabilities, sys.modes.D,
+                                 ofp_index=ofp_index)
+    return not bound > ifp_index
 
 
 def _deterministic(sys) -> tuple[np.ndarray, ...] | None:
@@ -177,145 +186,7 @@ def _deterministic(sys) -> tuple[np.ndarray, ...] | None:
     return tuple(np.asarray(X[0, first], float) for X in (m.A, m.B, m.C, m.D))
 
 
-class _FrequencyResponse:
-    """``G(e^{jθ}) = D + C (e^{jθ}I - A)⁻¹ B`` at many frequencies at once.
-
-    One complex Schur form ``A = U T Uᴴ`` (unitary, hence backward stable)
-    turns every ``(zI - A)⁻¹B`` into ``U (zI - T)⁻¹ UᴴB``, a triangular
-    solve; the back substitution runs over the ``n`` rows for all
-    frequencies together: ``O(n² m)`` per frequency against ``O(n³)`` for a
-    dense solve, and ``n`` vectorised steps instead of a loop over
-    frequencies.
-    """
-
-    def __init__(self, A: np.ndarray, B: np.ndarray, C: np.ndarray,
-                 D: np.ndarray):
-        self.A, self.B, self.C, self.D = A, B, C, D
-        if A.shape[0]:
-            T, U = schur(A, output="complex")
-        else:
-            T, U = np.zeros((0, 0), complex), np.eye(0)
-        self.T, self.UB, self.CU = T, U.conj().T @ B, C @ U
-        #: spectral radius of A (the diagonal of T)
-        self.radius = float(np.abs(np.diag(T)).max()) if A.shape[0] else 0.0
-
-    def _resolvent(self, z: np.ndarray) -> np.ndarray:
-        """``(zI - T)⁻¹ UᴴB`` for each ``z``, shape (n, len(z), m)."""
-        n, m = self.UB.shape
-        if z.size == 1:
-            # one LAPACK call for the refinement's many single points;
-            # measured: ?trtrs (solve_triangular) is 10-50× slower than
-            # ?gesv here for n ≤ 8 when OpenBLAS threads compete for cores
-            return np.linalg.solve(z[0] * np.eye(n) - self.T,
-                                   self.UB)[:, None, :]
-        # frequency-major columns: (f, j) at f·m + j
-        X = np.tile(self.UB, (1, z.size))
-        zz = np.repeat(z, m)
-        for i in range(n - 1, -1, -1):
-            # row i of (zI - T) X = UᴴB, the rows below already solved
-            X[i] += self.T[i, i + 1:] @ X[i + 1:]
-            X[i] /= zz - self.T[i, i]
-        return X.reshape(n, z.size, m)
-
-    def values(self, thetas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``λmin(G + Gᴴ)/2`` and ``‖(zI - A)⁻¹B‖_F`` at ``z = e^{jθ}``."""
-        z = np.exp(1j * np.atleast_1d(np.asarray(thetas, float)))
-        X = self._resolvent(z)
-        n, F, m = X.shape
-        CX = (self.CU @ X.reshape(n, F * m)).reshape(-1, F, m)
-        G = self.D + CX.transpose(1, 0, 2)
-        lam = np.linalg.eigvalsh(0.5 * (G + G.conj().transpose(0, 2, 1)))
-        return lam[:, 0], np.sqrt(np.sum(np.abs(X) ** 2, axis=(0, 2)))
-
-    def refine(self, lo: Any, hi: Any) -> tuple[float, float]:
-        """Lowest ``λmin`` in the brackets ``[lo, hi]`` (arrays: several
-        at once): (value, θ).
-
-        Successive local grids of ``ZOOM_POINTS`` points, each spanning the
-        two neighbours of the previous grid's lowest point, until the
-        spacing is below ``1e-12`` rad. Every round is one vectorised
-        evaluation (instead of ~40 scalar ones per bracket for a scalar
-        search: measured, small LAPACK calls are what costs here).
-        """
-        lo = np.atleast_1d(lo).astype(float)
-        hi = np.atleast_1d(hi).astype(float)
-        best, at, rows = np.inf, float(lo[0]), np.arange(lo.size)
-        while True:
-            grids = lo[:, None] + np.outer(hi - lo,
-                                           np.linspace(0, 1, ZOOM_POINTS))
-            lam = self.values(grids.ravel())[0].reshape(grids.shape)
-            j = lam.argmin(axis=1)
-            k = int(lam[rows, j].argmin())
-            if lam[k, j[k]] < best:
-                best, at = float(lam[k, j[k]]), float(grids[k, j[k]])
-            step = (hi - lo) / (ZOOM_POINTS - 1)
-            if step.max() < 1e-12:
-                return best, at
-            centre = grids[rows, j]
-            lo = np.maximum(centre - step, lo)
-            hi = np.minimum(centre + step, hi)
-
-    def minimum(self, thetas: np.ndarray, lam: np.ndarray,
-                refine: bool = True) -> tuple[float, float]:
-        """Lowest ``λmin`` on the grid ``thetas`` (ascending; ``lam`` its
-        values), refined between the neighbours of its three lowest local
-        minima when ``refine``: (value, θ)."""
-        i = int(np.argmin(lam))
-        best, theta = float(lam[i]), float(thetas[i])
-        if refine and lam.size > 2:
-            padded = np.concatenate([[np.inf], lam, [np.inf]])
-            local = np.flatnonzero((lam <= padded[:-2]) & (lam <= padded[2:]))
-            local = local[np.argsort(lam[local])][:3]
-            last = lam.size - 1
-            value, at = self.refine(thetas[np.maximum(local - 1, 0)],
-                                    thetas[np.minimum(local + 1, last)])
-            if value < best:
-                best, theta = value, at
-        return best, theta
-
-    def crossings(self, eta: float) -> np.ndarray:
-        """Frequencies in ``[0, π]`` where ``G + Gᴴ - 2ηI`` is singular.
-
-        They are the unit-circle eigenvalues of the extended symplectic
-        pencil of the Riccati equation of :func:`_riccati_storage` with
-        ``ε = 0`` (the pencil scipy's ``solve_discrete_are`` factors;
-        van Dooren 1981): ``z`` is a finite eigenvalue of it iff
-        ``det Φ(z) = 0`` for the Popov function
-        ``Φ(z) = G(z) + G(1/z)ᵀ - 2ηI``.
-        """
-        A, B, C, D = self.A, self.B, self.C, self.D
-        n, m = B.shape
-        Z, I = np.zeros, np.eye
-        H = np.block([[A, Z((n, n)), B], [Z((n, n)), I(n), -C.T],
-                      [C, Z((m, n)), D + D.T - 2 * eta * I(m)]])
-        J = np.block([[I(n), Z((n, n + m))], [Z((n, n)), A.T, Z((n, m))],
-                      [Z((m, n)), -B.T, Z((m, m))]])
-        alpha, beta = eigvals(H, J, homogeneous_eigvals=True)
-        finite = np.abs(beta) > 1e-12 * np.abs(alpha)
-        z = alpha[finite] / beta[finite]
-        on_circle = np.abs(np.abs(z) - 1.0) < CROSSING_TOL
-        return np.unique(np.abs(np.angle(z[on_circle])))
-
-    def lower_near_crossings(self, eta: float) -> tuple[float, float] | None:
-        """Lowest ``λmin`` found at and between the crossings at level
-        ``η`` (one step of the Boyd-Balakrishnan / Bruinsma-Steinbuch
-        iteration: between two crossings ``λmin - η`` keeps its sign, so
-        a dip below ``η`` the grid missed has a crossing on each side),
-        refined between its neighbours; None without crossings."""
-        angles = self.crossings(eta)
-        if not angles.size:
-            return None
-        pts = np.unique(np.concatenate([[0.0, np.pi], angles]))
-        cand = np.unique(np.concatenate([pts, 0.5 * (pts[1:] + pts[:-1])]))
-        lam, _ = self.values(cand)
-        i = int(np.argmin(lam))
-        value, at = self.refine(cand[max(i - 1, 0)],
-                                cand[min(i + 1, cand.size - 1)])
-        return (value, at) if value < lam[i] else (float(lam[i]),
-                                                   float(cand[i]))
-
-
-def _riccati_storage(resp: _FrequencyResponse, eta: float, eps: float
+def _riccati_storage(resp: kyp._FrequencyResponse, eta: float, eps: float
                      ) -> np.ndarray | None:
     """``P ≻ 0`` with ``Θ(P, η) ≺ 0`` from one Riccati equation, or None.
 
@@ -391,18 +262,16 @@ def _riccati_certificate(sys, mats, ifp_index, decay
     """
     start = time.perf_counter()
     A, B, C, D = mats
-    if not decay > 0:
-        return PassivityResult(False, np.nan, None, None, "not_mss",
-                               "riccati"), {}
-    # ms_radius of a deterministic system is ρ(A)², the Schur form's diagonal
-    resp = _FrequencyResponse(A / decay, B / decay, C, D)
+    # ms_radius of a deterministic system is ρ(A)², the Schur form's
+    # diagonal (decay > 0: checked at the public boundary)
+    resp = kyp._FrequencyResponse(A / decay, B / decay, C, D)
     if not (resp.radius * decay) ** 2 < min(1.0, decay ** 2):
-        return PassivityResult(False, np.nan, None, None, "not_mss",
+        return PassivityResult(False, np.nan, None, None, NOT_MSS,
                                "riccati"), {}
     if _feedthrough_refutes(sys, ifp_index):
         return PassivityResult(False, float(ifp_index), None, None,
-                               "feedthrough", "riccati"), {}
-    grid = np.linspace(0.0, np.pi, KYP_POINTS)
+                               FEEDTHROUGH, "riccati"), {}
+    grid = np.linspace(0.0, np.pi, kyp.KYP_POINTS)
     lam, gain = resp.values(grid)
     upper, theta = resp.minimum(grid, lam)
     t_freq = time.perf_counter() - start
@@ -432,7 +301,7 @@ def _riccati_certificate(sys, mats, ifp_index, decay
             False, float(ifp_index), None,
             report("infeasible", f"λmin(G + Gᴴ)/2 = {upper:.10g} ≤ η at "
                    f"θ = {theta:.10g} rad/sample"),
-            "infeasible", "riccati", upper), {}
+            INFEASIBLE, "riccati", upper), {}
 
     fixed = ifp_index is not None
     if fixed and not ifp_index < upper:
@@ -453,7 +322,7 @@ def _riccati_certificate(sys, mats, ifp_index, decay
             # an index must come with P proving (nearly) the level asked
             if cert.verified and (fixed or cert.eta_sup >= level - step):
                 return PassivityResult(True, cert.eta, cert,
-                                       report("optimal"), "certified",
+                                       report("optimal"), CERTIFIED,
                                        "riccati", upper), {}
         if corrections < KYP_CORRECTIONS:
             corrections += 1
@@ -473,43 +342,43 @@ def _riccati_certificate(sys, mats, ifp_index, decay
     return None, figures
 
 
-def _square(sys) -> None:
-    m, p = sys.modes.B.shape[-1], sys.modes.C.shape[-2]
-    if m != p:
-        raise ControlDimension(f"sys: passivity needs as many inputs as outputs "
-                               f"(w and z of equal size), got {m} inputs and "
-                               f"{p} outputs")
-
-
 def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
-                          decay: float = 1.0, method: str = "auto",
-                          solver: str | None = None,
+                          ofp_index: float | None = 0.0, decay: float = 1.0,
+                          method: str = "auto", solver: str | None = None,
                           margin: float = DEFAULT_MARGIN,
                           **solver_options: Any) -> PassivityResult:
     """Search for and exactly verify a stochastic passivity certificate.
 
-    Finds ``P_k`` with ``Θ_k(P, η) ≺ 0`` (MATH §6; ``η`` maximised when
-    ``ifp_index`` is None), then checks it with
-    :func:`control_ncs.verify.check_certificate`. Necessary conditions that
-    fail (``ms_radius ≥ 1``, ``D̄ + D̄ᵀ ⊁ 2ηI``) give an exact "no" without a
+    Finds ``P_k`` with ``Θ_k(P; ρ, η) ≺ 0`` (MATH §6, supply rate
+    ``2wᵀz - 2ρ zᵀz - 2η wᵀw``, see
+    :func:`control_ncs.verify.dissipation_blocks`; ``η`` maximised when
+    ``ifp_index`` is None, ``ρ`` when ``ofp_index`` is None), then checks
+    it with :func:`control_ncs.verify.check_certificate`. Necessary
+    conditions that fail (``ms_radius ≥ 1``, the feedthrough bound
+    ``D̄ + D̄ᵀ - 2ρ Σ p_i D_iᵀD_i ≻ 2ηI``) give an exact "no" without a
     solve. Two routes find ``P`` (``method``): the LMI, solved by cvxpy,
     for any jump system; and, for a deterministic system (one mode,
-    period 1), the KYP frequency test and one Riccati equation, without a
-    solver (see Notes).
+    period 1) with ``ρ = 0``, the KYP frequency test and one Riccati
+    equation, without a solver (see Notes).
 
     Parameters
     ----------
-    sys : JumpStateSpace or discrete-time StateSpace
+    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
         Square (``w`` and ``z`` of equal size).
     ifp_index : float, optional
-        Dissipation ``η`` to certify; None: the largest certifiable one.
+        Input-feedforward level ``η`` to certify; None: the largest
+        certifiable one.
+    ofp_index : float, optional
+        Output-feedback level ``ρ`` to certify (default 0); None: the
+        largest certifiable one (then ``ifp_index`` must be given).
     decay : float, optional
-        Also certify ``E V`` decaying like ``r^(2t)`` (``r = decay``).
+        Also certify ``E V`` decaying like ``r^(2t)`` (``r = decay`` in
+        (0, 1]).
     method : {'auto', 'riccati', 'lmi'}, optional
-        ``'auto'``: the Riccati route for a deterministic system (unless
-        ``solver`` or solver options are given), falling back to the LMI
-        if it cannot certify; the LMI otherwise.
-        ``'riccati'``: the Riccati route only (deterministic systems).
+        ``'auto'``: the Riccati route for a deterministic system with
+        ``ρ = 0`` (unless ``solver`` or solver options are given), falling
+        back to the LMI if it cannot certify; the LMI otherwise.
+        ``'riccati'``: the Riccati route only (deterministic, ``ρ = 0``).
         ``'lmi'``: the LMI only.
     solver : str, optional
         LMI route: any installed cvxpy solver (default Clarabel).
@@ -526,8 +395,15 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     Raises
     ------
     ControlArgument
-        If ``method`` is not one of the above, or is ``'riccati'`` for a
-        system that is not deterministic (or has no state).
+        If ``sys`` is not a system, ``method`` is not one of the above, or
+        is ``'riccati'`` for a system that is not deterministic (or has no
+        state) or with ``ρ ≠ 0``.
+    ControlDimension
+        If ``sys`` is not square or has no state.
+    ValueError
+        If ``ifp_index``, ``ofp_index`` or ``margin`` is not a finite
+        number (``margin > 0``), both indices are None, or ``decay`` is not
+        in (0, 1].
     CertificationError
         If no attempt (``INDEX_ATTEMPTS`` or ``LEVEL_ATTEMPTS``, then the
         fallback solver) gives an answer that passes the exact checks:
@@ -540,22 +416,36 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     Notes
     -----
     The Riccati route (derivation at :func:`_riccati_storage`): the KYP
-    frequency test on a grid of ``KYP_POINTS`` points, refined by a bounded
-    scalar search, gives ``ν̂ ≥ ν`` (a value of ``λmin(G + Gᴴ)/2`` at one
-    frequency). Just below ``ν̂`` (``RICCATI_BACKOFFS``) one discrete
-    algebraic Riccati equation gives ``P ≻ 0``, and
-    :func:`control_ncs.verify.certify_index` certifies the largest ``η`` it
-    proves, so ``ν`` lies in ``(eta, eta_upper]``, ~1e-6 wide (relative).
-    If the Riccati equation fails or its ``P`` does not verify, the
+    frequency test on a grid of ``kyp.KYP_POINTS`` points, refined by
+    local grids, gives ``ν̂ ≥ ν`` (a value of ``λmin(G + Gᴴ)/2`` at one
+    frequency). Just below ``ν̂`` (``RICCATI_BACKOFFS``: ``1e-7`` up to
+    ``1e-3`` times ``max(1, |ν̂|)``) one discrete algebraic Riccati
+    equation gives ``P ≻ 0``, and :func:`control_ncs.verify.certify_index`
+    certifies the largest ``η`` it proves (another back-off of ``1e-6``
+    to ``1e-4`` times ``max(1, |sup|)``), so ``ν`` lies in
+    ``(eta, eta_upper]``: about ``1e-6·max(1, |ν|)`` wide when the first
+    back-offs verify, up to about ``1e-3·max(1, |ν|)`` when only the last
+    do. If the Riccati equation fails or its ``P`` does not verify, the
     symplectic pencil at that level locates any dip the grid missed
     (its unit-circle eigenvalues are the frequencies where
     ``G + Gᴴ - 2ηI`` is singular), ``ν̂`` is lowered and the levels are
     tried again; then larger back-offs.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    >>> result = passivity_certificate(G, 0.3)
+    >>> result.passive, result.reason, result.certificate.verified
+    (True, 'certified', True)
     """
-    sys = as_jump(sys)
-    _square(sys)
+    sys = _system(sys)
     choice(method, "method", METHODS)
     ifp_index = finite_real(ifp_index, "ifp_index", allow_none=True)
+    ofp_index = finite_real(ofp_index, "ofp_index", allow_none=True)
+    if ifp_index is None and ofp_index is None:
+        raise ValueError("ifp_index, ofp_index: at most one may be None (the "
+                         "index maximised); the other must be a number")
     margin = positive_real(margin, "margin")
     decay = decay_bound(decay)
     if sys.modes.A.shape[-1] == 0:
@@ -563,16 +453,17 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
             "sys: a passivity certificate needs at least one state (a static "
             "system's index is λmin(D + Dᵀ)/2)")
     mats = _deterministic(sys)
-    if method == "riccati" and mats is None:
+    if method == "riccati" and (mats is None or ofp_index != 0.0):
         raise ControlArgument(
             "method: 'riccati' needs a deterministic system with at least "
-            f"one state (one mode, period 1); sys has period {sys.period}, "
-            f"{int(np.sum(sys.modes.probabilities > 0))} live mode(s) and "
-            f"{sys.modes.A.shape[-1]} state(s); use method='lmi' or 'auto'")
+            "one state (one mode, period 1) and ofp_index=0; sys has period "
+            f"{sys.period}, {int(np.sum(sys.modes.probabilities > 0))} live "
+            f"mode(s) and {sys.modes.A.shape[-1]} state(s), ofp_index="
+            f"{ofp_index}; use method='lmi' or 'auto'")
     # under 'auto', a named solver or solver options ask for the LMI
     lmi_asked = solver is not None or bool(solver_options)
-    if mats is not None and (method == "riccati"
-                             or (method == "auto" and not lmi_asked)):
+    if mats is not None and ofp_index == 0.0 and (
+            method == "riccati" or (method == "auto" and not lmi_asked)):
         result, figures = _riccati_certificate(sys, mats, ifp_index, decay)
         if result is not None:
             return result
@@ -581,21 +472,66 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
                 "passivity: the Riccati route found no certificate that "
                 f"passes the exact check (levels tried: {figures['levels']}; "
                 f"upper bound {figures['eta_upper']:.10g}); try "
-                "method='lmi'", "not_verified", figures)
-    return _lmi_certificate(sys, ifp_index, decay, solver, margin,
+                "method='lmi'", NOT_VERIFIED, figures)
+    return _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
                             solver_options)
 
 
-def _lmi_certificate(sys, ifp_index, decay, solver, margin, solver_options
-                     ) -> PassivityResult:
-    """The LMI route of :func:`passivity_certificate` (any jump system)."""
+#: A zero-dynamics eigenvalue refutes every ρ only if its modulus exceeds
+#: the decay bound by this relative amount (the eigenvalues carry rounding).
+ZERO_DYNAMICS_TOL = 1e-8
+
+#: ... and only if D is this well conditioned (w = -D⁻¹Cξ is formed).
+ZERO_DYNAMICS_MAX_COND = 1e8
+
+
+def _zero_dynamics_refute(sys, ifp_index, decay) -> SolveReport | None:
+    """An exact "no ρ works" for a deterministic system, or None.
+
+    With ``D`` invertible, the inputs ``w = -D⁻¹Cξ`` keep ``z = 0``, so the
+    supply is ``-2η‖w‖² ≤ 0`` (``η ≥ 0``) whatever ``ρ``, and on them
+    ``Θ ≺ 0`` reads ``ξᵀ(A_zᵀPA_z - r²P)ξ < -2η‖w‖² ≤ 0`` with
+    ``A_z = A - BD⁻¹C``: the zero dynamics must have spectral radius below
+    ``r``. If they do not, no output-feedback level has a certificate.
+    """
+    mats = _deterministic(sys)
+    if mats is None or ifp_index < 0:
+        return None
+    A, B, C, D = mats
+    if not np.linalg.cond(D) < ZERO_DYNAMICS_MAX_COND:
+        return None
+    radius = float(np.abs(np.linalg.eigvals(A - B @ np.linalg.solve(D, C)))
+                   .max())
+    if not radius > decay * (1 + ZERO_DYNAMICS_TOL):
+        return None
+    return SolveReport(
+        "infeasible", "numpy.linalg.eigvals", 0.0, 0.0, 0.0,
+        message=f"the zero dynamics A - BD⁻¹C have spectral radius "
+        f"{radius:.10g} ≥ r = {decay:g}: on the inputs that keep z = 0 no "
+        "output-feedback level ρ can be certified")
+
+
+def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
+                     solver_options) -> PassivityResult:
+    """The LMI route of :func:`passivity_certificate` (any jump system).
+
+    At most one of ``ifp_index`` (``η``) and ``ofp_index`` (``ρ``) is None:
+    that index is maximised; with both given, the level is certified.
+    """
     rho = ms_radius(sys)
     if not rho < min(1.0, decay ** 2):
-        return PassivityResult(False, np.nan, None, None, "not_mss")
-    if _feedthrough_refutes(sys, ifp_index):
+        return PassivityResult(False, np.nan, None, None, NOT_MSS)
+    if _feedthrough_refutes(sys, ifp_index, ofp_index):
         return PassivityResult(False, float(ifp_index), None, None,
-                               "feedthrough")
-    fixed = ifp_index is not None
+                               FEEDTHROUGH, ofp_index=float(ofp_index))
+    free = ("eta" if ifp_index is None else
+            "rho" if ofp_index is None else None)
+    if free == "rho":
+        refutation = _zero_dynamics_refute(sys, ifp_index, decay)
+        if refutation is not None:
+            return PassivityResult(False, float(ifp_index), None, refutation,
+                                   INFEASIBLE, ofp_index=np.nan)
+    fixed = free is None
     plan = [(scale, backoff, solver) for scale, backoff in
             (LEVEL_ATTEMPTS if fixed else INDEX_ATTEMPTS)]
     if fallback_solver(solver):
@@ -603,21 +539,28 @@ def _lmi_certificate(sys, ifp_index, decay, solver, margin, solver_options
     attempts, last, best, refuted = [], None, None, False
     while plan:
         scale, backoff, name = plan.pop(0)
-        target = ifp_index
+        target = None
         if backoff is not None:
             if best is None:
                 continue  # the first solve gave no optimum to back off from
             target = best - backoff * max(1.0, abs(best))
+        eta = target if free == "eta" else ifp_index
+        level_rho = target if free == "rho" else ofp_index
         level = None if scale is None else margin * scale
-        model = analysis_model(sys, target, level, decay)
+        if level_rho == 0.0:
+            model = analysis_model(sys, eta, level, decay)
+        else:
+            # zᵀz needs every mode's output matrices (MATH §6)
+            model = supply_model(sys, eta, level_rho, level, decay)
         # the caller's options are for the solver the caller chose
         report = solve(model.problem, name,
                        **(solver_options if name == solver else {}))
-        attempts.append((level, target, report.solver, report.status))
+        attempts.append((level, eta if free != "rho" else level_rho,
+                         report.solver, report.status))
         if len(attempts) == 1:
             best = report.value
         if report.infeasible:
-            last = (report, None, "infeasible")
+            last = (report, None, INFEASIBLE)
             if fixed:
                 refuted = True
                 # a larger margin is infeasible too; a smaller one may not be
@@ -627,55 +570,73 @@ def _lmi_certificate(sys, ifp_index, decay, solver, margin, solver_options
                 break
             continue  # e.g. a backed-off target still above the index
         if report.status not in ("optimal", "optimal_inaccurate"):
-            last = (report, None, "solver_failed")
+            last = (report, None, SOLVER_FAILED)
             continue
         if scale is None and report.value is not None and report.value <= 0:
             # the largest margin is not positive: no strict certificate
             # (unless another solver's answer verifies after all)
-            last, refuted = (report, None, "infeasible"), True
+            last, refuted = (report, None, INFEASIBLE), True
             continue
         model._check_current()
         P = np.array([Pk.value for Pk in model.P])
-        cert = (check_certificate(sys, P, float(ifp_index), decay=decay)
-                if fixed else certify_index(sys, P, decay=decay))
-        # For a given η the exact check is the proof, whatever the solver's
-        # status; an index also claims optimality, which needs 'optimal'.
+        if fixed:
+            cert = check_certificate(sys, P, ifp_index, decay=decay,
+                                     ofp_index=ofp_index)
+        elif free == "eta":
+            cert = certify_index(sys, P, decay=decay, ofp_index=ofp_index)
+        else:
+            # the solver's ρ is only where to start: certify_ofp_index
+            # computes the certified level from P
+            guess = report.value if target is None else target
+            cert = certify_ofp_index(sys, P, guess, eta=ifp_index,
+                                     decay=decay)
+        # For a given level the exact check is the proof, whatever the
+        # solver's status; an index also claims optimality, which needs
+        # 'optimal'.
         if cert.verified and (report.ok or fixed):
-            return PassivityResult(True, cert.eta, cert, report, "certified")
-        last = (report, cert, "not_verified" if report.ok else "inaccurate")
+            return PassivityResult(True, cert.eta, cert, report, CERTIFIED,
+                                   ofp_index=cert.ofp_index)
+        last = (report, cert, NOT_VERIFIED if report.ok else INACCURATE)
     report, cert, reason = last
     if refuted:
         # No certificate with a margin exists, and without one none verified.
         return PassivityResult(False, float(ifp_index), None, report,
-                               "infeasible")
-    if reason == "infeasible" and len(attempts) == 1:
-        return PassivityResult(False, np.nan, None, report, "infeasible")
+                               INFEASIBLE, ofp_index=float(ofp_index))
+    if reason == INFEASIBLE and len(attempts) == 1:
+        return PassivityResult(False, np.nan, None, report, INFEASIBLE,
+                               ofp_index=np.nan if free == "rho"
+                               else float(ofp_index))
     figures = dict(status=report.status, solver=report.solver,
                    attempts=attempts,
                    **(cert.figures() if cert is not None else {}))
-    what = {"solver_failed": "the solver failed",
-            "inaccurate": "the solver's status stayed inaccurate",
-            "infeasible": "a retry was reported infeasible",
-            "not_verified": "the solver's answer fails the exact check: "
+    what = {SOLVER_FAILED: "the solver failed",
+            INACCURATE: "the solver's status stayed inaccurate",
+            INFEASIBLE: "a retry was reported infeasible",
+            NOT_VERIFIED: "the solver's answer fails the exact check: "
             + ("; ".join(cert.failures) if cert is not None else "")}[reason]
     raise CertificationError(
         f"passivity: no certificate could be verified ({what}; attempts "
-        f"(margin, eta, solver, status): {attempts})", reason, figures)
+        f"(margin, level, solver, status): {attempts})", reason, figures)
 
 
-def ispassive(sys: Any, ifp_index: float = 0.0, **kwargs: Any) -> bool:
-    """True if ``sys`` is certified strictly passive with dissipation ``η``.
+def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
+              **kwargs: Any) -> bool:
+    """True if ``sys`` is certified strictly passive with these indices.
 
-    Stochastic strict passivity (MATH §6): there is ``ε > 0`` such that
-    ``E Σ_t (wᵀz - η wᵀw) ≥ ε E Σ_t wᵀw`` from rest, for every input adapted
-    to the past. True only with a certificate that passed the exact checks
-    (see :func:`passivity_certificate`, which also returns the figures).
+    Same signature as :func:`control.ispassive`. Stochastic strict
+    passivity (MATH §6): mean-square stability and an ``ε > 0`` such that
+    ``E Σ_t (wᵀz - ρ zᵀz - ν wᵀw) ≥ ε E Σ_t wᵀw`` from rest, for every
+    input adapted to the past (``ρ = ofp_index``, ``ν = ifp_index``). True
+    only with a certificate that passed the exact checks (see
+    :func:`passivity_certificate`, which also returns the figures).
 
     Parameters
     ----------
-    sys : JumpStateSpace or discrete-time StateSpace
+    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+    ofp_index : float, optional
+        Output-feedback index ``ρ`` to certify (default 0).
     ifp_index : float, optional
-        Input-feedforward index ``η`` to certify (default 0: passivity).
+        Input-feedforward index ``ν`` to certify (default 0: passivity).
     **kwargs
         ``decay``, ``method``, ``solver``, ``margin`` and solver options, as
         for :func:`passivity_certificate`.
@@ -687,34 +648,77 @@ def ispassive(sys: Any, ifp_index: float = 0.0, **kwargs: Any) -> bool:
         found (the LMI is infeasible with its margin, and the LMI that
         maximises its margin gives none that passes the exact check).
 
+    Raises
+    ------
+    ValueError
+        If ``ofp_index`` or ``ifp_index`` is not a finite number; see
+        :func:`passivity_certificate` for the others.
+
+    Notes
+    -----
+    With both indices nonzero, :func:`control.ispassive` weights ``wᵀz``
+    by ``1 + ρν``; here it stays 1 (see the module's docstring).
+
     Examples
     --------
+    ``G(z) = 2z/(z - 0.5)`` has output-feedback index 1/4 and
+    input-feedforward index 4/3:
+
     >>> import control as ct
-    >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> ispassive(G), ispassive(G, ifp_index=0.4)
+    >>> G = ct.tf([2, 0], [1, -0.5], True)
+    >>> ispassive(G), ispassive(G, 0.2), ispassive(G, 0.3)
+    (True, True, False)
+    >>> ispassive(G, ifp_index=1.3), ispassive(G, ifp_index=1.4)
     (True, False)
     """
-    return passivity_certificate(sys, ifp_index, **kwargs).passive
+    ofp_index = finite_real(ofp_index, "ofp_index")
+    ifp_index = finite_real(ifp_index, "ifp_index")
+    return passivity_certificate(sys, ifp_index, ofp_index=ofp_index,
+                                 **kwargs).passive
+
+
+def _index(sys: Any, result: PassivityResult, name: str) -> None:
+    """Raise for an index that could not be certified (``result``)."""
+    if result.reason == NOT_MSS:
+        raise CertificationError(
+            f"{name}: sys is not mean-square stable (ms_radius ≥ 1, or ≥ r² "
+            "with a decay bound); no passivity index exists", NOT_MSS,
+            dict(ms_radius=ms_radius(_system(sys))))
+    if not result.passive:
+        # sys is mean-square stable, so for ρ = 0 some η is certifiable
+        # (MATH §6: the (1,1) block is Lemma 1); an infeasible LMI here is
+        # numerical, or, for ρ, the level of η held fixed is too high.
+        report = result.report
+        status = None if report is None else report.status
+        why = f": {report.message}" if report is not None and \
+            report.message else ""
+        raise CertificationError(
+            f"{name}: no index could be certified (reason {result.reason!r},"
+            f" status {status!r}) although sys is mean-square stable{why}",
+            result.reason, dict(status=status))
 
 
 def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
     """Largest certified input-feedforward passivity index (stochastic).
 
     The supremum of ``η`` for which a certificate ``P_k`` with ``Θ_k ≺ 0``
-    exists (MATH §6); the value returned is certified exactly, a relative
-    1e-6 below the supremum the solver's ``P_k`` proves (room for any later
-    check, e.g. :func:`ispassive`, to re-certify it). For a loss-free
-    ``N = 1`` loop it equals :func:`control.get_input_ff_index` and, for a
-    stable system, :func:`frequency_ff_index`; such a deterministic system
-    takes the Riccati route by default (no cvxpy solve, see
+    exists (MATH §6). The value returned is certified exactly: it lies
+    below the supremum that the found ``P_k`` proves by the first back-off
+    of ``verify.INDEX_BACKOFFS`` that passes the exact check (``1e-6``,
+    else ``1e-5`` or ``1e-4``, times ``max(1, |sup|)``: absolute below 1,
+    relative above), which leaves room for a later check, e.g.
+    :func:`ispassive`, to re-certify it. For a loss-free ``N = 1`` loop
+    it equals :func:`control.get_input_ff_index` and, for a stable system,
+    :func:`frequency_ff_index`; such a deterministic system takes the
+    Riccati route by default (no cvxpy solve, see
     :func:`passivity_certificate`).
 
     Parameters
     ----------
-    sys : JumpStateSpace or discrete-time StateSpace
+    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
     **kwargs
         As for :func:`passivity_certificate` (``method``, ``decay``,
-        ``solver``, ``margin``, solver options).
+        ``ofp_index`` held fixed, ``solver``, ``margin``, solver options).
 
     Returns
     -------
@@ -723,7 +727,7 @@ def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
     Raises
     ------
     CertificationError
-        ``reason='not_stable'`` if ``sys`` is not mean-square stable (no
+        ``reason='not_mss'`` if ``sys`` is not mean-square stable (no
         index exists); see :func:`passivity_certificate` for the others.
 
     Examples
@@ -736,19 +740,56 @@ def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
     0.33333
     """
     result = passivity_certificate(sys, None, **kwargs)
-    if result.reason == "not_mss":
-        raise CertificationError(
-            "get_input_ff_index: sys is not mean-square stable "
-            "(ms_radius ≥ 1, or ≥ r² with a decay bound); no passivity "
-            "index exists", "not_stable", dict(ms_radius=ms_radius(sys)))
-    if not result.passive:
-        # sys is mean-square stable, so some η is certifiable (MATH §6: the
-        # (1,1) block is Lemma 1); an infeasible LMI here is numerical.
-        raise CertificationError(
-            "get_input_ff_index: the LMI was reported infeasible although "
-            f"sys is mean-square stable (status {result.report.status!r})",
-            "infeasible", dict(status=result.report.status))
+    _index(sys, result, "get_input_ff_index")
     return result.eta
+
+
+def get_output_fb_index(sys: Any, **kwargs: Any) -> float:
+    """Largest certified output-feedback passivity index (stochastic).
+
+    The supremum of ``ρ`` for which a certificate ``P_k`` exists with the
+    supply rate ``2wᵀz - 2ρ zᵀz`` (MATH §6 with ``η = 0``): the largest
+    gain that can be put in positive feedback around ``sys`` leaving it
+    passive. ``E zᵀz`` takes every mode's output matrices, not their
+    mean, so for a lossy loop this is not the mean system's index. The
+    value is computed from the found ``P_k`` exactly and certified by
+    :func:`control_ncs.verify.certify_ofp_index` (a back-off of
+    ``1e-6``, else ``1e-5`` or ``1e-4``, times ``max(1, |sup|)`` below the
+    supremum it proves); the solver's optimum is never the number
+    returned. For a deterministic system it equals
+    :func:`control.get_output_fb_index`. Always by the LMI.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+    **kwargs
+        As for :func:`passivity_certificate` (``decay``, ``solver``,
+        ``margin``, solver options).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    CertificationError
+        ``reason='not_mss'`` if ``sys`` is not mean-square stable;
+        ``reason='infeasible'`` without a solve if ``sys`` is deterministic
+        and its zero dynamics ``A - BD⁻¹C`` are not Schur stable (no ``ρ``
+        works); see :func:`passivity_certificate` for the others.
+
+    Examples
+    --------
+    ``G(z) = 2z/(z - 0.5)``: ``Re 1/G = 0.5 - 0.25 cos θ ≥ 1/4``:
+
+    >>> import control as ct
+    >>> G = ct.tf([2, 0], [1, -0.5], True)
+    >>> round(get_output_fb_index(G), 4)
+    0.25
+    """
+    result = passivity_certificate(sys, 0.0, ofp_index=None, **kwargs)
+    _index(sys, result, "get_output_fb_index")
+    return result.ofp_index
 
 
 def mean_input_ff_index(sys: Any, **kwargs: Any) -> float:
@@ -760,18 +801,19 @@ def mean_input_ff_index(sys: Any, **kwargs: Any) -> float:
     for deterministic ``w`` only, and is never below
     :func:`get_input_ff_index` (MATH §6-§7).
     """
-    sys = as_jump(sys)
+    sys = _system(sys)
     return get_input_ff_index(sys.mean(), **kwargs)
 
 
 def frequency_ff_index(sys: Any, omega: Any = None, *,
-                       points: int = KYP_POINTS, **kwargs: Any) -> float:
+                       points: int = kyp.KYP_POINTS, **kwargs: Any) -> float:
     """KYP frequency test: ``min_ω λmin(G(e^{jω}) + G(e^{jω})ᴴ) / 2``.
 
     For a Schur-stable LTI system this equals its input-feedforward index
     (KYP lemma); an independent route to check the LMIs. A grid over
     ``[0, π/dt]`` (or ``omega``) is refined around its three lowest local
-    minima with a bounded scalar search (not when ``omega`` is given). The
+    minima by successively finer local grids, down to a spacing of
+    ``1e-12`` rad/sample (not when ``omega`` is given). The
     value is attained at a frequency, so it is an upper bound on the index,
     up to the rounding of ``G``; a dip narrower than the grid's spacing can
     be missed (:func:`get_input_ff_index` also checks the Riccati pencil).
@@ -803,20 +845,16 @@ def frequency_ff_index(sys: Any, omega: Any = None, *,
     0.3333333333
     """
     no_extra_kwargs("frequency_ff_index", kwargs)
-    J = as_jump(sys)
-    lti = J.mean()
+    lti = _system(sys).mean()
     A, B, C, D = (np.asarray(M, float) for M in (lti.A, lti.B, lti.C, lti.D))
-    if B.shape[1] != C.shape[0]:
-        raise ControlDimension("sys: the frequency test needs a square system")
-    resp = _FrequencyResponse(A, B, C, D)
+    resp = kyp._FrequencyResponse(A, B, C, D)
     if resp.radius >= 1:
         raise ValueError("sys: frequency_ff_index needs a Schur-stable system")
     dt = 1.0 if lti.dt is True else float(lti.dt)
     if omega is None:
-        thetas = np.linspace(0.0, np.pi, points)
-    else:
-        thetas = np.sort(real_array(omega, "omega", ndim=(0, 1)).ravel()
-                         * dt)
-        if thetas.size == 0:
-            raise ValueError("omega: expected at least one frequency")
-    return resp.minimum(thetas, resp.values(thetas)[0], omega is None)[0]
+        return kyp.frequency_minimum(resp, None, positive_int(points,
+                                                              "points"))
+    thetas = np.sort(real_array(omega, "omega", ndim=(0, 1)).ravel() * dt)
+    if thetas.size == 0:
+        raise ValueError("omega: expected at least one frequency")
+    return kyp.frequency_minimum(resp, thetas)

@@ -6,6 +6,14 @@ system: the eigenvalues of the dissipation matrices ``Θ_k`` of MATH §6 for
 the certificate ``P_k``, the eigenvalues of ``P_k`` themselves, and the
 spectral radius of the second-moment operator (MATH §5). The figures are
 kept on a :class:`Certificate`.
+
+One algebra kernel serves every route: :func:`dissipation_blocks` (``Θ_k``
+of one phase from raw per-mode arrays), :func:`ifp_supremum` (the Schur
+complement that gives the largest certified ``η``) and
+:func:`feedthrough_bound` (the necessary condition ``D̄ + D̄ᵀ ≻ 2ηI``). The
+public functions check their arguments once and call them.
+:class:`CertificationError` and :class:`SynthesisError` live in
+:mod:`control_ncs.exceptions` and are re-exported here.
 """
 
 from __future__ import annotations
@@ -14,16 +22,18 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-
+import control as ct
 from control.exception import ControlDimension
 
-from ._checks import real_array
-from .jump import as_jump
+from ._checks import decay_bound, finite_real, real_array
+from .exceptions import CertificationError, SynthesisError
+from .jump import JumpStateSpace, as_jump
 from .stability import ms_radius
 
 __all__ = ["Certificate", "CertificationError", "SynthesisError",
            "dissipation_matrices", "certified_index", "check_certificate",
-           "certify_index"]
+           "certify_index", "dissipation_blocks", "ifp_supremum",
+           "feedthrough_bound", "certify_ofp_index"]
 
 #: Relative back-offs of ``η`` below the supremum a certificate proves, tried
 #: in turn by :func:`certify_index`. The supremum comes from a Schur
@@ -37,29 +47,6 @@ __all__ = ["Certificate", "CertificationError", "SynthesisError",
 INDEX_BACKOFFS = (1e-6, 1e-5, 1e-4)
 
 
-class CertificationError(RuntimeError):
-    """A passivity or stability result could not be certified.
-
-    Attributes
-    ----------
-    reason : str
-        ``'infeasible'`` (the LMI has no solution), ``'solver_failed'``,
-        ``'inaccurate'`` (the solver's own status), ``'not_verified'`` (the
-        solver's answer fails the exact checks), ``'not_stable'``.
-    figures : dict
-        Whatever was measured (solver status, eigenvalues, ``ms_radius``).
-    """
-
-    def __init__(self, message: str, reason: str, figures: dict | None = None):
-        super().__init__(message)
-        self.reason = reason
-        self.figures = dict(figures or {})
-
-
-class SynthesisError(CertificationError):
-    """:func:`control_ncs.passivesyn` found no gain it could certify."""
-
-
 def _float_margin(M: np.ndarray) -> float:
     """Rounding error bound of a symmetric eigenvalue computation.
 
@@ -70,73 +57,268 @@ def _float_margin(M: np.ndarray) -> float:
     return 16 * M.shape[0] * np.finfo(float).eps * max(np.linalg.norm(M, 2), 1e-300)
 
 
-def _next(P: np.ndarray, k: int) -> np.ndarray:
-    return P[(k + 1) % P.shape[0]]
+# -- the one algebra kernel (raw arrays, no checks) ---------------------------
+def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
+                       B: np.ndarray, C: np.ndarray, D: np.ndarray,
+                       P: np.ndarray, P_next: np.ndarray, eta: float, *,
+                       ofp_index: float = 0.0, decay: float = 1.0
+                       ) -> np.ndarray:
+    """``Θ_k`` of one phase from raw per-mode arrays (MATH §6, §10).
 
+    The dissipation inequality ``E V(ξ⁺) - r² V(ξ) < E s(w, z)`` for
+    ``V(ξ) = ξᵀPξ`` and the supply rate ``s = 2wᵀz - 2ρ zᵀz - 2η wᵀw``
+    (``ρ = ofp_index``) reads ``[ξ; w]ᵀ Θ [ξ; w] < 0`` with::
 
-def dissipation_matrices(sys: Any, P: np.ndarray, eta: float, *,
-                         decay: float = 1.0) -> list[np.ndarray]:
-    """The matrices ``Θ_k`` of MATH §6 for a closed-loop jump system.
+        Θ = Σ_i p_i [A_i B_i]ᵀ P⁺ [A_i B_i] - [[r² P, C̄ᵀ], [C̄, D̄ + D̄ᵀ - 2ηI]]
+            + 2ρ Σ_i p_i [C_i D_i]ᵀ [C_i D_i]
 
-    ``Θ_k = Σ_i p_i [A_i B_i]ᵀ P_{k+1} [A_i B_i]
-    + [[-r² P_k, -C̄ᵀ], [-C̄, 2ηI - D̄ - D̄ᵀ]]`` with ``C̄ = Σ p_i C_i``,
-    ``D̄ = Σ p_i D_i`` (the supply rate is linear in ``z``) and ``r`` the
-    decay bound (``r = 1``: none). ``Θ_k ≺ 0`` for all ``k`` certifies strict
-    stochastic passivity with dissipation ``η`` and mean-square stability
-    (with ``E V`` decaying at least like ``r^(2t)``).
+    ``C̄ = Σ p_i C_i``, ``D̄ = Σ p_i D_i``: ``wᵀz`` is linear in ``z``, so
+    its expectation takes the mean output matrices; ``zᵀz`` is quadratic,
+    so its expectation takes every mode's own. No argument is checked
+    (internal callers only; the public functions check theirs).
 
     Parameters
     ----------
-    sys : JumpStateSpace
-    P : ndarray, shape (N, n, n)
+    probabilities : ndarray, shape (M,)
+    A, B, C, D : ndarray, shapes (M, n, n), (M, n, m), (m, n), (M, m, m)
+    P, P_next : ndarray, shape (n, n)
+        ``P_k`` and ``P_{k+1}``.
     eta : float
+        Input-feedforward level ``η``.
+    ofp_index : float, optional
+        Output-feedback level ``ρ``.
     decay : float, optional
+        Decay bound ``r`` (1: none).
+
+    Returns
+    -------
+    ndarray, shape (n + m, n + m)
+        Symmetric.
+    """
+    p = np.asarray(probabilities, float)
+    n, m = A.shape[-1], B.shape[-1]
+    F = np.concatenate([A, B], axis=2)               # (M, n, n + m)
+    # Σ_i p_i F_iᵀ P F_i as batched matrix products (BLAS): a plain
+    # 4-operand einsum loops in C without BLAS (0.7 s at n = 64).
+    T = np.tensordot(p, F.transpose(0, 2, 1) @ (P_next @ F), axes=1)
+    Cbar, Dbar = np.tensordot(p, C, axes=1), np.tensordot(p, D, axes=1)
+    T[:n, :n] -= decay ** 2 * P
+    T[n:, :n] -= Cbar
+    T[:n, n:] -= Cbar.T
+    T[n:, n:] += 2 * eta * np.eye(m) - Dbar - Dbar.T
+    if ofp_index != 0.0:
+        H = np.concatenate([C, D], axis=2)           # (M, m, n + m)
+        T += 2 * ofp_index * np.tensordot(p, H.transpose(0, 2, 1) @ H,
+                                          axes=1)
+    return 0.5 * (T + T.T)
+
+
+def ifp_supremum(theta0: np.ndarray, n: int) -> float:
+    """Supremum of ``η`` with ``Θ(η) = theta0 + 2η diag(0, I) ≺ 0``.
+
+    ``Θ(η) ≺ 0`` iff its ``(1,1)`` block ``M11 ≺ 0`` and
+    ``2η < -λmax(M22 - M21 M11⁻¹ M12)`` (Schur complement). Returns
+    ``-inf`` when ``M11`` is not negative definite beyond rounding (no
+    ``η`` works). Strict: every ``η`` below the value works, the value
+    itself does not.
+
+    Parameters
+    ----------
+    theta0 : ndarray, shape (n + m, n + m)
+        ``Θ`` at ``η = 0`` (:func:`dissipation_blocks`).
+    n : int
+        Size of the state block.
+
+    Returns
+    -------
+    float
+    """
+    M11, M12, M22 = theta0[:n, :n], theta0[:n, n:], theta0[n:, n:]
+    if n and np.linalg.eigvalsh(M11).max() >= -_float_margin(M11):
+        return -np.inf
+    S = M22 - M12.T @ np.linalg.solve(M11, M12) if n else M22
+    return float(-np.linalg.eigvalsh(0.5 * (S + S.T)).max() / 2)
+
+
+def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
+                      ofp_index: float = 0.0) -> tuple[float, int]:
+    """The necessary feedthrough condition of MATH §6, as a bound on ``η``.
+
+    ``Θ_k ≺ 0`` needs its ``(2,2)`` block negative, hence
+    ``D̄_k + D̄_kᵀ - 2ρ Σ_i p_i D_iᵀD_i ≻ 2ηI`` at every phase (``ρ = 0``:
+    ``D̄ + D̄ᵀ ≻ 2ηI``, the paper's Assumption 1 at ``η = 0``). Every
+    certifiable ``η`` lies strictly below the returned bound.
+
+    Parameters
+    ----------
+    probabilities : ndarray, shape (N, M) or (M,)
+    D : ndarray, shape (N, M, m, m) or (M, m, m)
+    ofp_index : float, optional
+        Output-feedback level ``ρ``.
+
+    Returns
+    -------
+    bound : float
+        ``min_k λmin(D̄_k + D̄_kᵀ - 2ρ Σ_i p_ki D_kiᵀ D_ki) / 2``.
+    phase : int
+        The phase ``k`` attaining it.
+    """
+    p = np.asarray(probabilities, float).reshape(-1, D.shape[-3])
+    D = np.asarray(D, float).reshape(p.shape + D.shape[-2:])
+    Dbar = np.einsum("km,kmij->kij", p, D)
+    S = Dbar + Dbar.transpose(0, 2, 1)
+    if ofp_index != 0.0:
+        S = S - 2 * ofp_index * np.einsum("km,kmji,kmjl->kil", p, D, D)
+    lam = np.linalg.eigvalsh(S)[:, 0] / 2
+    k = int(np.argmin(lam))
+    return float(lam[k]), k
+
+
+# -- public checks --------------------------------------------------------------
+def _system(sys: Any, name: str = "sys") -> JumpStateSpace:
+    """``sys`` as a square jump system (a TransferFunction via control.ss)."""
+    if isinstance(sys, ct.TransferFunction):
+        sys = ct.ss(sys)
+    sys = as_jump(sys, name)
+    m, p = sys.modes.B.shape[-1], sys.modes.C.shape[-2]
+    if m != p:
+        raise ControlDimension(f"{name}: passivity needs as many inputs as "
+                               f"outputs (w and z of equal size), got {m} "
+                               f"inputs and {p} outputs")
+    return sys
+
+
+def _certificate_array(P: Any, sys: JumpStateSpace) -> np.ndarray:
+    """``P`` as a symmetric (N, n, n) stack, or a named error."""
+    n, N = sys.modes.A.shape[-1], sys.period
+    P = real_array(P, "P", ndim=(2, 3))
+    if P.ndim == 2:
+        P = P[None]
+    if P.shape[0] == 1 and N > 1:
+        P = np.repeat(P, N, axis=0)
+    if P.shape != (N, n, n):
+        raise ControlDimension(f"P: expected shape ({N}, {n}, {n}) or "
+                               f"({n}, {n}) (one P_k per phase), got "
+                               f"{np.shape(P)}")
+    return 0.5 * (P + P.transpose(0, 2, 1))
+
+
+def _levels(eta: Any, decay: Any, ofp_index: Any
+            ) -> tuple[float, float, float]:
+    return (finite_real(eta, "eta"), decay_bound(decay),
+            finite_real(ofp_index, "ofp_index"))
+
+
+def _thetas(sys: JumpStateSpace, P: np.ndarray, eta: float, rho: float,
+            decay: float) -> list[np.ndarray]:
+    m = sys.modes
+    return [dissipation_blocks(m.probabilities[k], m.A[k], m.B[k], m.C[k],
+                               m.D[k], P[k], P[(k + 1) % sys.period], eta,
+                               ofp_index=rho, decay=decay)
+            for k in range(sys.period)]
+
+
+def _sup(sys: JumpStateSpace, P: np.ndarray, rho: float, decay: float
+         ) -> float:
+    n = sys.modes.A.shape[-1]
+    return float(min(ifp_supremum(T, n)
+                     for T in _thetas(sys, P, 0.0, rho, decay)))
+
+
+def dissipation_matrices(sys: Any, P: Any, eta: float, *,
+                         decay: float = 1.0, ofp_index: float = 0.0
+                         ) -> list[np.ndarray]:
+    """The matrices ``Θ_k`` of MATH §6 for a closed-loop jump system.
+
+    ``Θ_k = Σ_i p_i [A_i B_i]ᵀ P_{k+1} [A_i B_i]
+    + [[-r² P_k, -C̄ᵀ], [-C̄, 2ηI - D̄ - D̄ᵀ]]
+    + 2ρ Σ_i p_i [C_i D_i]ᵀ [C_i D_i]`` with ``C̄ = Σ p_i C_i``,
+    ``D̄ = Σ p_i D_i`` (the supply rate ``2wᵀz - 2ρzᵀz - 2ηwᵀw`` is linear
+    in ``z`` but for its ``ρ`` term) and ``r`` the decay bound (``r = 1``:
+    none); see :func:`dissipation_blocks`. ``Θ_k ≺ 0`` for all ``k``, with
+    ``P_k ≻ 0`` and mean-square stability, certifies strict stochastic
+    passivity with these indices (for ``ρ ≥ 0`` its ``(1,1)`` block is
+    Lemma 1, so mean-square stability follows, with ``E V`` decaying at
+    least like ``r^(2t)``).
+
+    Parameters
+    ----------
+    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+        Square.
+    P : array_like, shape (N, n, n) or (n, n)
+        ``P_k`` per phase (symmetrised before use).
+    eta : float
+        Input-feedforward level ``η``.
+    decay : float, optional
+        Decay bound ``r`` in (0, 1].
+    ofp_index : float, optional
+        Output-feedback level ``ρ`` (default 0).
 
     Returns
     -------
     list of ndarray, each (n + m, n + m)
+
+    Raises
+    ------
+    ControlArgument
+        If ``sys`` is not a system.
+    ControlDimension
+        If ``sys`` is not square or ``P`` has the wrong shape.
+    ValueError
+        If ``P``, ``eta`` or ``ofp_index`` is not finite and real, or
+        ``decay`` is not in (0, 1].
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    >>> [T.round(2).tolist() for T in dissipation_matrices(G, [[1.0]], 0.0)]
+    [[[-0.75, -0.5], [-0.5, -1.0]]]
     """
-    sys = as_jump(sys)
-    A, B, p = sys.modes.A, sys.modes.B, sys.modes.probabilities
-    _, _, Cbar, Dbar = sys.modes.mean()
-    n, m = A.shape[-1], B.shape[-1]
-    out = []
-    for k in range(sys.period):
-        F = np.concatenate([A[k], B[k]], axis=2)  # (M, n, n + m)
-        # Σ_i p_i F_iᵀ P F_i as batched matrix products (BLAS): a plain
-        # 4-operand einsum loops in C without BLAS (0.7 s at n = 64).
-        PF = _next(P, k) @ F                       # (M, n, n + m)
-        T = np.tensordot(p[k], F.transpose(0, 2, 1) @ PF, axes=1)
-        T[:n, :n] -= decay ** 2 * P[k]
-        T[n:, :n] -= Cbar[k]
-        T[:n, n:] -= Cbar[k].T
-        T[n:, n:] += 2 * eta * np.eye(m) - Dbar[k] - Dbar[k].T
-        out.append(0.5 * (T + T.T))
-    return out
+    sys = _system(sys)
+    eta, decay, rho = _levels(eta, decay, ofp_index)
+    return _thetas(sys, _certificate_array(P, sys), eta, rho, decay)
 
 
-def certified_index(sys: Any, P: np.ndarray, *, decay: float = 1.0) -> float:
+def certified_index(sys: Any, P: Any, *, decay: float = 1.0,
+                    ofp_index: float = 0.0) -> float:
     """Largest ``η`` that the certificate ``P`` proves, exactly.
 
-    ``Θ_k ≺ 0`` holds iff its ``(1,1)`` block ``M11 ≺ 0`` and
-    ``2η < -λmax(M22 - M21 M11⁻¹ M12)`` (Schur complement), so for a given
-    ``P`` the supremum of certified ``η`` is
-    ``min_k -λmax(S_k)/2``. Strict inequality: every ``η`` below the returned
-    value is certified, the value itself is not.
+    ``Θ_k`` depends on ``η`` through ``2η diag(0, I)`` only, so the
+    supremum of certified ``η`` is ``min_k`` of :func:`ifp_supremum`
+    (a Schur complement). Strict inequality: every ``η`` below the
+    returned value is certified, the value itself is not.
 
-    Returns ``-inf`` when some ``M11`` is not negative definite (``P`` proves
-    nothing).
+    Parameters
+    ----------
+    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+    P : array_like, shape (N, n, n) or (n, n)
+    decay : float, optional
+        Decay bound ``r`` in (0, 1].
+    ofp_index : float, optional
+        Output-feedback level ``ρ`` held fixed (default 0).
+
+    Returns
+    -------
+    float
+        ``-inf`` when some ``M11`` is not negative definite (``P`` proves
+        nothing).
+
+    Raises
+    ------
+    ControlArgument, ControlDimension, ValueError
+        As :func:`dissipation_matrices`.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    >>> round(certified_index(G, [[1.0]]), 6)  # the index 1/3, at P = 1
+    0.333333
     """
-    sys = as_jump(sys)
-    n = sys.modes.A.shape[-1]
-    best = np.inf
-    for T in dissipation_matrices(sys, P, 0.0, decay=decay):
-        M11, M12, M22 = T[:n, :n], T[:n, n:], T[n:, n:]
-        if np.linalg.eigvalsh(M11).max() >= -_float_margin(M11):
-            return -np.inf
-        S = M22 - M12.T @ np.linalg.solve(M11, M12)
-        best = min(best, -np.linalg.eigvalsh(0.5 * (S + S.T)).max() / 2)
-    return float(best)
+    sys = _system(sys)
+    _, decay, rho = _levels(0.0, decay, ofp_index)
+    return _sup(sys, _certificate_array(P, sys), rho, decay)
 
 
 @dataclass
@@ -148,7 +330,7 @@ class Certificate:
     verified : bool
         All checks passed.
     eta : float
-        Dissipation level checked.
+        Input-feedforward level ``η`` checked.
     decay : float
         Decay bound ``r`` checked (1 = none).
     P : ndarray, shape (N, n, n)
@@ -162,9 +344,12 @@ class Certificate:
         computed independently of ``P``; must be < 1, and ``< r²`` with a
         decay bound (``E‖ξ‖²`` decays like ``r^(2t)``).
     eta_sup : float
-        Supremum of the ``η`` certified by ``P`` (:func:`certified_index`).
+        Supremum of the ``η`` certified by ``P`` at this ``ofp_index``
+        (:func:`certified_index`).
     failures : list of str
         What failed, in words.
+    ofp_index : float
+        Output-feedback level ``ρ`` checked (0: none).
     """
 
     verified: bool
@@ -176,29 +361,57 @@ class Certificate:
     ms_radius: float
     eta_sup: float
     failures: list = field(default_factory=list)
+    ofp_index: float = 0.0
 
     def figures(self) -> dict:
         """The measured numbers as a plain dict (for messages and reports)."""
-        return dict(eta=self.eta, decay=self.decay,
-                    theta_max=self.theta_max.tolist(),
+        return dict(eta=self.eta, ofp_index=self.ofp_index,
+                    decay=self.decay, theta_max=self.theta_max.tolist(),
                     P_min=self.P_min.tolist(), ms_radius=self.ms_radius,
                     eta_sup=self.eta_sup)
 
 
-def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0
-                      ) -> Certificate:
+def _check(sys: JumpStateSpace, P: np.ndarray, eta: float, rho: float,
+           decay: float) -> Certificate:
+    """:func:`check_certificate` on checked arguments."""
+    thetas = _thetas(sys, P, eta, rho, decay)
+    theta_max = np.array([np.linalg.eigvalsh(T).max() for T in thetas])
+    theta_ok = [t < -_float_margin(T) for t, T in zip(theta_max, thetas)]
+    P_min = np.array([np.linalg.eigvalsh(Pk).min() for Pk in P])
+    P_ok = [v > _float_margin(Pk) for v, Pk in zip(P_min, P)]
+    rho_ms = ms_radius(sys)
+    failures = []
+    if not all(theta_ok):
+        failures.append(f"λmax(Θ_k) = {theta_max.max():.3e} is not < 0")
+    if not all(P_ok):
+        failures.append(f"λmin(P_k) = {P_min.min():.3e} is not > 0")
+    if not rho_ms < 1.0:
+        failures.append(f"ms_radius = {rho_ms:.6g} is not < 1")
+    if decay < 1.0 and not rho_ms < decay ** 2:
+        failures.append(f"ms_radius = {rho_ms:.6g} is not < r² = "
+                        f"{decay ** 2:.6g}")
+    return Certificate(not failures, float(eta), float(decay), P, theta_max,
+                       P_min, rho_ms, _sup(sys, P, rho, decay), failures,
+                       float(rho))
+
+
+def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0,
+                      ofp_index: float = 0.0) -> Certificate:
     """Check a passivity certificate exactly (no solver involved).
 
     Parameters
     ----------
-    sys : JumpStateSpace
-        The closed loop.
+    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+        The closed loop (square).
     P : array_like, shape (N, n, n) or (n, n)
         Candidate ``P_k`` (symmetrised before use).
     eta : float
-        Dissipation level to certify.
+        Input-feedforward level ``η`` to certify.
     decay : float, optional
         Mean-square decay bound ``r`` in (0, 1].
+    ofp_index : float, optional
+        Output-feedback level ``ρ`` to certify with it (default 0; supply
+        rate ``2wᵀz - 2ρzᵀz - 2ηwᵀw``, see :func:`dissipation_blocks`).
 
     Returns
     -------
@@ -206,59 +419,167 @@ def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0
         ``verified`` is True only if every ``λmax(Θ_k)`` and ``-λmin(P_k)``
         is negative beyond the rounding bound of the eigenvalue computation
         and ``ms_radius < min(1, r²)``.
+
+    Raises
+    ------
+    ControlArgument, ControlDimension, ValueError
+        As :func:`dissipation_matrices`.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    >>> check_certificate(G, [[1.0]], 0.3).verified
+    True
     """
-    sys = as_jump(sys)
-    n, N = sys.modes.A.shape[-1], sys.period
-    P = real_array(P, "P", ndim=(2, 3))
-    if P.ndim == 2:
-        P = P[None]
-    if P.shape[0] == 1 and N > 1:
-        P = np.repeat(P, N, axis=0)
-    if P.shape != (N, n, n):
-        raise ControlDimension(f"P: expected shape ({N}, {n}, {n}) or ({n}, {n}) "
-                               f"(one P_k per phase), got {np.shape(P)}")
-    P = 0.5 * (P + P.transpose(0, 2, 1))
-    thetas = dissipation_matrices(sys, P, eta, decay=decay)
-    theta_max = np.array([np.linalg.eigvalsh(T).max() for T in thetas])
-    theta_ok = [t < -_float_margin(T) for t, T in zip(theta_max, thetas)]
-    P_min = np.array([np.linalg.eigvalsh(Pk).min() for Pk in P])
-    P_ok = [v > _float_margin(Pk) for v, Pk in zip(P_min, P)]
-    rho = ms_radius(sys)
-    failures = []
-    if not all(theta_ok):
-        failures.append(f"λmax(Θ_k) = {theta_max.max():.3e} is not < 0")
-    if not all(P_ok):
-        failures.append(f"λmin(P_k) = {P_min.min():.3e} is not > 0")
-    if not rho < 1.0:
-        failures.append(f"ms_radius = {rho:.6g} is not < 1")
-    if decay < 1.0 and not rho < decay ** 2:
-        failures.append(f"ms_radius = {rho:.6g} is not < r² = {decay ** 2:.6g}")
-    return Certificate(not failures, float(eta), float(decay), P, theta_max,
-                       P_min, rho, certified_index(sys, P, decay=decay),
-                       failures)
+    sys = _system(sys)
+    eta, decay, rho = _levels(eta, decay, ofp_index)
+    return _check(sys, _certificate_array(P, sys), eta, rho, decay)
 
 
-def certify_index(sys: Any, P: Any, *, decay: float = 1.0) -> Certificate:
+def certify_index(sys: Any, P: Any, *, decay: float = 1.0,
+                  ofp_index: float = 0.0) -> Certificate:
     """Certificate of the largest ``η`` that ``P`` proves, checked exactly.
 
-    Takes the supremum from :func:`certified_index`, steps just below it
-    (relative back-offs ``INDEX_BACKOFFS``) and returns the first
-    :func:`check_certificate` that passes, else the last one tried (with
-    ``verified`` False). Every verdict is the exact check's, never the
-    Schur complement's.
+    Takes the supremum from :func:`certified_index` and steps just below it
+    by the back-offs ``INDEX_BACKOFFS`` (``1e-6``, then ``1e-5``, ``1e-4``
+    times ``max(1, |sup|)``: absolute below 1, relative above), returning
+    the first :func:`check_certificate` that passes, else the last one
+    tried (with ``verified`` False). Every verdict is the exact check's,
+    never the Schur complement's.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+    P : array_like, shape (N, n, n) or (n, n)
+    decay : float, optional
+        Decay bound ``r`` in (0, 1].
+    ofp_index : float, optional
+        Output-feedback level ``ρ`` held fixed (default 0).
+
+    Returns
+    -------
+    Certificate
+
+    Raises
+    ------
+    ControlArgument, ControlDimension, ValueError
+        As :func:`dissipation_matrices`.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    >>> cert = certify_index(G, [[1.0]])
+    >>> cert.verified, round(cert.eta, 5)
+    (True, 0.33333)
     """
-    sys = as_jump(sys)
-    sup = certified_index(sys, P, decay=decay)
+    sys = _system(sys)
+    _, decay, rho = _levels(0.0, decay, ofp_index)
+    return _certify(sys, _certificate_array(P, sys), rho, decay)
+
+
+def _certify(sys: JumpStateSpace, P: np.ndarray, rho: float, decay: float
+             ) -> Certificate:
+    """:func:`certify_index` on checked arguments."""
+    sup = _sup(sys, P, rho, decay)
     if not np.isfinite(sup):
         # P proves nothing (some M11 is not negative definite): report the
         # figures (all failing) at a level below the feedthrough bound.
-        _, _, _, Dbar = sys.modes.mean()
-        low = min(np.linalg.eigvalsh(D + D.T).min() for D in Dbar) / 2
-        return check_certificate(sys, P, float(low) - 1.0, decay=decay)
+        low, _ = feedthrough_bound(sys.modes.probabilities, sys.modes.D,
+                                   ofp_index=rho)
+        return _check(sys, P, low - 1.0, rho, decay)
     cert = None
     for backoff in INDEX_BACKOFFS:
-        cert = check_certificate(sys, P, sup - backoff * max(1.0, abs(sup)),
-                                 decay=decay)
+        cert = _check(sys, P, sup - backoff * max(1.0, abs(sup)), rho, decay)
         if cert.verified:
             break
+    return cert
+
+
+def certify_ofp_index(sys: Any, P: Any, rho: float, *, eta: float = 0.0,
+                      decay: float = 1.0) -> Certificate:
+    """Certificate of the largest ``ρ`` (output feedback) that ``P`` proves.
+
+    ``Θ_k(ρ) = Θ_k(ρ0) + 2(ρ - ρ0) W_k`` with
+    ``W_k = Σ_i p_i [C_i D_i]ᵀ[C_i D_i] ≽ 0``. From a level ``ρ0`` at which
+    the exact check passes (``rho`` less the back-offs ``INDEX_BACKOFFS``,
+    times ``max(1, |rho|)``), ``-Θ_k(ρ0) = L Lᵀ`` (Cholesky) gives the
+    supremum exactly: ``ρ0 + 1 / (2 λmax(L⁻¹ W_k L⁻ᵀ))``, minimised over
+    ``k``. The value returned sits below that supremum by the same
+    back-offs and passes :func:`check_certificate`; if no level passes, the
+    last check tried is returned (``verified`` False).
+
+    Parameters
+    ----------
+    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+    P : array_like, shape (N, n, n) or (n, n)
+    rho : float
+        A guess of the level ``P`` proves (e.g. a solver's optimum); never
+        the number certified.
+    eta : float, optional
+        Input-feedforward level ``η`` held fixed (default 0).
+    decay : float, optional
+        Decay bound ``r`` in (0, 1].
+
+    Returns
+    -------
+    Certificate
+        Its ``ofp_index`` is the certified ``ρ``.
+
+    Raises
+    ------
+    ControlArgument, ControlDimension, ValueError
+        As :func:`dissipation_matrices`.
+
+    Examples
+    --------
+    ``G(z) = 2z/(z - 0.5)``: ``Re 1/G = 0.5 - 0.25 cos θ``, so its output
+    feedback index is 1/4:
+
+    >>> import control as ct
+    >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[2.0]], True)
+    >>> cert = certify_ofp_index(G, [[1.0]], 0.2)
+    >>> cert.verified, 0.25 - 1e-5 < cert.ofp_index < 0.25
+    (True, True)
+    """
+    sys = _system(sys)
+    eta, decay, rho = _levels(eta, decay, rho)
+    return _certify_ofp(sys, _certificate_array(P, sys), eta, rho, decay)
+
+
+def _certify_ofp(sys: JumpStateSpace, P: np.ndarray, eta: float,
+                 guess: float, decay: float) -> Certificate:
+    """:func:`certify_ofp_index` on checked arguments."""
+    m = sys.modes
+    cert = None
+    for backoff in INDEX_BACKOFFS:
+        rho0 = guess - backoff * max(1.0, abs(guess))
+        cert = _check(sys, P, eta, rho0, decay)
+        if cert.verified:
+            break
+    if not cert.verified:
+        return cert
+    sup = np.inf
+    for k, T in enumerate(_thetas(sys, P, eta, rho0, decay)):
+        H = np.concatenate([m.C[k], m.D[k]], axis=2)
+        W = np.tensordot(m.probabilities[k], H.transpose(0, 2, 1) @ H,
+                         axes=1)
+        try:
+            L = np.linalg.cholesky(-T)
+        except np.linalg.LinAlgError:
+            return cert  # Θ(ρ0) ≺ 0 only within rounding: keep ρ0
+        X = np.linalg.solve(L, np.linalg.solve(L, W).T)
+        lam = np.linalg.eigvalsh(0.5 * (X + X.T)).max()
+        if lam > 0:
+            sup = min(sup, rho0 + 1.0 / (2.0 * lam))
+    if not np.isfinite(sup):
+        return cert  # no output enters the supply: ρ is unbounded
+    for backoff in INDEX_BACKOFFS:
+        level = sup - backoff * max(1.0, abs(sup))
+        if not level > rho0:
+            break
+        better = _check(sys, P, eta, level, decay)
+        if better.verified:
+            return better
     return cert

@@ -13,6 +13,7 @@ from control.exception import ControlArgument, ControlDimension
 from hypothesis import given, settings, strategies as st
 
 import control_ncs as cn
+import control_ncs.kyp as kyp
 import control_ncs.passivity as passivity
 from control_ncs import (CertificationError, feedback, frequency_ff_index,
                          get_input_ff_index, ispassive, jss,
@@ -102,8 +103,8 @@ def test_scalar_index_matches_closed_form():
     # G(z) = 1 + 1/(z - 0.5): min Re G on the unit circle is 1 - 1/1.5 = 1/3
     G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
     assert get_input_ff_index(G) == pytest.approx(1 / 3, rel=1e-5)
-    assert ispassive(G) and ispassive(G, 0.33)
-    assert not ispassive(G, 0.34)
+    assert ispassive(G) and ispassive(G, ifp_index=0.33)
+    assert not ispassive(G, ifp_index=0.34)
 
 
 def test_periodic_loss_free_index_equals_kyp_of_lifted_system():
@@ -123,7 +124,7 @@ def test_ispassive_false_for_system_that_is_not_mean_square_stable():
     assert cn.ms_radius(sys) == pytest.approx(1.2)
     result = passivity_certificate(sys, -10.0)
     assert not result.passive and result.reason == "not_mss"
-    assert not ispassive(sys, -10.0)
+    assert not ispassive(sys, ifp_index=-10.0)
 
 
 def test_ispassive_false_when_feedthrough_is_not_above_2eta():
@@ -132,14 +133,14 @@ def test_ispassive_false_when_feedthrough_is_not_above_2eta():
     result = passivity_certificate(sys, 0.75)
     assert not result.passive and result.reason == "feedthrough"
     assert result.report is None  # decided before any solve
-    assert ispassive(sys, -0.1)   # index -0.0709 (mean system: -0.05)
+    assert ispassive(sys, ifp_index=-0.1)   # index -0.0709 (mean system: -0.05)
 
 
-def test_get_input_ff_index_raises_not_stable_for_unstable_system():
+def test_get_input_ff_index_raises_not_mss_for_unstable_system():
     G = ct.ss([[1.2]], [[1.0]], [[1.0]], [[1.0]], True)
     with pytest.raises(CertificationError) as info:
         get_input_ff_index(G)
-    assert info.value.reason == "not_stable"
+    assert info.value.reason == "not_mss"
     assert info.value.figures["ms_radius"] == pytest.approx(1.44)
 
 
@@ -159,8 +160,8 @@ def test_frequency_test_refuses_unstable_system():
 def test_ispassive_is_consistent_with_the_index_on_a_lossy_loop():
     CL = random_closed_loop(5, sensor_loss=0.2, actuator_loss=0.1)
     nu = get_input_ff_index(CL)
-    assert ispassive(CL, nu - 1e-3 * max(1.0, abs(nu)))
-    assert not ispassive(CL, nu + 1e-3 * max(1.0, abs(nu)))
+    assert ispassive(CL, ifp_index=nu - 1e-3 * max(1.0, abs(nu)))
+    assert not ispassive(CL, ifp_index=nu + 1e-3 * max(1.0, abs(nu)))
 
 
 LOSSY = [dict(sensor_loss=0.2, actuator_loss=0.1),
@@ -196,8 +197,8 @@ def test_mean_and_stochastic_indices_differ_on_a_lossy_loop():
     assert mean == pytest.approx(frequency_ff_index(CL.mean()), rel=1e-5)
     assert mean - stochastic > 0.04
     between = 0.5 * (stochastic + mean)
-    assert ispassive(CL.mean(), between)
-    assert not ispassive(CL, between)
+    assert ispassive(CL.mean(), ifp_index=between)
+    assert not ispassive(CL, ifp_index=between)
 
 
 # -- regressions: loops at the mean-square boundary ----------------------------------
@@ -206,7 +207,7 @@ def test_index_and_ispassive_agree_with_synthesis_at_ms_boundary():
     margin was made relative to P, ispassive(CL, eta) was False."""
     K, CL, eta = scalar_lossy_loop()
     assert 1 - 1e-5 < K.result.ms_radius < 1
-    assert ispassive(CL, eta)
+    assert ispassive(CL, ifp_index=eta)
     assert get_input_ff_index(CL) >= eta - 1e-5 * abs(eta)
 
 
@@ -239,8 +240,8 @@ def test_index_is_certified_for_a_loop_one_millionth_from_ms_boundary():
     CL = five_state_boundary_loop()
     assert 1 - 2e-6 < cn.ms_radius(CL) < 1
     assert get_input_ff_index(CL) == pytest.approx(1.52854, abs=1e-4)
-    assert ispassive(CL, 1.528)
-    assert not ispassive(CL, 1.53)
+    assert ispassive(CL, ifp_index=1.528)
+    assert not ispassive(CL, ifp_index=1.53)
 
 
 def test_index_is_exactly_certified():
@@ -300,7 +301,7 @@ def test_riccati_certificate_passes_the_independent_exact_check(n):
     again = cn.check_certificate(G, cert.P, result.eta)
     assert again.verified and again.theta_max.max() < 0
     assert again.P_min.min() > 0
-    assert ispassive(G, result.eta)  # the returned index re-certifies
+    assert ispassive(G, ifp_index=result.eta)  # the returned index re-certifies
 
 
 @settings(max_examples=20, deadline=None)
@@ -323,8 +324,8 @@ def test_negative_index_of_first_order_system(method):
     result = passivity_certificate(G, method=method)
     assert result.method == method
     assert result.eta == pytest.approx(nu, abs=3e-6) and result.eta < nu
-    assert ispassive(G, nu - 1e-4, method=method)
-    assert not ispassive(G, nu + 1e-4, method=method)
+    assert ispassive(G, ifp_index=nu - 1e-4, method=method)
+    assert not ispassive(G, ifp_index=nu + 1e-4, method=method)
 
 
 @pytest.mark.parametrize("method", ["riccati", "lmi"])
@@ -364,7 +365,7 @@ def test_riccati_route_finds_a_dip_the_frequency_grid_misses(monkeypatch):
     G = sharp_resonance()
     fine = frequency_ff_index(G, omega=np.linspace(1.0, 1.0002, 200001))
     assert frequency_ff_index(G, points=200) > 0.8      # the grid misses it
-    monkeypatch.setattr(passivity, "KYP_POINTS", 200)
+    monkeypatch.setattr(kyp, "KYP_POINTS", 200)
     result = passivity_certificate(G, method="riccati")
     # refined, ν̂ lies a little below the fine grid's (unrefined) minimum
     assert fine - 1e-7 < result.eta_upper <= fine
@@ -389,11 +390,11 @@ def test_auto_falls_back_to_the_lmi_when_riccati_cannot_certify(monkeypatch):
 
 
 @pytest.mark.parametrize("method", ["auto", "riccati", "lmi"])
-def test_unstable_system_raises_not_stable_on_every_route(method):
+def test_unstable_system_raises_not_mss_on_every_route(method):
     G = ct.ss([[1.2]], [[1.0]], [[1.0]], [[1.0]], True)
     with pytest.raises(CertificationError) as info:
         get_input_ff_index(G, method=method)
-    assert info.value.reason == "not_stable"
+    assert info.value.reason == "not_mss"
     assert passivity_certificate(G, 0.0, method=method).reason == "not_mss"
 
 

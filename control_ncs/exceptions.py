@@ -1,0 +1,82 @@
+"""Errors raised when nothing can be certified, and their named reasons.
+
+Every :class:`CertificationError` (and :class:`SynthesisError`) carries a
+``reason``, one of the constants below (one word per case), and the
+``figures`` that were measured. Both survive pickling, so an error raised in
+a worker process (``concurrent.futures.ProcessPoolExecutor``) reaches the
+caller intact.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["CertificationError", "SynthesisError", "REASONS", "CERTIFIED",
+           "NOT_MSS", "FEEDTHROUGH", "INFEASIBLE", "SOLVER_FAILED",
+           "INACCURATE", "NOT_VERIFIED"]
+
+#: A certificate passed the exact checks (a verdict, never an error reason).
+CERTIFIED = "certified"
+#: Not mean-square stable (``ms_radius ≥ 1``, or ``≥ r²`` with a decay
+#: bound ``r``): no certificate, no index exists.
+NOT_MSS = "not_mss"
+#: A necessary feedthrough condition fails (MATH §6, e.g. ``D̄ + D̄ᵀ ⊁ 2ηI``).
+FEEDTHROUGH = "feedthrough"
+#: Proven: no certificate exists (the LMI with its margin is infeasible, a
+#: Riccati iteration diverged, or a KYP frequency refutes the level).
+INFEASIBLE = "infeasible"
+#: The solver (or an iteration) failed or was inconclusive.
+SOLVER_FAILED = "solver_failed"
+#: The solver's status stayed inaccurate.
+INACCURATE = "inaccurate"
+#: The answer found fails the exact checks of :mod:`control_ncs.verify`.
+NOT_VERIFIED = "not_verified"
+
+#: Every reason an error may carry.
+REASONS = (NOT_MSS, FEEDTHROUGH, INFEASIBLE, SOLVER_FAILED, INACCURATE,
+           NOT_VERIFIED)
+
+
+class CertificationError(RuntimeError):
+    """A passivity or stability result could not be certified.
+
+    Parameters
+    ----------
+    message : str
+    reason : str
+        One of :data:`REASONS`: ``'not_mss'``, ``'feedthrough'``,
+        ``'infeasible'``, ``'solver_failed'``, ``'inaccurate'``,
+        ``'not_verified'``.
+    figures : dict, optional
+        Whatever was measured (solver status, eigenvalues, ``ms_radius``).
+
+    Attributes
+    ----------
+    reason : str
+    figures : dict
+
+    Examples
+    --------
+    >>> import pickle
+    >>> err = CertificationError("no certificate", NOT_MSS, {"ms_radius": 1.2})
+    >>> again = pickle.loads(pickle.dumps(err))
+    >>> again.reason, again.figures
+    ('not_mss', {'ms_radius': 1.2})
+    """
+
+    def __init__(self, message: str, reason: str,
+                 figures: dict | None = None):
+        super().__init__(message)
+        self.reason = reason
+        self.figures = dict(figures or {})
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # BaseException pickles as cls(*self.args), and args holds only the
+        # message: without this, unpickling calls __init__ without `reason`
+        # and fails (e.g. in a ProcessPoolExecutor's result queue).
+        return (type(self), (str(self), self.reason, self.figures),
+                self.__dict__)
+
+
+class SynthesisError(CertificationError):
+    """:func:`control_ncs.passivesyn` found no gain it could certify."""
