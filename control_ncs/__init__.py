@@ -12,10 +12,11 @@ from .gain import PeriodicGain
 from .strategies import build, feedback
 from .stability import ms_radius, is_mss, second_moment_operator
 from .moments import moments, MomentsResponse
-from .verify import (Certificate, CertificationError, SynthesisError,
-                     check_certificate, certified_index, certify_index,
-                     dissipation_matrices)
-from .passivity import (ispassive, get_input_ff_index, mean_input_ff_index,
+from .exceptions import CertificationError, SynthesisError
+from .verify import (Certificate, check_certificate, certified_index,
+                     certify_index, certify_ofp_index, dissipation_matrices)
+from .passivity import (ispassive, get_input_ff_index, get_output_fb_index,
+                        mean_input_ff_index,
                         frequency_ff_index, passivity_certificate,
                         PassivityResult)
 from .synthesis import passivesyn, SynthesisResult
@@ -33,8 +34,9 @@ __all__ = [
     "moments", "MomentsResponse",
     "Certificate", "CertificationError", "SynthesisError",
     "check_certificate", "certified_index", "certify_index",
-    "dissipation_matrices",
-    "ispassive", "get_input_ff_index", "mean_input_ff_index",
+    "certify_ofp_index", "dissipation_matrices",
+    "ispassive", "get_input_ff_index", "get_output_fb_index",
+    "mean_input_ff_index",
     "frequency_ff_index", "passivity_certificate", "PassivityResult",
     "passivesyn", "SynthesisResult",
     "simulate", "SamplePaths", "EnsembleResponse", "forced_response",

@@ -121,7 +121,7 @@ def test_predictor_closes_a_shared_channel_loop_with_verified_gain(actuator):
     # the controller only speaks at phase 2, where the actuator listens
     assert np.all(K.gains[:2] == 0) and np.any(K.gains[2] != 0)
     assert_predictor_verified(K, CL, eta, actuator)
-    assert ispassive(CL, eta)
+    assert ispassive(CL, ifp_index=eta)
     assert K.result.structure in ("block", "extended")
 
 

@@ -183,7 +183,7 @@ def test_every_gain_passes_independent_verification_and_ispassive(n, losses):
             continue
         assert K.gains.shape == (spec.N, 2, n)
         assert_verified(spec, K, CL, eta)
-        assert ispassive(CL, eta)
+        assert ispassive(CL, ifp_index=eta)
         assert eta < K.result.certificate.eta_sup
         outcomes.append("ok")
     assert outcomes.count("ok") >= 4, outcomes
