@@ -69,9 +69,10 @@ import matplotlib.pyplot as plt
 from control.exception import ControlArgument, ControlDimension
 from scipy.special import ndtri
 
-from ._checks import matrix, no_extra_kwargs, positive_int, real_array
+from ._checks import no_extra_kwargs, positive_int
 from .jump import JumpStateSpace, as_jump
-from .moments import MomentsResponse, input_signal, moments, time_grid
+from .moments import (MomentsResponse, covariance, initial_mean, input_signal,
+                      moments, real_values, time_grid)
 from .stability import ms_radius
 
 __all__ = ["simulate", "SamplePaths", "EnsembleResponse", "forced_response",
@@ -145,7 +146,8 @@ class SamplePaths(ct.TimeResponseData):
         Parameters
         ----------
         paths : int or None, optional
-            Plot only the first ``paths`` trials (default 20; None = all).
+            Plot only the first ``paths`` trials (an int >= 1; default 20;
+        None = all).
         *args, **kwargs
             Passed to :func:`control.time_response_plot`.
 
@@ -153,6 +155,7 @@ class SamplePaths(ct.TimeResponseData):
         -------
         control.ControlPlot
         """
+        paths = positive_int(paths, "paths", allow_none=True)
         data = self
         if paths is not None and paths < self.ntraces:
             data = _sample_paths(self.t, self.y[:, :paths], self.x[:, :paths],
@@ -290,45 +293,28 @@ def _psd_factor(value: Any, size: int, name: str) -> np.ndarray | None:
     By the symmetric eigendecomposition, so a singular (rank-deficient)
     covariance is fine and costs only ``rank`` draws per step.
     """
-    if value is None:
+    W = covariance(value, size, name)
+    if W is None:
         return None
-    W = matrix(value, name, (size, size))
-    scale = max(1.0, float(np.max(np.abs(W))))
-    if not np.allclose(W, W.T, rtol=0, atol=1e-12 * scale):
-        raise ValueError(f"{name}: a covariance matrix must be symmetric")
-    lam, V = np.linalg.eigh(0.5 * (W + W.T))
+    lam, V = np.linalg.eigh(W)
+    scale = max(1.0, float(np.max(np.abs(W), initial=0.0)))
     tol = 1e-12 * max(scale, float(np.max(np.abs(lam), initial=0.0)))
-    if lam.size and lam.min() < -1e3 * tol:
-        raise ValueError(f"{name}: a covariance matrix must be positive "
-                         f"semidefinite, got eigenvalue {lam.min():.3g}")
     keep = lam > tol
     if not keep.any():
         return None
     return V[:, keep] * np.sqrt(lam[keep])
 
 
-def _initial(initial_state: Any, n: int) -> np.ndarray:
-    if initial_state is None:
-        return np.zeros(n)
-    x0 = real_array(initial_state, "initial_state", ndim=(0, 1))
-    if x0.ndim == 0:
-        return np.full(n, float(x0))
-    if x0.size != n:
-        raise ControlDimension(f"initial_state: expected {n} entries, got "
-                               f"{x0.size}")
-    return x0.copy()
-
-
 def _root_entropy(seed: Any) -> list[int]:
+    bad = ControlArgument(
+        f"seed: expected None, an int >= 0, a numpy.random.SeedSequence, a bit "
+        f"generator or a numpy.random.Generator, got {seed!r}")
     if isinstance(seed, (bool, np.bool_)):
-        raise ControlArgument(f"seed: expected None, an int or a "
-                              f"numpy.random.Generator, got {seed!r}")
+        raise bad
     try:
         rng = np.random.default_rng(seed)
     except (TypeError, ValueError):
-        raise ControlArgument(
-            f"seed: expected None, an int, a numpy.random.SeedSequence, a bit "
-            f"generator or a numpy.random.Generator, got {seed!r}") from None
+        raise bad from None
     return [int(v) for v in rng.integers(0, 2**63, size=4, dtype=np.int64)]
 
 
@@ -375,7 +361,7 @@ def _prepare(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
     m = sys.modes.B.shape[-1]
     t = time_grid(sys, timepts)
     w = input_signal(inputs, m, t.size)
-    x0 = _initial(initial_state, n)
+    x0 = initial_mean(initial_state, n)
     noise = _psd_factor(noise_covariance, m, "noise_covariance")
     spread = _psd_factor(initial_covariance, n, "initial_covariance")
     trials = positive_int(trials, "trials")
@@ -510,7 +496,16 @@ class _Storage:
 
     @classmethod
     def empty(cls, run: _Run, trials: int) -> _Storage:
-        slabs = np.empty((run.time.size + 1, cls.rows(run), trials))
+        shape = (run.time.size + 1, cls.rows(run), trials)
+        try:
+            slabs = np.empty(shape)
+        except (MemoryError, ValueError):
+            gib = math.prod(shape) * 8 / 2**30
+            raise MemoryError(
+                f"trials, timepts: {trials} paths of {run.time.size} steps "
+                f"need {gib:.3g} GiB; ask for fewer trials or steps, or use an "
+                f"ensemble response (step_response, ...) with keep_paths and "
+                f"quantiles=() for bounded memory") from None
         return cls(slabs, *cls.layout(run))
 
     def views(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -568,6 +563,9 @@ def _simulate_chunk(run: _Run, a: int, b: int, store: _Storage,
 
 
 def _progress_bar(progress: bool, total: int, desc: str):
+    if not isinstance(progress, (bool, np.bool_)):
+        raise ControlArgument(f"progress: expected True or False, got "
+                              f"{progress!r}")
     if not progress:
         return contextlib.nullcontext(None)
     if not tqdm_check():
@@ -590,13 +588,13 @@ def _empty_paths(run: _Run, trials: int, title: str
     # on zero-length placeholders and the views of the storage are attached.
     s = run.sys
     n, m, p = (len(s.jump_states), len(s.jump_inputs), len(s.jump_outputs))
+    store = _Storage.empty(run, trials)     # first: it may not fit
     paths = SamplePaths(
         run.time[:0], np.empty((p, trials, 0)), np.empty((n, trials, 0)),
         np.empty((m, trials, 0)), issiso=False, squeeze=False,
         multi_trace=True, trace_labels=[f"trial {i}" for i in range(trials)],
         trace_types=["forced"] * trials, plot_inputs=False, title=title,
         **_signal_labels(s))
-    store = _Storage.empty(run, trials)
     paths.t = run.time
     paths.x, paths.y, paths.u = store.views()
     return paths, store
@@ -622,12 +620,13 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
         E.g. any closed loop of :func:`control_ncs.feedback` (static or
         predictor controller, zero or hold actuator, any schedule).
     timepts : int or array_like
-        Number of steps, or the times ``t0, t0 + dt, …`` (as in
-        :func:`control_ncs.moments`).
+        Number of steps ``T``, or the times ``0, dt, …, (T-1)·dt`` (they
+        must start at 0: step ``t`` runs phase ``t mod N``), as in
+        :func:`control_ncs.moments`.
     inputs : array_like, shape (m, T), optional
         Deterministic part of ``w`` (default zero; scalars broadcast).
-    initial_state : array_like, shape (n,), optional
-        Mean of ``ξ[0]`` (default zero).
+    initial_state : array_like, shape (n,), or scalar, optional
+        Mean of ``ξ[0]`` (default zero; a scalar applies to every state).
     trials : int, optional
         Number of sample paths (default 100).
     seed : None, int, SeedSequence, bit generator or numpy.random.Generator
@@ -663,8 +662,16 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     TypeError
         Unknown keyword.
     ValueError
-        Bad ``timepts``, ``trials``, ``chunk``, ``workers``, or a covariance
-        that is not symmetric positive semidefinite.
+        Bad ``timepts`` (see :func:`control_ncs.moments`), ``trials``,
+        ``chunk``, ``workers``, complex or non-finite ``inputs`` or
+        ``initial_state``, or a covariance that is not symmetric positive
+        semidefinite.
+    ControlDimension
+        Arrays of the wrong shape.
+    ControlArgument
+        Bad ``seed`` or ``progress``.
+    MemoryError
+        The paths do not fit in memory (the message names the size).
     ImportError
         ``progress=True`` without ``tqdm``.
 
@@ -722,15 +729,20 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
 
 
 def _cpus() -> int:
-    """CPUs this process may run on."""
+    """CPUs this process may run on (at least 1)."""
     try:
         return len(os.sched_getaffinity(0))
-    except AttributeError:         # not on Linux
-        return os.cpupositive_int() or 1
+    except AttributeError:         # not on Linux (macOS, Windows)
+        # Python 3.13 counts the CPUs of this process; before, of the machine
+        count = getattr(os, "process_cpu_count", os.cpu_count)()
+        return count or 1
 
 
 def _quantile_levels(quantiles: Any) -> tuple:
-    q = real_array(quantiles, "quantiles", ndim=(0, 1)).reshape(-1)
+    if quantiles is None:
+        raise ValueError("quantiles: expected a sequence of probabilities in "
+                         "[0, 1] (() for none), got None")
+    q = real_values(quantiles, "quantiles", ndim=(0, 1)).reshape(-1)
     if np.any(q < 0) or np.any(q > 1):
         raise ValueError(f"quantiles: probabilities must lie in [0, 1], got "
                          f"{q.tolist()}")
@@ -756,7 +768,13 @@ def _ensemble(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
     paths, kept = _empty_paths(run, keep, title)
     store = _Storage.empty(run, run.chunk)
     zrow = store.zrow
-    everything = np.empty((p, run.trials, T)) if levels else None
+    try:
+        everything = np.empty((p, run.trials, T)) if levels else None
+    except (MemoryError, ValueError):
+        raise MemoryError(
+            f"quantiles: exact quantiles keep every trial's outputs "
+            f"({p * run.trials * T} floats); pass quantiles=() for bounded "
+            f"memory") from None
     count, mean, M2 = 0, np.zeros((T, p)), np.zeros((T, p, p))
     states_sum = np.zeros((T, n))
     nchunks = -(-run.trials // run.chunk)
@@ -882,7 +900,8 @@ def forced_response(sys: Any, timepts: Any, inputs: Any = None,
     ----------
     sys : JumpStateSpace or discrete-time control.StateSpace
     timepts : int or array_like
-        Number of steps, or times ``t0, t0 + dt, …``.
+        Number of steps, or the times ``0, dt, 2·dt, …``, as in
+        :func:`simulate`.
     inputs : array_like, shape (m, T), optional
         Deterministic part of ``w`` (default zero).
     initial_state : array_like, shape (n,), optional
@@ -1069,7 +1088,8 @@ def initial_response(sys: Any, timepts: Any = None, initial_state: Any = None,
 
 
 for _f in (forced_response, step_response, impulse_response, initial_response):
-    _f.__doc__ = _f.__doc__.replace("{options}", _OPTIONS_DOC)
+    if _f.__doc__:                 # None under python -OO
+        _f.__doc__ = _f.__doc__.replace("{options}", _OPTIONS_DOC)
 del _f
 
 
@@ -1117,6 +1137,9 @@ def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
     if not isinstance(response, EnsembleResponse):
         raise ControlArgument(f"response: expected an EnsembleResponse (see "
                               f"step_response), got {type(response).__name__}")
+    if isinstance(paths, (bool, np.bool_)) or not isinstance(
+            paths, (int, np.integer)) or paths < 0:
+        raise ValueError(f"paths: expected an int >= 0, got {paths!r}")
     p = len(response.output_labels)
     if ax is None:
         fig, axes = plt.subplots(p, 1, sharex=True, squeeze=False)
@@ -1127,7 +1150,7 @@ def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
             raise ControlDimension(f"ax: expected {p} axes (one per output), "
                                    f"got {axes.size}")
         fig = axes[0].figure
-    shown = max(0, min(int(paths), response.paths.ntraces))
+    shown = min(int(paths), response.paths.ntraces)
     t = response.time
     lines = np.empty((p, 1), dtype=object)
     lo = hi = None

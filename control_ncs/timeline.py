@@ -41,11 +41,14 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
     import matplotlib.pyplot as plt
     from control.exception import ControlArgument
 
+    from ._checks import positive_int
+
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
     if steps is None:
         steps = max(8, 2 * P.period)
+    steps = positive_int(steps, "steps")
     if ax is None:
         _, ax = plt.subplots(figsize=(min(12, 2 + 0.35 * steps),
                                       0.6 + 0.35 * (P.nmeas + P.ncon)))
