@@ -4,10 +4,15 @@ Every bad argument raises a named exception at the public function, never a
 raw error from numpy, scipy or ARPACK, and nothing is silently truncated.
 """
 
+import ast
+import importlib
 import os
 import pathlib
+import pkgutil
 import subprocess
 import sys
+
+import control as ct
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -232,3 +237,61 @@ def test_ms_radius_tolerance_is_checked_on_every_route():
 def test_second_moment_operator_refuses_a_phase_that_is_not_an_int(k):
     with pytest.raises(ValueError, match="^k: "):
         cn.second_moment_operator(scalar(), k=k)
+
+
+# -- module layout ----------------------------------------------------------------
+def test_no_submodule_bears_the_name_of_a_public_name():
+    # `import control_ncs.simulate` must not hand back a function. Read the
+    # package's own directory: an editable install's import hook may map
+    # submodule names to another checkout.
+    modules = {m.name for m in pkgutil.iter_modules(cn.__path__)}
+    assert modules, "no submodules found"
+    assert not modules & set(cn.__all__)
+
+
+@pytest.mark.parametrize("module, names", [
+    ("responses", ["simulate", "step_response", "impulse_response",
+                   "initial_response", "forced_response", "SamplePaths",
+                   "EnsembleResponse"]),
+    ("plots", ["plot_ensemble", "schedule_plot"]),
+    ("meancov", ["moments", "MomentsResponse"]),
+    ("stability", ["ms_radius", "is_mss", "second_moment_operator"])])
+def test_public_names_live_in_the_module_of_their_job(module, names):
+    mod = importlib.import_module(f"control_ncs.{module}")
+    for name in names:
+        assert getattr(mod, name) is getattr(cn, name)
+        assert name in mod.__all__
+
+
+ANALYSIS_MODULES = {"montecarlo", "responses", "plots", "meancov", "stability"}
+
+
+def test_analysis_modules_share_no_private_names():
+    package = pathlib.Path(cn.__file__).parent
+    for path in sorted(package.glob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if not (isinstance(node, ast.ImportFrom) and node.level == 1):
+                continue
+            if path.stem in ANALYSIS_MODULES or node.module in ANALYSIS_MODULES:
+                private = [a.name for a in node.names
+                           if a.name.startswith("_")]
+                assert not private, f"{path.name} imports {private}"
+
+
+def test_schedule_plot_returns_a_control_plot():
+    P = cn.nss(np.eye(2), np.eye(2), np.vstack([np.eye(2)[:1], np.eye(2)]),
+               np.zeros((3, 2)), nmeas=2, ncon=1, sensor_schedule=[2, 1, 0, 2])
+    cplt = cn.schedule_plot(P, 8)
+    assert isinstance(cplt, ct.ControlPlot)
+    assert cplt.axes.shape == (1, 1)
+    assert len(cplt.lines[0, 0]) == 3          # two sensors, one actuator
+    assert cplt.figure is cplt.axes[0, 0].figure
+
+
+def test_schedule_plot_draws_in_given_axes():
+    P = cn.nss(np.eye(2), np.eye(2), np.vstack([np.eye(2)[:1], np.eye(2)]),
+               np.zeros((3, 2)), nmeas=2, ncon=1, sensor_schedule=[2, 1, 0, 2])
+    fig, ax = plt.subplots()
+    cplt = cn.schedule_plot(P, ax=ax)
+    assert cplt.axes[0, 0] is ax and cplt.figure is fig

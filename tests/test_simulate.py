@@ -1,4 +1,5 @@
-"""Sample paths and ensemble responses (control_ncs.simulate, issue 5).
+"""Sample paths and ensemble responses (control_ncs.responses and its engine
+control_ncs.montecarlo, issue 5).
 
 Statistical checks use fixed seeds and tolerances of a few standard errors
 estimated from the same sample.
@@ -13,15 +14,14 @@ import control as ct
 from control.exception import ControlArgument, ControlDimension
 
 import control_ncs as cn
-import importlib
+from control_ncs import montecarlo
+from control_ncs.montecarlo import tqdm_check
+from control_ncs.plots import plot_ensemble
+from control_ncs.responses import (EnsembleResponse, SamplePaths,
+                                   default_steps, forced_response,
+                                   impulse_response, initial_response,
+                                   simulate, step_response)
 from helpers import random_jump
-
-# the package exports the function simulate(), which hides the submodule
-simulate_module = importlib.import_module("control_ncs.simulate")
-from control_ncs.simulate import (EnsembleResponse, SamplePaths, default_steps,
-                                  forced_response, impulse_response,
-                                  initial_response, plot_ensemble, simulate,
-                                  step_response, tqdm_check)
 
 # A generalized plant with two disturbances, two performance outputs and one
 # control input (inputs [w; u], outputs [z; y], y = x).
@@ -260,7 +260,7 @@ def reference_paths(sys, T, inputs, x0, trials, seed):
     (trial ``i`` reads uniforms ``i·T .. i·T+T-1``, mode ``i`` of phase
     ``k`` where the cumulative probabilities first exceed the uniform),
     driven by the realised ``inputs`` [input, trial, time]."""
-    entropy = simulate_module._root_entropy(seed)
+    entropy = montecarlo.root_entropy(seed)
     modes = sys.modes
     cdf = np.cumsum(modes.probabilities, axis=1)
     cdf /= cdf[:, -1:]
@@ -300,8 +300,8 @@ def test_paths_follow_the_documented_streams_mode_by_mode():
 
 def test_products_split_by_trials_give_the_same_paths(monkeypatch):
     whole = run(9, trials=120, chunk=120)
-    monkeypatch.setattr(simulate_module, "_GEMM_SERIAL", 1)
-    monkeypatch.setattr(simulate_module, "_MIN_COLUMNS", 7)   # 18 products
+    monkeypatch.setattr(montecarlo, "GEMM_SERIAL", 1)
+    monkeypatch.setattr(montecarlo, "MIN_COLUMNS", 7)   # 18 products
     split = run(9, trials=120, chunk=120)
     np.testing.assert_allclose(split.outputs, whole.outputs, rtol=1e-12,
                                atol=1e-14)
@@ -388,7 +388,7 @@ def test_progress_bar_is_shown(capsys, workers):
 
 
 def test_progress_without_tqdm_raises_a_clear_error(monkeypatch):
-    monkeypatch.setattr(simulate_module, "tqdm_check", lambda: False)
+    monkeypatch.setattr(montecarlo, "tqdm_check", lambda: False)
     with pytest.raises(ImportError, match="tqdm"):
         simulate(closed_loop("static-zero"), 5, trials=2, progress=True)
 
