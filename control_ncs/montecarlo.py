@@ -19,9 +19,12 @@ for its modes, ``T·r`` for its noise, ``r = rank W``), reached by
 :meth:`numpy.random.PCG64.advance`. Gaussians come from those uniforms by the
 inverse normal CDF, so every draw costs exactly one word of its stream. Hence
 a trial's path depends only on the seed and its index: the result does not
-depend on ``chunk``, the first ``k`` trials of a run are the run with
-``trials=k``, and adding noise does not change the mode sequences (common
-random numbers when comparing designs).
+depend on ``chunk`` or ``workers``, the first ``k`` trials of a run are the
+run with ``trials=k``, and adding noise does not change the mode sequences
+(common random numbers when comparing designs). "Does not depend" is
+bit for bit where the BLAS computes every column of a product alike
+(OpenBLAS, numpy's own builds; see :func:`columnwise_product`), and to
+rounding (relative 1e-12) with any BLAS.
 
 Engine and memory
 -----------------
@@ -343,7 +346,8 @@ def simulate_chunk(run: Run, a: int, b: int, store: Storage,
     slabs[0, :n] = run.x0[:, None]
     if run.spread is not None:
         r0 = run.spread.shape[1]
-        slabs[0, :n] += run.spread @ run.normals(_INITIAL, a, c, r0).T
+        slabs[0, :n] += columnwise_product(
+            run.spread, run.normals(_INITIAL, a, c, r0).T)
     mask = _mode_masks(run, a, c)
     width = max(MIN_COLUMNS, GEMM_SERIAL // max(ph.G.size for ph in phases))
     blocks = [slice(j, j + width) for j in range(0, c, width)]
@@ -353,20 +357,39 @@ def simulate_chunk(run: Run, a: int, b: int, store: Storage,
         r = V.shape[0]
         if r:
             s = flat[row + n + m:row + n + m + r]
-            np.matmul(V, flat[row:row + n + m], out=s)
+            columnwise_product(V, flat[row:row + n + m], out=s)
             if len(parts) == 1:
                 s *= mask[t, 0]
             else:
                 for q, (_, rows) in enumerate(parts):
                     s[rows] *= mask[t, q]
         into, out = flat[row:row + n + m + r], flat[row + zrow:row + R + n]
-        if len(blocks) == 1:
-            np.matmul(G, into, out=out)
-        else:
-            for cols in blocks:
-                np.matmul(G, into[:, cols], out=out[:, cols])
+        for cols in blocks:
+            columnwise_product(G, into[:, cols], out=out[:, cols])
         if bar is not None:
             bar.update(1)
+
+
+def columnwise_product(A: np.ndarray, X: np.ndarray,
+                       out: np.ndarray | None = None) -> np.ndarray:
+    """``A @ X``, each column computed alike whatever the width of ``X``.
+
+    numpy hands a one-column product to ``gemv``, which sums in another
+    order than ``gemm``: a trial alone in its chunk (or block) would differ
+    in the last bits from the same trial beside others. A lone column is
+    therefore multiplied beside a zero column, so that the paths do not
+    depend on ``chunk`` (bit-identical with OpenBLAS, whose ``gemm`` treats
+    every column alike).
+    """
+    if X.shape[1] != 1:
+        return np.matmul(A, X, out=out)
+    pair = np.zeros((X.shape[0], 2))
+    pair[:, :1] = X
+    col = np.matmul(A, pair)[:, :1]
+    if out is None:
+        return col
+    out[...] = col
+    return out
 
 
 def progress_check(progress: Any) -> bool:

@@ -286,7 +286,8 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     chunk : int, optional
         Trials simulated together; bounds the working memory. Default: as
         many as keep one step's data in a core's cache (about 256 kB). Does
-        not change the result.
+        not change the paths (bit for bit with OpenBLAS, to rounding with
+        any BLAS; see :mod:`control_ncs.montecarlo`).
     workers : int, optional
         Threads simulating chunks side by side (numpy's matrix products
         release the GIL; each chunk writes its own trials). Default: the
@@ -451,7 +452,9 @@ _OPTIONS_DOC = """trials : int, optional
         Number of full sample paths kept in ``paths`` (default 100; None =
         all). Statistics always use every trial.
     chunk : int, optional
-        Trials simulated together (memory bound); does not change results.
+        Trials simulated together (memory bound). Does not change the
+        sample paths (as in :func:`simulate`); the statistics, accumulated
+        chunk by chunk, agree to rounding.
     progress : bool, optional
         Show a progress bar (needs ``tqdm``)."""
 
