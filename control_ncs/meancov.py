@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass
 from typing import Any
 
@@ -62,11 +64,13 @@ def time_grid(sys: Any, timepts: Any) -> np.ndarray:
 def _count_grid(timepts: Any, dt: float) -> np.ndarray:
     bad = ValueError(f"timepts: expected a number of steps >= 1 or an array "
                      f"of times, got {timepts!r}")
-    if isinstance(timepts, (bool, np.bool_, str, bytes)) or not isinstance(
-            timepts, (int, float, np.integer, np.floating)):
+    if isinstance(timepts, np.ndarray):          # 0-d array
+        timepts = timepts.item()
+    if isinstance(timepts, (bool, np.bool_)) or not isinstance(
+            timepts, numbers.Real):
         raise bad
-    if isinstance(timepts, (float, np.floating)) and not (
-            np.isfinite(timepts) and timepts == int(timepts)):
+    if not isinstance(timepts, numbers.Integral) and not (
+            math.isfinite(timepts) and timepts == int(timepts)):
         raise bad
     steps = int(timepts)
     if steps < 1:

@@ -51,8 +51,8 @@ class SamplePaths(ct.TimeResponseData):
     realised ``w`` of each trial (deterministic part plus sampled white
     noise), so that every path can be replayed. It differs from its base
     class only in :meth:`plot`'s defaults, and in memory layout: ``x``,
-    ``y`` and ``u`` are views of one time-major array (see the module
-    notes), not C-contiguous; ``numpy.ascontiguousarray`` makes a
+    ``y`` and ``u`` are views of one time-major array (see
+    :mod:`control_ncs.montecarlo`), not C-contiguous; ``numpy.ascontiguousarray`` makes a
     contiguous copy where one is needed. Any one of them keeps that whole
     array alive, including the scratch rows of the step (one per unit of
     rank by which the modes differ): to keep only the outputs of a large
@@ -257,7 +257,7 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     ``z[t] = C[k,i] ξ[t] + D[k,i] w[t]`` (``k = t mod N``) with the mode ``i``
     of every trial drawn at every step with probability
     ``sys.modes.probabilities[k, i]``. All trials advance together, one
-    matrix product per step for all modes (see the module notes).
+    matrix product per step for all modes (see :mod:`control_ncs.montecarlo`).
 
     Parameters
     ----------
@@ -276,8 +276,9 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
         Number of sample paths (default 100).
     seed : None, int, SeedSequence, bit generator or numpy.random.Generator
         Source of randomness; a Generator is advanced. The global NumPy
-        random state is never used. See the module notes: a trial's path
-        depends only on the seed and its index.
+        random state is never used. A trial's path depends only on the seed
+        and its index (:mod:`control_ncs.montecarlo` says which draws it
+        reads).
     noise_covariance : array_like, shape (m, m), optional
         Covariance ``W`` of a zero-mean white Gaussian part of ``w``, added
         to ``inputs`` (positive semidefinite; may be singular).

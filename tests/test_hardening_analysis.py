@@ -5,6 +5,7 @@ raw error from numpy, scipy or ARPACK, and nothing is silently truncated.
 """
 
 import ast
+import fractions
 import importlib
 import os
 import pathlib
@@ -155,6 +156,13 @@ def test_a_count_and_the_times_from_zero_give_the_same_grid(func):
     by_times = TIME_DOMAIN[func](sys, [0.0, 0.5, 1.0, 1.5], initial_state=1.0)
     assert np.array_equal(by_count.time, [0.0, 0.5, 1.0, 1.5])
     assert np.array_equal(by_times.time, by_count.time)
+
+
+@pytest.mark.parametrize("count", [4, np.int64(4), 4.0, np.float32(4.0),
+                                   np.array(4), fractions.Fraction(4)])
+def test_a_number_of_steps_may_be_any_integral_real_number(count):
+    for func in TIME_DOMAIN.values():
+        assert func(scalar(), count).time.size == 4
 
 
 def test_paths_that_do_not_fit_in_memory_are_refused_naming_trials():
