@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import control as ct
 import matplotlib.pyplot as plt
+from matplotlib.axes import Axes
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import positive_int
@@ -19,6 +20,12 @@ from .plant import NetworkedStateSpace
 from .responses import EnsembleResponse
 
 __all__ = ["plot_ensemble", "schedule_plot"]
+
+
+def _check_axes(ax: Any) -> None:
+    if not isinstance(ax, Axes):
+        raise ControlArgument(f"ax: expected a matplotlib Axes, got "
+                              f"{type(ax).__name__}")
 
 
 def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
@@ -54,6 +61,16 @@ def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
         ``lines[i, 0]`` lists the lines of output ``i`` (paths, sample mean,
         exact mean); ``axes`` has shape (p, 1).
 
+    Raises
+    ------
+    ControlArgument
+        ``response`` is not an :class:`EnsembleResponse`, or ``ax`` holds
+        something else than matplotlib Axes.
+    ControlDimension
+        ``ax`` does not hold one axes per output.
+    ValueError
+        ``paths`` is not an int >= 0.
+
     Examples
     --------
     >>> from control_ncs import step_response, plot_ensemble
@@ -77,6 +94,8 @@ def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
         if axes.size != p:
             raise ControlDimension(f"ax: expected {p} axes (one per output), "
                                    f"got {axes.size}")
+        for a in axes:
+            _check_axes(a)
         fig = axes[0].figure
     shown = min(int(paths), response.paths.ntraces)
     t = response.time
@@ -137,7 +156,8 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
     Raises
     ------
     ControlArgument
-        ``P`` is not a :class:`NetworkedStateSpace`.
+        ``P`` is not a :class:`NetworkedStateSpace`, or ``ax`` not a
+        matplotlib Axes.
     ValueError
         ``steps`` is not an int >= 1.
 
@@ -158,6 +178,8 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
     if ax is None:
         _, ax = plt.subplots(figsize=(min(12, 2 + 0.35 * steps),
                                       0.6 + 0.35 * (P.nmeas + P.ncon)))
+    else:
+        _check_axes(ax)
     ys = P.output_labels[-P.nmeas:]
     us = P.input_labels[-P.ncon:]
     rows = [(f"sensor {s}", P.sensor_schedule, i, "tab:blue")

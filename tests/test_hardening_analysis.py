@@ -220,6 +220,19 @@ def test_plot_ensemble_refuses_a_bad_number_of_paths(paths):
         cn.plot_ensemble(r, paths=paths)
 
 
+def test_plot_ensemble_refuses_what_is_not_an_axes():
+    r = cn.step_response(scalar(), 3, trials=4, seed=0)
+    with pytest.raises(ControlArgument, match="^ax: "):
+        cn.plot_ensemble(r, ax="x")
+
+
+def test_schedule_plot_refuses_what_is_not_an_axes():
+    P = cn.nss(np.eye(2), np.eye(2), np.vstack([np.eye(2)[:1], np.eye(2)]),
+               np.zeros((3, 2)), nmeas=2, ncon=1, sensor_schedule=[2, 1, 0, 2])
+    with pytest.raises(ControlArgument, match="^ax: "):
+        cn.schedule_plot(P, ax=[1, 2])
+
+
 @pytest.mark.parametrize("steps", [0, -3, 1.5, float("inf"), "a"])
 def test_schedule_plot_refuses_a_bad_number_of_steps(steps):
     P = cn.nss(np.eye(2), np.eye(2), np.vstack([np.eye(2)[:1], np.eye(2)]),
