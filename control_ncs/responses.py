@@ -292,8 +292,10 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     workers : int, optional
         Threads simulating chunks side by side (numpy's matrix products
         release the GIL; each chunk writes its own trials). Default: the
-        CPUs this process may use, at most one per chunk. Does not change
-        the result.
+        CPUs this process may use (``os.sched_getaffinity``; where it does
+        not exist ``os.process_cpu_count``, Python >= 3.13, else
+        ``os.cpu_count``), at most one per chunk. Does not change the
+        result.
     progress : bool, optional
         Show a progress bar (needs the optional package ``tqdm``).
 
