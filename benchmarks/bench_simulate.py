@@ -64,7 +64,7 @@ def forced_loop(sys, T: int, trials: int, w: np.ndarray, x0: np.ndarray):
 
 
 def simulate_section(quick: bool) -> Section:
-    from control_ncs.simulate import simulate
+    from control_ncs.responses import simulate
     sec = Section("4. simulate: trial-steps per second")
     T = 200
     sizes = [4] if quick else [4, 32]

@@ -125,7 +125,7 @@ def _exact_ratio_bias(sys, t1: int, t2: int) -> float:
 
 def monte_carlo_section(quick: bool, n: int = 4) -> Section:
     from control_ncs import ms_radius
-    from control_ncs.simulate import simulate
+    from control_ncs.responses import simulate
     sec = Section(f"3b. ms_radius vs a Monte Carlo estimate (n = {n}, N = 10)")
     N = 10
     sys = random_loop(n, N)

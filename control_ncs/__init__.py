@@ -11,7 +11,7 @@ from .plant import NetworkedStateSpace, nss
 from .gain import PeriodicGain
 from .strategies import build, feedback
 from .stability import ms_radius, is_mss, second_moment_operator
-from .moments import moments, MomentsResponse
+from .meancov import moments, MomentsResponse
 from .exceptions import CertificationError, SynthesisError
 from .verify import (Certificate, check_certificate, certified_index,
                      certify_index, certify_ofp_index, dissipation_matrices)
@@ -20,11 +20,11 @@ from .passivity import (ispassive, get_input_ff_index, get_output_fb_index,
                         frequency_ff_index, passivity_certificate,
                         PassivityResult)
 from .synthesis import passivesyn, SynthesisResult
-from .simulate import (simulate, SamplePaths, EnsembleResponse,
-                       forced_response, step_response, impulse_response,
-                       initial_response, plot_ensemble)
+from .responses import (simulate, SamplePaths, EnsembleResponse,
+                        forced_response, step_response, impulse_response,
+                        initial_response)
+from .plots import plot_ensemble, schedule_plot
 from .interconnect import jump_feedback, lift_lti
-from .timeline import schedule_plot
 
 __all__ = [
     "Schedule", "schedule", "mode_probabilities",

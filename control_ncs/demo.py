@@ -91,12 +91,12 @@ def run_demo(outdir: str = "demo-output", *, trials: int = 200, seed: int = 0,
     """
     import matplotlib.pyplot as plt
 
-    from .moments import moments
+    from .meancov import moments
     from .passivity import mean_input_ff_index
     from .stability import ms_radius
     from .strategies import feedback
     from .synthesis import passivesyn
-    from .timeline import schedule_plot
+    from .plots import schedule_plot
     from .verify import SynthesisError
 
     say = print if verbose else (lambda *a, **k: None)
@@ -199,7 +199,7 @@ def _periodic_nominal(CL):
 def _sample_paths(CL, steps, w, trials, seed):
     """Monte Carlo paths of z (trials × steps), via simulate() if present."""
     try:
-        from .simulate import simulate
+        from .responses import simulate
     except ImportError:  # pragma: no cover - simulate is part of the package
         return None
     r = simulate(CL, steps, w, trials=trials, seed=seed)

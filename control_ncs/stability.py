@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
 
-from ._checks import choice, no_extra_kwargs
+from ._checks import choice, no_extra_kwargs, positive_real
 from .jump import as_jump
 
 __all__ = ["ms_radius", "is_mss", "second_moment_operator"]
@@ -37,14 +37,23 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
     ----------
     sys : JumpStateSpace or discrete-time StateSpace
     k : int, optional
-        Phase whose one-step map ``𝒯_k`` is wanted; default: the monodromy
-        ``𝒯`` over a whole period. Acts on ``vec(Q)`` (row-major ravel).
+        Phase whose one-step map ``𝒯_k`` is wanted (taken modulo the
+        period ``N``); default: the monodromy ``𝒯`` over a whole period.
+        Acts on ``vec(Q)`` (row-major ravel).
 
     Returns
     -------
     LinearOperator of shape (n², n²)
+
+    Raises
+    ------
+    ValueError
+        ``k`` is not an int.
     """
     sys = as_jump(sys)
+    if k is not None and (isinstance(k, (bool, np.bool_))
+                          or not isinstance(k, (int, np.integer))):
+        raise ValueError(f"k: expected an int (a phase) or None, got {k!r}")
     A, p = sys.modes.A, sys.modes.probabilities
     n = A.shape[-1]
     phases = range(sys.period) if k is None else [k % sys.period]
@@ -107,7 +116,8 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
         ``Φ`` (exact, since ``𝒯 = Φ ⊗ Φ``); otherwise ``'dense'`` up to
         ``DENSE_MAX_STATES`` states, else ``'matrix-free'``.
     tol : float
-        Relative accuracy asked of ARPACK (matrix-free route).
+        Relative accuracy asked of ARPACK (matrix-free route); a finite
+        number > 0.
 
     Returns
     -------
@@ -115,6 +125,12 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
 
     Raises
     ------
+    TypeError
+        Unknown keyword.
+    ControlArgument
+        Unknown ``method``.
+    ValueError
+        ``tol`` is not a positive finite number.
     RuntimeError
         If ARPACK does not converge (the message gives its best estimate).
 
@@ -131,6 +147,7 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
     no_extra_kwargs("ms_radius", kwargs)
     sys = as_jump(sys)
     choice(method, "method", ("auto", "dense", "matrix-free"))
+    tol = positive_real(tol, "tol")
     n = sys.modes.A.shape[-1]
     if method == "auto":
         phi = _deterministic_monodromy(sys)

@@ -14,7 +14,7 @@ from control.exception import ControlArgument, ControlDimension
 
 import control_ncs as cn
 from control_ncs.interconnect import jump_feedback, lift_lti
-from control_ncs.simulate import simulate, step_response
+from control_ncs.responses import simulate, step_response
 
 A = [[1.1, 0.2], [0.0, 0.9]]
 B = [[0.5, 0.1, 1.0], [1.0, 0.0, 0.5]]

@@ -1,4 +1,5 @@
-"""Sample paths and ensemble responses (control_ncs.simulate, issue 5).
+"""Sample paths and ensemble responses (control_ncs.responses and its engine
+control_ncs.montecarlo, issue 5).
 
 Statistical checks use fixed seeds and tolerances of a few standard errors
 estimated from the same sample.
@@ -13,15 +14,14 @@ import control as ct
 from control.exception import ControlArgument, ControlDimension
 
 import control_ncs as cn
-import importlib
+from control_ncs import montecarlo
+from control_ncs.montecarlo import tqdm_check
+from control_ncs.plots import plot_ensemble
+from control_ncs.responses import (EnsembleResponse, SamplePaths,
+                                   default_steps, forced_response,
+                                   impulse_response, initial_response,
+                                   simulate, step_response)
 from helpers import random_jump
-
-# the package exports the function simulate(), which hides the submodule
-simulate_module = importlib.import_module("control_ncs.simulate")
-from control_ncs.simulate import (EnsembleResponse, SamplePaths, default_steps,
-                                  forced_response, impulse_response,
-                                  initial_response, plot_ensemble, simulate,
-                                  step_response, tqdm_check)
 
 # A generalized plant with two disturbances, two performance outputs and one
 # control input (inputs [w; u], outputs [z; y], y = x).
@@ -224,14 +224,39 @@ def test_global_random_state_is_untouched():
     assert before[2:] == after[2:]
 
 
-def test_chunking_does_not_change_the_paths():
+def blas_name():
+    try:
+        return np.show_config(mode="dicts")["Build Dependencies"]["blas"][
+            "name"].lower()
+    except Exception:           # older numpy: no dict form
+        return ""
+
+
+def assert_same_paths(a, b):
+    """Bit-identical where the BLAS computes a column of a product the same
+    way whatever the product's width (OpenBLAS, numpy's wheels); otherwise
+    equal to rounding, as documented."""
+    for name in ("outputs", "states", "inputs"):
+        x, y = getattr(a, name), getattr(b, name)
+        if "openblas" in blas_name():
+            assert np.array_equal(x, y), (name, np.max(np.abs(x - y)))
+        else:
+            np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("chunk", [1, 2, 7, 17, 64, 1000])
+def test_chunking_does_not_change_the_paths(chunk):
+    # 120 = 17·7 + 1: chunks of 7 and 17 end with a one-trial chunk
     whole = run(9, trials=120)
-    for chunk in (1, 7, 64, 1000):
-        part = run(9, trials=120, chunk=chunk)
-        np.testing.assert_allclose(part.outputs, whole.outputs, rtol=1e-12,
-                                   atol=1e-14)
-        np.testing.assert_allclose(part.inputs, whole.inputs, rtol=1e-12,
-                                   atol=1e-14)
+    assert_same_paths(run(9, trials=120, chunk=chunk), whole)
+
+
+@pytest.mark.parametrize("chunk", [1, 3])
+def test_chunking_does_not_change_random_initial_states(chunk):
+    CL = closed_loop("predictor-hold")
+    args = dict(trials=10, seed=4, initial_covariance=0.2 * np.eye(CL.nstates))
+    assert_same_paths(simulate(CL, 6, chunk=chunk, **args),
+                      simulate(CL, 6, **args))
 
 
 @pytest.mark.parametrize("workers", [2, 3, None])
@@ -250,9 +275,14 @@ def test_bad_workers_raise_naming_the_argument(workers):
 
 
 def test_first_trials_do_not_depend_on_the_number_of_trials():
-    few, many = run(3, trials=20), run(3, trials=200)
-    np.testing.assert_allclose(many.outputs[:, :20], few.outputs, rtol=1e-12,
-                               atol=1e-14)
+    few, many = run(3, trials=1), run(3, trials=200)
+    assert_same_paths(few, run(3, trials=1, chunk=1))
+    for name in ("outputs", "states", "inputs"):
+        x, y = getattr(many, name)[:, :1], getattr(few, name)
+        if "openblas" in blas_name():
+            assert np.array_equal(x, y), name
+        else:
+            np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-14)
 
 
 def reference_paths(sys, T, inputs, x0, trials, seed):
@@ -260,7 +290,7 @@ def reference_paths(sys, T, inputs, x0, trials, seed):
     (trial ``i`` reads uniforms ``i·T .. i·T+T-1``, mode ``i`` of phase
     ``k`` where the cumulative probabilities first exceed the uniform),
     driven by the realised ``inputs`` [input, trial, time]."""
-    entropy = simulate_module._root_entropy(seed)
+    entropy = montecarlo.root_entropy(seed)
     modes = sys.modes
     cdf = np.cumsum(modes.probabilities, axis=1)
     cdf /= cdf[:, -1:]
@@ -300,13 +330,23 @@ def test_paths_follow_the_documented_streams_mode_by_mode():
 
 def test_products_split_by_trials_give_the_same_paths(monkeypatch):
     whole = run(9, trials=120, chunk=120)
-    monkeypatch.setattr(simulate_module, "_GEMM_SERIAL", 1)
-    monkeypatch.setattr(simulate_module, "_MIN_COLUMNS", 7)   # 18 products
-    split = run(9, trials=120, chunk=120)
-    np.testing.assert_allclose(split.outputs, whole.outputs, rtol=1e-12,
+    monkeypatch.setattr(montecarlo, "GEMM_SERIAL", 1)
+    monkeypatch.setattr(montecarlo, "MIN_COLUMNS", 7)   # 18 products
+    split = run(9, trials=120, chunk=120)       # the last product: 1 column
+    assert_same_paths(split, whole)
+
+
+def test_ensemble_statistics_do_not_depend_on_chunk_beyond_rounding():
+    CL = closed_loop("static-hold")
+    args = dict(input=0, trials=50, seed=8, noise_covariance=W_SINGULAR)
+    one, many = (step_response(CL, 12, chunk=1, **args),
+                 step_response(CL, 12, chunk=16, **args))
+    assert_same_paths(one.paths, many.paths)
+    np.testing.assert_allclose(one.sample_mean, many.sample_mean, rtol=1e-12,
                                atol=1e-14)
-    np.testing.assert_allclose(split.states, whole.states, rtol=1e-12,
+    np.testing.assert_allclose(one.sample_cov, many.sample_cov, rtol=1e-11,
                                atol=1e-14)
+    assert np.array_equal(one.quantile_values, many.quantile_values)
 
 
 def test_ensemble_paths_are_the_sample_paths_of_the_same_seed():
@@ -388,7 +428,7 @@ def test_progress_bar_is_shown(capsys, workers):
 
 
 def test_progress_without_tqdm_raises_a_clear_error(monkeypatch):
-    monkeypatch.setattr(simulate_module, "tqdm_check", lambda: False)
+    monkeypatch.setattr(montecarlo, "tqdm_check", lambda: False)
     with pytest.raises(ImportError, match="tqdm"):
         simulate(closed_loop("static-zero"), 5, trials=2, progress=True)
 

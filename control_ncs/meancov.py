@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass
 from typing import Any
 
@@ -12,20 +14,40 @@ from control.exception import ControlDimension
 from ._checks import matrix, no_extra_kwargs, real_array
 from .jump import as_jump
 
-__all__ = ["moments", "MomentsResponse", "time_grid", "input_signal"]
+__all__ = ["moments", "MomentsResponse"]
 
 
-def time_grid(sys, timepts: Any) -> np.ndarray:
-    """Validate ``timepts`` (an int count of steps, or equally spaced times
-    starting at 0 with spacing ``dt``) and return the times."""
+def real_values(value: Any, name: str, ndim: Any = None) -> np.ndarray:
+    """:func:`real_array` that also refuses complex values.
+
+    numpy casts a complex array to float by dropping the imaginary part
+    (with only a warning); a signal or state given as complex is a mistake
+    to report, not to truncate.
+    """
+    try:
+        is_complex = np.iscomplexobj(value)
+    except Exception:          # not array-like: real_array names the problem
+        is_complex = False
+    if is_complex:
+        raise ValueError(f"{name}: expected real numbers, got complex values")
+    return real_array(value, name, ndim=ndim)
+
+
+def time_grid(sys: Any, timepts: Any) -> np.ndarray:
+    """The time points of a run: ``0, dt, 2·dt, …``.
+
+    ``timepts`` is a number of steps (an int ``>= 1``, or a float equal to
+    one) or the times themselves, which must start at 0 and be spaced by
+    ``dt`` (1 when ``sys.dt`` is True): step ``j`` runs phase ``j mod N``,
+    so a grid starting elsewhere would silently shift the phases. Every
+    time-domain function of the package (:func:`moments`,
+    :func:`control_ncs.simulate` and the ensemble responses) reads its
+    times here.
+    """
     dt = 1.0 if sys.dt_step is True else float(sys.dt_step)
     if np.ndim(timepts) == 0:
-        steps = int(timepts)
-        if steps != timepts or steps < 1:
-            raise ValueError(f"timepts: expected a number of steps >= 1 or an "
-                             f"array of times, got {timepts!r}")
-        return np.arange(steps) * dt
-    t = real_array(timepts, "timepts", ndim=1)
+        return _count_grid(timepts, dt)
+    t = real_values(timepts, "timepts", ndim=1)
     if t.size < 1:
         raise ValueError("timepts: needs at least one time")
     if t[0] != 0:
@@ -39,12 +61,69 @@ def time_grid(sys, timepts: Any) -> np.ndarray:
     return t
 
 
+def _count_grid(timepts: Any, dt: float) -> np.ndarray:
+    bad = ValueError(f"timepts: expected a number of steps >= 1 or an array "
+                     f"of times, got {timepts!r}")
+    if isinstance(timepts, np.ndarray):          # 0-d array
+        timepts = timepts.item()
+    if isinstance(timepts, (bool, np.bool_)) or not isinstance(
+            timepts, numbers.Real):
+        raise bad
+    if not isinstance(timepts, numbers.Integral) and not (
+            math.isfinite(timepts) and timepts == int(timepts)):
+        raise bad
+    steps = int(timepts)
+    if steps < 1:
+        raise bad
+    try:
+        return np.arange(steps) * dt
+    except (MemoryError, ValueError, OverflowError):
+        raise MemoryError(f"timepts: {steps} steps do not fit in memory"
+                          ) from None
+
+
+def initial_mean(initial_state: Any, n: int) -> np.ndarray:
+    """``initial_state`` as ``n`` floats (None = zeros, a scalar broadcasts)."""
+    if initial_state is None:
+        return np.zeros(n)
+    x0 = real_values(initial_state, "initial_state", ndim=(0, 1))
+    if x0.ndim == 0:
+        return np.full(n, float(x0))
+    if x0.size != n:
+        raise ControlDimension(f"initial_state: expected {n} entries, got "
+                               f"{x0.size}")
+    return x0.copy()
+
+
+def covariance(value: Any, size: int, name: str) -> np.ndarray | None:
+    """A checked covariance matrix (symmetrised), or None for None.
+
+    Refuses, naming ``name``, a matrix that is not ``size × size``, not
+    symmetric or not positive semidefinite (an eigenvalue below
+    ``-1e-9`` relative to its largest entry): a negative "variance" would
+    give negative exact variances and no Gaussian to sample.
+    """
+    if value is None:
+        return None
+    real_values(value, name)
+    W = matrix(value, name, (size, size))
+    scale = max(1.0, float(np.max(np.abs(W), initial=0.0)))
+    if not np.allclose(W, W.T, rtol=0, atol=1e-12 * scale):
+        raise ValueError(f"{name}: a covariance matrix must be symmetric")
+    W = 0.5 * (W + W.T)
+    lam = np.linalg.eigvalsh(W)
+    if lam.size and lam.min() < -1e-9 * scale:
+        raise ValueError(f"{name}: a covariance matrix must be positive "
+                         f"semidefinite, got eigenvalue {lam.min():.3g}")
+    return W
+
+
 def input_signal(inputs: Any, m: int, steps: int, name: str = "inputs"
                  ) -> np.ndarray:
     """``inputs`` as an ``(m, steps)`` array (None = zeros, scalars broadcast)."""
     if inputs is None:
         return np.zeros((m, steps))
-    u = real_array(inputs, name, ndim=(0, 1, 2))
+    u = real_values(inputs, name, ndim=(0, 1, 2))
     if u.ndim == 1 and m == 1 and u.size == steps:
         u = u[None]
     try:
@@ -110,20 +189,33 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     ----------
     sys : JumpStateSpace or discrete-time control.StateSpace
     timepts : int or array_like
-        Number of steps, or times ``0, dt, 2dt, …``; phase ``t mod N`` applies
-        at step ``t``.
+        Number of steps ``T``, or the times ``0, dt, …, (T-1)·dt`` (they
+        must start at 0); phase ``t mod N`` applies at step ``t``.
     inputs : array_like, shape (m, T), optional
-        Deterministic part of ``w`` (default zero).
-    initial_state : array_like, shape (n,), optional
-        Mean of ``ξ_0`` (default zero).
+        Deterministic part of ``w`` (default zero; scalars broadcast).
+    initial_state : array_like, shape (n,), or scalar, optional
+        Mean of ``ξ_0`` (default zero; a scalar applies to every state).
     noise_covariance : array_like, shape (m, m), optional
-        Covariance ``W`` of a zero-mean white part of ``w``.
+        Covariance ``W`` of a zero-mean white part of ``w`` (symmetric
+        positive semidefinite).
     initial_covariance : array_like, shape (n, n), optional
-        Covariance of ``ξ_0`` (default zero: known initial state).
+        Covariance of ``ξ_0`` (default zero: known initial state; symmetric
+        positive semidefinite).
 
     Returns
     -------
     MomentsResponse
+
+    Raises
+    ------
+    TypeError
+        Unknown keyword.
+    ValueError
+        Bad ``timepts`` (not a count, not starting at 0, not spaced by
+        ``dt``), complex or non-finite values, or a covariance that is not
+        symmetric positive semidefinite.
+    ControlDimension
+        Arrays of the wrong shape.
 
     Examples
     --------
@@ -141,14 +233,11 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     t = time_grid(sys, timepts)
     T = t.size
     w = input_signal(inputs, m, T)
-    x0 = np.zeros(n) if initial_state is None else \
-        real_array(initial_state, "initial_state").reshape(-1)
-    if x0.size != n:
-        raise ControlDimension(f"initial_state: expected {n} entries, got {x0.size}")
-    W = np.zeros((m, m)) if noise_covariance is None else \
-        matrix(noise_covariance, "noise_covariance", (m, m))
-    P0 = np.zeros((n, n)) if initial_covariance is None else \
-        matrix(initial_covariance, "initial_covariance", (n, n))
+    x0 = initial_mean(initial_state, n)
+    W = covariance(noise_covariance, m, "noise_covariance")
+    W = np.zeros((m, m)) if W is None else W
+    P0 = covariance(initial_covariance, n, "initial_covariance")
+    P0 = np.zeros((n, n)) if P0 is None else P0
     mean_x, mean_z = np.zeros((n, T)), np.zeros((q, T))
     Sx, Sz = np.zeros((n, n, T)), np.zeros((q, q, T))
     mk, Qk = x0.copy(), P0 + np.outer(x0, x0)

@@ -1,0 +1,206 @@
+"""Figures: ensemble responses and network schedules.
+
+Every function returns python-control's :class:`control.ControlPlot`
+(``lines``, ``axes``, ``figure``, ``legend``), as
+:func:`control.time_response_plot` does.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import control as ct
+import matplotlib.pyplot as plt
+from matplotlib.axes import Axes
+from control.exception import ControlArgument, ControlDimension
+
+from ._checks import positive_int
+from .plant import NetworkedStateSpace
+from .responses import EnsembleResponse
+
+__all__ = ["plot_ensemble", "schedule_plot"]
+
+
+def _check_axes(ax: Any) -> None:
+    if not isinstance(ax, Axes):
+        raise ControlArgument(f"ax: expected a matplotlib Axes, got "
+                              f"{type(ax).__name__}")
+
+
+def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
+                  *, band: bool = True, legend: bool = True,
+                  title: str | None = None) -> ct.ControlPlot:
+    """Draw an ensemble response: band, sample paths, sample and exact mean.
+
+    One axes per output, each with ``paths`` thin sample paths, the band
+    between the lowest and highest quantile (``fill_between``), the sample
+    mean (solid) and the exact mean of MATH §7 (dashed, black) -- so
+    ``paths + 2`` lines and one filled band per axes.
+
+    Parameters
+    ----------
+    response : EnsembleResponse
+        From :func:`step_response`, :func:`impulse_response`,
+        :func:`initial_response` or :func:`forced_response`.
+    ax : matplotlib Axes or array of Axes, optional
+        One axes per output; default: a new figure.
+    paths : int, optional
+        Number of sample paths to draw (at most those kept in
+        ``response.paths``; default 5).
+    band : bool, optional
+        Draw the quantile band (needs at least two quantiles).
+    legend : bool, optional
+        Legend in the first axes.
+    title : str, optional
+        Figure title (default: the response's title; only for a new figure).
+
+    Returns
+    -------
+    control.ControlPlot
+        ``lines[i, 0]`` lists the lines of output ``i`` (paths, sample mean,
+        exact mean); ``axes`` has shape (p, 1).
+
+    Raises
+    ------
+    ControlArgument
+        ``response`` is not an :class:`EnsembleResponse`, or ``ax`` holds
+        something else than matplotlib Axes.
+    ControlDimension
+        ``ax`` does not hold one axes per output.
+    ValueError
+        ``paths`` is not an int >= 0.
+
+    Examples
+    --------
+    >>> from control_ncs import step_response, plot_ensemble
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> cplt = plot_ensemble(step_response(sys, 20, trials=200, seed=0), paths=3)
+    >>> len(cplt.axes[0, 0].get_lines()), len(cplt.axes[0, 0].collections)
+    (5, 1)
+    """
+    if not isinstance(response, EnsembleResponse):
+        raise ControlArgument(f"response: expected an EnsembleResponse (see "
+                              f"step_response), got {type(response).__name__}")
+    if isinstance(paths, (bool, np.bool_)) or not isinstance(
+            paths, (int, np.integer)) or paths < 0:
+        raise ValueError(f"paths: expected an int >= 0, got {paths!r}")
+    p = len(response.output_labels)
+    if ax is None:
+        fig, axes = plt.subplots(p, 1, sharex=True, squeeze=False)
+        axes = axes[:, 0]
+    else:
+        axes = np.asarray(ax, dtype=object).reshape(-1)
+        if axes.size != p:
+            raise ControlDimension(f"ax: expected {p} axes (one per output), "
+                                   f"got {axes.size}")
+        for a in axes:
+            _check_axes(a)
+        fig = axes[0].figure
+    shown = min(int(paths), response.paths.ntraces)
+    t = response.time
+    lines = np.empty((p, 1), dtype=object)
+    lo = hi = None
+    if band and len(response.quantiles) >= 2:
+        lo, hi = response.quantile_values[0], response.quantile_values[-1]
+        band_label = (f"{100 * response.quantiles[0]:g}–"
+                      f"{100 * response.quantiles[-1]:g}% band")
+    for i, a in enumerate(axes):
+        drawn = []
+        if shown:
+            drawn += a.plot(t, response.paths.y[i, :shown].T, color="0.55",
+                            linewidth=0.7, alpha=0.8)
+            drawn[0].set_label("sample paths")
+        if lo is not None:
+            a.fill_between(t, lo[i], hi[i], color="C0", alpha=0.25,
+                           linewidth=0, label=band_label)
+        drawn += a.plot(t, response.sample_mean[i], color="C0", linewidth=1.8,
+                        label=f"sample mean ({response.trials} trials)")
+        drawn += a.plot(t, response.exact_mean[i], color="k", linestyle="--",
+                        linewidth=1.2, label="exact mean")
+        a.set_ylabel(response.output_labels[i])
+        lines[i, 0] = drawn
+    axes[-1].set_xlabel("Time [s]")
+    legends = np.full((p, 1), None, dtype=object)
+    if legend:
+        legends[0, 0] = axes[0].legend(loc="best", fontsize="small")
+    if ax is None:
+        fig.suptitle(title if title is not None else response.title)
+    return ct.ControlPlot(lines, axes.reshape(p, 1), fig, legend=legends)
+
+
+def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
+                  ax: Any = None, title: str | None = None) -> ct.ControlPlot:
+    """Plot the sensor and actuator schedules of ``P`` as a timeline.
+
+    One row per sensor and per actuator; a filled cell at step ``t`` means
+    that node may send at ``t`` (MATH §3).
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+    steps : int, optional
+        Number of steps to draw (an int >= 1; default: two periods, at
+        least 8).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw in; default: a new figure.
+    title : str, optional
+        Axes title (default: the period and the loss probabilities).
+
+    Returns
+    -------
+    control.ControlPlot
+        ``axes`` has shape (1, 1); ``lines[0, 0]`` lists the filled cells
+        of each row (one ``broken_barh`` collection per node).
+
+    Raises
+    ------
+    ControlArgument
+        ``P`` is not a :class:`NetworkedStateSpace`, or ``ax`` not a
+        matplotlib Axes.
+    ValueError
+        ``steps`` is not an int >= 1.
+
+    Examples
+    --------
+    >>> P = nss(np.eye(2), np.eye(2), np.vstack([np.eye(2)[:1], np.eye(2)]),
+    ...         np.zeros((3, 2)), nmeas=2, ncon=1, sensor_schedule=[2, 1, 0, 2])
+    >>> cplt = schedule_plot(P)
+    >>> len(cplt.axes[0, 0].get_yticklabels())
+    3
+    """
+    if not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
+                              f"got {type(P).__name__}")
+    if steps is None:
+        steps = max(8, 2 * P.period)
+    steps = positive_int(steps, "steps")
+    if ax is None:
+        _, ax = plt.subplots(figsize=(min(12, 2 + 0.35 * steps),
+                                      0.6 + 0.35 * (P.nmeas + P.ncon)))
+    else:
+        _check_axes(ax)
+    ys = P.output_labels[-P.nmeas:]
+    us = P.input_labels[-P.ncon:]
+    rows = [(f"sensor {s}", P.sensor_schedule, i, "tab:blue")
+            for i, s in enumerate(ys)]
+    rows += [(f"actuator {s}", P.actuator_schedule, j, "tab:orange")
+             for j, s in enumerate(us)]
+    drawn = []
+    for r, (_, sched, node, color) in enumerate(rows):
+        on = [t for t in range(steps) if sched.pattern[t % sched.period, node]]
+        drawn.append(ax.broken_barh([(t, 0.9) for t in on], (r - 0.4, 0.8),
+                                    color=color))
+    ax.set_yticks(np.arange(len(rows)), [r[0] for r in rows])
+    ax.set_ylim(-0.6, len(rows) - 0.4)
+    ax.set_xlim(0, steps)
+    ax.invert_yaxis()
+    ax.set_xlabel("time step t")
+    for t in range(0, steps + 1, P.period):
+        ax.axvline(t, color="0.8", lw=0.8, zorder=0)
+    ax.set_title(title or (f"Schedule, period N = {P.period}, losses "
+                           f"α1 = {P.sensor_loss:g}, α2 = {P.actuator_loss:g}"))
+    lines = np.empty((1, 1), dtype=object)
+    lines[0, 0] = drawn
+    return ct.ControlPlot(lines, np.array([[ax]], dtype=object), ax.figure,
+                          legend=np.full((1, 1), None, dtype=object))

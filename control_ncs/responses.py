@@ -1,0 +1,672 @@
+"""Monte Carlo sample paths and ensemble responses of a jump system.
+
+A :class:`~control_ncs.jump.JumpStateSpace` (MATH §10) draws its mode
+independently at every step. :func:`simulate` draws many such realisations
+at once and returns them as a multi-trace :class:`control.TimeResponseData`
+(one trace per trial). :func:`step_response`, :func:`impulse_response`,
+:func:`initial_response` and :func:`forced_response` mirror python-control's
+functions of the same names: they return an :class:`EnsembleResponse` with
+the sample mean, quantile bands and, beside them, the *exact* mean and
+standard deviation of MATH §7 (:func:`control_ncs.moments`), so
+that every picture shows how far sampling is from the truth.
+:func:`control_ncs.plot_ensemble` draws the usual figure: exact mean,
+sample mean, band and a few sample paths. The engine (random streams,
+chunks, threads, memory) is :mod:`control_ncs.montecarlo`; its notes say
+which draws a trial reads and what a run holds in memory.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+import control as ct
+from control.exception import ControlArgument
+
+from ._checks import no_extra_kwargs, positive_int
+from .jump import JumpStateSpace, as_jump
+from .meancov import MomentsResponse, moments, real_values, time_grid
+from .montecarlo import (CHUNK_FLOATS, Run, Storage, ensemble_statistics,
+                         prepare, progress_check, run_chunks)
+from .stability import ms_radius
+
+__all__ = ["simulate", "SamplePaths", "EnsembleResponse", "forced_response",
+           "step_response", "impulse_response", "initial_response",
+           "default_steps"]
+
+#: Default horizon: steps until the mean-square transient has decayed by this
+#: factor (an RMS factor of 1 %), within [_MIN_STEPS, _MAX_STEPS].
+_SETTLE, _MIN_STEPS, _MAX_STEPS, _UNSTABLE_STEPS = 1e-4, 20, 1000, 50
+
+
+# -- the result types ---------------------------------------------------------
+class SamplePaths(ct.TimeResponseData):
+    """Sample paths of a jump system: a multi-trace time response.
+
+    A :class:`control.TimeResponseData` with one trace per trial:
+    ``outputs`` ``[output, trial, time]``, ``states`` ``[state, trial,
+    time]`` and ``inputs`` ``[input, trial, time]``, where the inputs are the
+    realised ``w`` of each trial (deterministic part plus sampled white
+    noise), so that every path can be replayed. It differs from its base
+    class only in :meth:`plot`'s defaults, and in memory layout: ``x``,
+    ``y`` and ``u`` are views of one time-major array (see
+    :mod:`control_ncs.montecarlo`), not C-contiguous; ``numpy.ascontiguousarray`` makes a
+    contiguous copy where one is needed. Any one of them keeps that whole
+    array alive, including the scratch rows of the step (one per unit of
+    rank by which the modes differ): to keep only the outputs of a large
+    run, keep ``numpy.array(paths.outputs)``.
+
+    Attributes
+    ----------
+    trials : int
+        Number of sample paths (``ntraces``).
+    """
+
+    @property
+    def trials(self) -> int:
+        return self.ntraces
+
+    def plot(self, *args: Any, paths: int | None = 20,
+             **kwargs: Any) -> ct.ControlPlot:
+        """Plot sample paths with :func:`control.time_response_plot`.
+
+        Defaults differ from python-control's so that many traces stay
+        readable: all trials overlaid in one axes per output
+        (``overlay_traces=True``), thin solid lines, no legend, no inputs
+        (pass ``plot_inputs=True`` to add them).
+
+        Parameters
+        ----------
+        paths : int or None, optional
+            Plot only the first ``paths`` trials (an int >= 1; default 20;
+        None = all).
+        *args, **kwargs
+            Passed to :func:`control.time_response_plot`.
+
+        Returns
+        -------
+        control.ControlPlot
+        """
+        paths = positive_int(paths, "paths", allow_none=True)
+        data = self
+        if paths is not None and paths < self.ntraces:
+            data = _sample_paths(self.t, self.y[:, :paths], self.x[:, :paths],
+                                 self.u[:, :paths], self)
+        kwargs.setdefault("overlay_traces", True)
+        kwargs.setdefault("plot_inputs", False)
+        kwargs.setdefault("show_legend", False)
+        if not args:
+            kwargs.setdefault("trace_props", [
+                {"linestyle": "-", "linewidth": 0.8, "alpha": 0.6}])
+        return ct.time_response_plot(data, *args, **kwargs)
+
+
+def _sample_paths(t, y, x, u, like) -> SamplePaths:
+    n = y.shape[1]
+    return SamplePaths(
+        t, y, x, u, issiso=False, squeeze=False, multi_trace=True,
+        output_labels=like.output_labels, state_labels=like.state_labels,
+        input_labels=like.input_labels,
+        trace_labels=[f"trial {i}" for i in range(n)],
+        trace_types=["forced"] * n, plot_inputs=False, sysname=like.sysname,
+        title=like.title)
+
+
+@dataclass
+class EnsembleResponse:
+    """Monte Carlo statistics of a response, beside the exact moments.
+
+    Statistics are over all ``trials``; arrays have time as the last axis.
+
+    Attributes
+    ----------
+    time : ndarray, shape (T,)
+    inputs : ndarray, shape (m, T)
+        The deterministic part of ``w``.
+    kind : str
+        ``'step'``, ``'impulse'``, ``'initial'`` or ``'forced'``.
+    trials : int
+    quantiles : tuple of float
+        Probabilities of :attr:`quantile_values`, ascending.
+    sample_mean : ndarray, shape (p, T)
+        Sample mean of the outputs.
+    sample_cov : ndarray, shape (p, p, T)
+        Sample covariance of the outputs (``ddof=1``; zero for one trial).
+    quantile_values : ndarray, shape (len(quantiles), p, T)
+        Sample quantiles of each output (``numpy.quantile``, linear).
+    states_sample_mean : ndarray, shape (n, T)
+    exact : MomentsResponse
+        Exact mean and covariance (MATH §7) for the same inputs, initial
+        state, noise and initial covariance.
+    paths : SamplePaths
+        The first ``keep_paths`` sample paths.
+    title : str
+    """
+
+    time: np.ndarray
+    inputs: np.ndarray
+    kind: str
+    trials: int
+    quantiles: tuple
+    sample_mean: np.ndarray
+    sample_cov: np.ndarray
+    quantile_values: np.ndarray
+    states_sample_mean: np.ndarray
+    exact: MomentsResponse
+    paths: SamplePaths
+    title: str = ""
+
+    @property
+    def sample_std(self) -> np.ndarray:
+        """Sample standard deviation of each output, shape (p, T)."""
+        return np.sqrt(np.maximum(np.einsum("iit->it", self.sample_cov), 0.0))
+
+    @property
+    def standard_error(self) -> np.ndarray:
+        """Standard error of :attr:`sample_mean`, ``sample_std/√trials``."""
+        return self.sample_std / math.sqrt(self.trials)
+
+    @property
+    def exact_mean(self) -> np.ndarray:
+        """``E z`` (MATH §7), shape (p, T)."""
+        return self.exact.outputs_mean
+
+    @property
+    def exact_std(self) -> np.ndarray:
+        """Exact standard deviation of each output, shape (p, T)."""
+        return self.exact.outputs_std
+
+    @property
+    def output_labels(self) -> list[str]:
+        return list(self.paths.output_labels)
+
+    def to_response(self) -> ct.TimeResponseData:
+        """The statistics as a multi-trace :class:`control.TimeResponseData`.
+
+        Traces: exact mean, sample mean, then one per quantile; the inputs
+        of every trace are the deterministic ``w``.
+        """
+        traces = [self.exact_mean, self.sample_mean, *self.quantile_values]
+        y = np.stack(traces, axis=1)
+        labels = ["exact mean", f"sample mean ({self.trials} trials)"] + \
+            [f"{100 * q:g}% quantile" for q in self.quantiles]
+        u = np.repeat(self.inputs[:, None, :], len(traces), axis=1)
+        return ct.TimeResponseData(
+            self.time, y, None, u, issiso=False, squeeze=False,
+            multi_trace=True, output_labels=self.output_labels,
+            input_labels=list(self.paths.input_labels), trace_labels=labels,
+            trace_types=[self.kind] * len(traces), plot_inputs=False,
+            sysname=self.paths.sysname, title=self.title)
+
+    def plot(self, *args: Any, **kwargs: Any) -> ct.ControlPlot:
+        """Plot the statistics with :func:`control.time_response_plot`.
+
+        One axes per output with ``2 + len(quantiles)`` lines: exact mean
+        (solid), sample mean (dashed), quantiles (dotted). Keywords are
+        passed on (e.g. ``plot_inputs=True``, ``overlay_traces=False``).
+        For a band with sample paths use :func:`plot_ensemble`.
+
+        Returns
+        -------
+        control.ControlPlot
+        """
+        kwargs.setdefault("overlay_traces", True)
+        if not args:
+            kwargs.setdefault("trace_props", [
+                {"linestyle": "-"}, {"linestyle": "--"}]
+                + [{"linestyle": ":"}] * len(self.quantiles))
+        return ct.time_response_plot(self.to_response(), *args, **kwargs)
+
+
+def _signal_labels(sys: JumpStateSpace) -> dict:
+    return dict(output_labels=sys.jump_outputs, state_labels=sys.jump_states,
+                input_labels=sys.jump_inputs, sysname=sys.name)
+
+
+def _empty_paths(run: Run, trials: int, title: str
+                 ) -> tuple[SamplePaths, Storage]:
+    """Paths to be filled in place, and the storage they view."""
+    # TimeResponseData copies the arrays it is given (np.array), which for
+    # millions of trial-steps costs as much as simulating them: it is built
+    # on zero-length placeholders and the views of the storage are attached.
+    s = run.sys
+    n, m, p = (len(s.jump_states), len(s.jump_inputs), len(s.jump_outputs))
+    store = Storage.empty(run, trials)     # first: it may not fit
+    paths = SamplePaths(
+        run.time[:0], np.empty((p, trials, 0)), np.empty((n, trials, 0)),
+        np.empty((m, trials, 0)), issiso=False, squeeze=False,
+        multi_trace=True, trace_labels=[f"trial {i}" for i in range(trials)],
+        trace_types=["forced"] * trials, plot_inputs=False, title=title,
+        **_signal_labels(s))
+    paths.t = run.time
+    paths.x, paths.y, paths.u = store.views()
+    return paths, store
+
+
+# -- public functions ---------------------------------------------------------
+def simulate(sys: Any, timepts: Any, inputs: Any = None,
+             initial_state: Any = None, *, trials: int = 100, seed: Any = None,
+             noise_covariance: Any = None, initial_covariance: Any = None,
+             chunk: int | None = None, workers: int | None = None,
+             progress: bool = False, **kwargs: Any) -> SamplePaths:
+    """Monte Carlo sample paths of a jump system.
+
+    Simulates ``ξ[t+1] = A[k,i] ξ[t] + B[k,i] w[t]``,
+    ``z[t] = C[k,i] ξ[t] + D[k,i] w[t]`` (``k = t mod N``) with the mode ``i``
+    of every trial drawn at every step with probability
+    ``sys.modes.probabilities[k, i]``. All trials advance together, one
+    matrix product per step for all modes (see :mod:`control_ncs.montecarlo`).
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time control.StateSpace
+        E.g. any closed loop of :func:`control_ncs.feedback` (static or
+        predictor controller, zero or hold actuator, any schedule).
+    timepts : int or array_like
+        Number of steps ``T``, or the times ``0, dt, …, (T-1)·dt`` (they
+        must start at 0: step ``t`` runs phase ``t mod N``), as in
+        :func:`control_ncs.moments`.
+    inputs : array_like, shape (m, T), optional
+        Deterministic part of ``w`` (default zero; scalars broadcast).
+    initial_state : array_like, shape (n,), or scalar, optional
+        Mean of ``ξ[0]`` (default zero; a scalar applies to every state).
+    trials : int, optional
+        Number of sample paths (default 100).
+    seed : None, int, SeedSequence, bit generator or numpy.random.Generator
+        Source of randomness; a Generator is advanced. The global NumPy
+        random state is never used. A trial's path depends only on the seed
+        and its index (:mod:`control_ncs.montecarlo` says which draws it
+        reads).
+    noise_covariance : array_like, shape (m, m), optional
+        Covariance ``W`` of a zero-mean white Gaussian part of ``w``, added
+        to ``inputs`` (positive semidefinite; may be singular).
+    initial_covariance : array_like, shape (n, n), optional
+        Covariance of a Gaussian ``ξ[0]`` (default zero: known initial state).
+    chunk : int, optional
+        Trials simulated together; bounds the working memory. Default: as
+        many as keep one step's data in a core's cache (about 256 kB). Does
+        not change the paths (bit for bit with OpenBLAS, to rounding with
+        any BLAS; see :mod:`control_ncs.montecarlo`).
+    workers : int, optional
+        Threads simulating chunks side by side (numpy's matrix products
+        release the GIL; each chunk writes its own trials). Default: the
+        CPUs this process may use (``os.sched_getaffinity``; where it does
+        not exist ``os.process_cpu_count``, Python >= 3.13, else
+        ``os.cpu_count``), at most one per chunk. Does not change the
+        result.
+    progress : bool, optional
+        Show a progress bar (needs the optional package ``tqdm``).
+
+    Returns
+    -------
+    SamplePaths
+        A :class:`control.TimeResponseData` with ``outputs`` ``[p, trial,
+        time]``, ``states`` ``[n, trial, time]`` and ``inputs`` ``[m, trial,
+        time]``, the realised ``w`` (deterministic part plus sampled noise).
+
+    Raises
+    ------
+    TypeError
+        Unknown keyword.
+    ValueError
+        Bad ``timepts`` (see :func:`control_ncs.moments`), ``trials``,
+        ``chunk``, ``workers``, complex or non-finite ``inputs`` or
+        ``initial_state``, or a covariance that is not symmetric positive
+        semidefinite.
+    ControlDimension
+        Arrays of the wrong shape.
+    ControlArgument
+        Bad ``seed`` or ``progress``.
+    MemoryError
+        The paths do not fit in memory (the message names the size).
+    ImportError
+        ``progress=True`` without ``tqdm``.
+
+    See Also
+    --------
+    step_response, moments
+
+    Examples
+    --------
+    ``x⁺ = 2x + u`` with ``u = -2x`` applied with probability 0.8: the state
+    is either multiplied by 2 or set to 0.
+
+    >>> from control_ncs.responses import simulate
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> paths = simulate(sys, 4, initial_state=[1.0], trials=3, seed=0)
+    >>> paths.outputs.shape
+    (1, 3, 4)
+    >>> bool(np.all(np.isin(paths.outputs, [0, 1, 2, 4, 8])))
+    True
+    """
+    no_extra_kwargs("simulate", kwargs)
+    run = prepare(sys, timepts, inputs, initial_state, trials=trials,
+                  seed=seed, noise_covariance=noise_covariance,
+                  initial_covariance=initial_covariance, chunk=chunk)
+    workers = positive_int(workers, "workers", allow_none=True)
+    progress_check(progress)
+    title = f"Sample paths of {run.sys.name} ({run.trials} trials)"
+    paths, store = _empty_paths(run, run.trials, title)
+    run_chunks(run, store, workers, progress)
+    return paths
+
+
+def _quantile_levels(quantiles: Any) -> tuple:
+    if quantiles is None:
+        raise ValueError("quantiles: expected a sequence of probabilities in "
+                         "[0, 1] (() for none), got None")
+    q = real_values(quantiles, "quantiles", ndim=(0, 1)).reshape(-1)
+    if np.any(q < 0) or np.any(q > 1):
+        raise ValueError(f"quantiles: probabilities must lie in [0, 1], got "
+                         f"{q.tolist()}")
+    return tuple(float(v) for v in np.sort(q))
+
+
+def _ensemble(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
+              kind: str, what: str, trials: Any, seed: Any, quantiles: Any,
+              noise_covariance: Any, initial_covariance: Any, keep_paths: Any,
+              chunk: Any, progress: bool) -> EnsembleResponse:
+    run = prepare(sys, timepts, inputs, initial_state, trials=trials,
+                  seed=seed, noise_covariance=noise_covariance,
+                  initial_covariance=initial_covariance, chunk=chunk)
+    levels = _quantile_levels(quantiles)
+    keep = positive_int(keep_paths, "keep_paths", allow_none=True)
+    keep = run.trials if keep is None else min(keep, run.trials)
+    s, T = run.sys, run.time.size
+    title = f"{what} of {s.name} ({run.trials} trials)"
+    if chunk is None:       # the chunk's storage is working memory here
+        per_trial = (T + 1) * Storage.rows(run)
+        run.chunk = min(run.chunk, max(1, CHUNK_FLOATS // per_trial))
+    paths, kept = _empty_paths(run, keep, title)
+    stats = ensemble_statistics(run, levels, kept, progress, kind)
+    exact = moments(s, run.time, run.w, run.x0,
+                    noise_covariance=None if run.noise is None
+                    else run.noise @ run.noise.T,
+                    initial_covariance=None if run.spread is None
+                    else run.spread @ run.spread.T)
+    return EnsembleResponse(
+        time=run.time, inputs=run.w, kind=kind, trials=run.trials,
+        quantiles=levels, sample_mean=stats.mean, sample_cov=stats.cov,
+        quantile_values=stats.quantiles, states_sample_mean=stats.states_mean,
+        exact=exact, paths=paths, title=title)
+
+
+def default_steps(sys: Any) -> int:
+    """Default horizon of the ensemble responses, in steps.
+
+    The number of steps after which ``E‖ξ‖²`` of the unforced system has
+    decayed by ``1e-4`` (RMS by 1 %) at the per-step mean-square rate
+    :func:`control_ncs.ms_radius` (which bounds the decay of the mean as
+    well), clipped to ``[20, 1000]``; 50 steps for a system that is not
+    mean-square stable. Rounded up to whole periods.
+    """
+    sys = as_jump(sys)
+    try:
+        rho = ms_radius(sys)
+    except RuntimeError:
+        rho = 1.0
+    if not np.isfinite(rho) or rho >= 1.0:
+        steps = _UNSTABLE_STEPS
+    elif rho <= _SETTLE ** (1.0 / _MIN_STEPS):
+        steps = _MIN_STEPS
+    else:
+        steps = min(_MAX_STEPS, math.ceil(math.log(_SETTLE) / math.log(rho)))
+    N = sys.period
+    return -(-steps // N) * N
+
+
+def _steps_or_default(sys: JumpStateSpace, timepts: Any) -> Any:
+    return default_steps(sys) if timepts is None else timepts
+
+
+def _input_index(sys: JumpStateSpace, input: Any) -> int:
+    names = sys.jump_inputs
+    if input is None:
+        if len(names) == 1:
+            return 0
+        raise ControlArgument(
+            f"input: the system has {len(names)} inputs {names}; choose the "
+            f"one to excite with input=<index or name> (one ensemble per input)")
+    if isinstance(input, str):
+        if input not in names:
+            raise ValueError(f"input: no input named {input!r}; inputs are "
+                             f"{names}")
+        return names.index(input)
+    if isinstance(input, (bool, np.bool_)) or not isinstance(
+            input, (int, np.integer)) or not -len(names) <= input < len(names):
+        raise ValueError(f"input: expected an index in 0..{len(names) - 1} or "
+                         f"a name in {names}, got {input!r}")
+    return int(input) % len(names)
+
+
+_OPTIONS_DOC = """trials : int, optional
+        Number of sample paths (default 1000).
+    seed : None, int, SeedSequence, bit generator or numpy.random.Generator
+        Randomness, as in :func:`simulate`.
+    quantiles : sequence of float, optional
+        Probabilities of the sample quantiles to report (default
+        ``(0.05, 0.95)``: a 90 % band); ``()`` keeps memory bounded.
+    noise_covariance, initial_covariance : array_like, optional
+        White Gaussian part of ``w`` and random part of ``ξ[0]``, as in
+        :func:`simulate`; the exact moments include them.
+    keep_paths : int or None, optional
+        Number of full sample paths kept in ``paths`` (default 100; None =
+        all). Statistics always use every trial.
+    chunk : int, optional
+        Trials simulated together (memory bound). Does not change the
+        sample paths (as in :func:`simulate`); the statistics, accumulated
+        chunk by chunk, agree to rounding.
+    progress : bool, optional
+        Show a progress bar (needs ``tqdm``)."""
+
+
+def forced_response(sys: Any, timepts: Any, inputs: Any = None,
+                    initial_state: Any = None, *, trials: int = 1000,
+                    seed: Any = None, quantiles: Sequence[float] = (0.05, 0.95),
+                    noise_covariance: Any = None, initial_covariance: Any = None,
+                    keep_paths: int | None = 100, chunk: int | None = None,
+                    progress: bool = False, **kwargs: Any) -> EnsembleResponse:
+    """Ensemble response of a jump system to a given input.
+
+    The general form of :func:`step_response`, :func:`impulse_response` and
+    :func:`initial_response`: simulates ``trials`` sample paths
+    (:func:`simulate`) and returns their mean, covariance and quantiles
+    beside the exact moments (:func:`control_ncs.moments`).
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time control.StateSpace
+    timepts : int or array_like
+        Number of steps, or the times ``0, dt, 2·dt, …``, as in
+        :func:`simulate`.
+    inputs : array_like, shape (m, T), optional
+        Deterministic part of ``w`` (default zero).
+    initial_state : array_like, shape (n,), optional
+        Mean of ``ξ[0]`` (default zero).
+    {options}
+
+    Returns
+    -------
+    EnsembleResponse
+
+    Raises
+    ------
+    TypeError
+        Unknown keyword.
+
+    Examples
+    --------
+    >>> from control_ncs.responses import forced_response
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = forced_response(sys, 3, initial_state=[1.0], trials=2000, seed=1)
+    >>> r.exact_mean.round(6).tolist()
+    [[1.0, 0.4, 0.16]]
+    >>> bool(np.all(abs(r.sample_mean - r.exact_mean) < 5 * r.standard_error + 1e-12))
+    True
+    """
+    no_extra_kwargs("forced_response", kwargs)
+    return _ensemble(sys, timepts, inputs, initial_state, kind="forced",
+                     what="Forced response", trials=trials, seed=seed,
+                     quantiles=quantiles, noise_covariance=noise_covariance,
+                     initial_covariance=initial_covariance,
+                     keep_paths=keep_paths, chunk=chunk, progress=progress)
+
+
+def step_response(sys: Any, timepts: Any = None, *, input: int | str | None = None,
+                  initial_state: Any = None, trials: int = 1000,
+                  seed: Any = None, quantiles: Sequence[float] = (0.05, 0.95),
+                  noise_covariance: Any = None, initial_covariance: Any = None,
+                  keep_paths: int | None = 100, chunk: int | None = None,
+                  progress: bool = False, **kwargs: Any) -> EnsembleResponse:
+    """Ensemble step response of a jump system.
+
+    The input ``w_j`` is 1 at every step (every phase of the period) and the
+    other inputs are 0.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time control.StateSpace
+    timepts : int or array_like, optional
+        Number of steps or times. Default: :func:`default_steps` (until the
+        mean-square transient has decayed by 1e-4, whole periods, 20 to 1000
+        steps; 50 if the system is not mean-square stable).
+    input : int or str, optional
+        Index or name of the stepped input; required when ``sys`` has more
+        than one (python-control would step each in turn; here one ensemble
+        is one input).
+    initial_state : array_like, shape (n,), optional
+        Mean of ``ξ[0]`` (default zero).
+    {options}
+
+    Returns
+    -------
+    EnsembleResponse
+
+    Raises
+    ------
+    ControlArgument
+        ``input`` missing for a system with several inputs.
+
+    See Also
+    --------
+    control.step_response : of ``sys`` itself gives the exact mean (``N = 1``).
+
+    Examples
+    --------
+    >>> from control_ncs.responses import step_response
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = step_response(sys, 20, trials=500, seed=0)
+    >>> round(float(r.exact_mean[0, -1]), 4)   # 1 / (1 - 0.4)
+    1.6667
+    >>> cplt = r.plot()
+    >>> len(cplt.lines[0, 0])                  # exact, sample, 5 %, 95 %
+    4
+    """
+    no_extra_kwargs("step_response", kwargs)
+    sys = as_jump(sys)
+    j = _input_index(sys, input)
+    t = time_grid(sys, _steps_or_default(sys, timepts))
+    w = np.zeros((len(sys.jump_inputs), t.size))
+    w[j] = 1.0
+    return _ensemble(sys, t, w, initial_state, kind="step",
+                     what=f"Step response from {sys.jump_inputs[j]}",
+                     trials=trials, seed=seed, quantiles=quantiles,
+                     noise_covariance=noise_covariance,
+                     initial_covariance=initial_covariance,
+                     keep_paths=keep_paths, chunk=chunk, progress=progress)
+
+
+def impulse_response(sys: Any, timepts: Any = None, *,
+                     input: int | str | None = None, initial_state: Any = None,
+                     trials: int = 1000, seed: Any = None,
+                     quantiles: Sequence[float] = (0.05, 0.95),
+                     noise_covariance: Any = None,
+                     initial_covariance: Any = None,
+                     keep_paths: int | None = 100, chunk: int | None = None,
+                     progress: bool = False, **kwargs: Any) -> EnsembleResponse:
+    """Ensemble impulse response of a jump system.
+
+    As python-control does in discrete time, the impulse has unit area:
+    ``w_j[0] = 1/dt`` (1 when ``dt`` is True), all other values 0.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time control.StateSpace
+    timepts : int or array_like, optional
+        As in :func:`step_response`.
+    input : int or str, optional
+        Index or name of the input; required when there are several.
+    initial_state : array_like, shape (n,), optional
+    {options}
+
+    Returns
+    -------
+    EnsembleResponse
+
+    Examples
+    --------
+    >>> from control_ncs.responses import impulse_response
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> impulse_response(sys, 4, trials=10, seed=0).exact_mean.round(4).tolist()
+    [[0.0, 1.0, 0.4, 0.16]]
+    """
+    no_extra_kwargs("impulse_response", kwargs)
+    sys = as_jump(sys)
+    j = _input_index(sys, input)
+    t = time_grid(sys, _steps_or_default(sys, timepts))
+    w = np.zeros((len(sys.jump_inputs), t.size))
+    w[j, 0] = 1.0 if sys.dt_step is True else 1.0 / sys.dt_step
+    return _ensemble(sys, t, w, initial_state, kind="impulse",
+                     what=f"Impulse response from {sys.jump_inputs[j]}",
+                     trials=trials, seed=seed, quantiles=quantiles,
+                     noise_covariance=noise_covariance,
+                     initial_covariance=initial_covariance,
+                     keep_paths=keep_paths, chunk=chunk, progress=progress)
+
+
+def initial_response(sys: Any, timepts: Any = None, initial_state: Any = None,
+                     *, trials: int = 1000, seed: Any = None,
+                     quantiles: Sequence[float] = (0.05, 0.95),
+                     noise_covariance: Any = None,
+                     initial_covariance: Any = None,
+                     keep_paths: int | None = 100, chunk: int | None = None,
+                     progress: bool = False, **kwargs: Any) -> EnsembleResponse:
+    """Ensemble response of a jump system to an initial state (``w = 0``).
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time control.StateSpace
+    timepts : int or array_like, optional
+        As in :func:`step_response`.
+    initial_state : array_like, shape (n,) or scalar, optional
+        ``ξ[0]`` (its mean if ``initial_covariance`` is given); default 0.
+    {options}
+
+    Returns
+    -------
+    EnsembleResponse
+
+    Examples
+    --------
+    >>> from control_ncs.responses import initial_response
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = initial_response(sys, 3, [1.0], trials=10, seed=0)
+    >>> r.exact_std.round(4).tolist()        # sqrt(0.8**t - 0.4**(2t))
+    [[0.0, 0.8, 0.7838]]
+    """
+    no_extra_kwargs("initial_response", kwargs)
+    sys = as_jump(sys)
+    t = time_grid(sys, _steps_or_default(sys, timepts))
+    return _ensemble(sys, t, None, initial_state, kind="initial",
+                     what="Initial response", trials=trials, seed=seed,
+                     quantiles=quantiles, noise_covariance=noise_covariance,
+                     initial_covariance=initial_covariance,
+                     keep_paths=keep_paths, chunk=chunk, progress=progress)
+
+
+for _f in (forced_response, step_response, impulse_response, initial_response):
+    if _f.__doc__:                 # None under python -OO
+        _f.__doc__ = _f.__doc__.replace("{options}", _OPTIONS_DOC)
+del _f
