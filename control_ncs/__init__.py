@@ -22,7 +22,7 @@ from .synthesis import passivesyn, SynthesisResult
 from .simulate import (simulate, SamplePaths, EnsembleResponse,
                        forced_response, step_response, impulse_response,
                        initial_response, plot_ensemble)
-from .interconnect import jump_feedback, lift_lti
+from .connect import jump_feedback, lift_lti
 from .timeline import schedule_plot
 
 __all__ = [

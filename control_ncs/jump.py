@@ -36,6 +36,12 @@ __all__ = ["Modes", "JumpStateSpace", "JumpPlant", "jss", "lift"]
 
 _PROB_TOL = 1e-9
 
+#: Largest lifted face (entries of ``A, B, C, D`` over one period) that a
+#: JumpStateSpace builds: 5e7 float64 entries are 400 MB. The block lower
+#: triangular ``D`` of size ``N·p × N·m`` is inherent to the lifted face, so a
+#: longer period is refused at once rather than after minutes of work.
+MAX_LIFTED_ENTRIES = 50_000_000
+
 
 @dataclass(frozen=True, eq=False)
 class Modes:
@@ -133,28 +139,55 @@ def lift(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
     """
     N, n = A.shape[0], A.shape[1]
     m, p = B.shape[2], C.shape[1]
-    # phi[j] = A[N-1] ... A[j]  (state transition from phase j to the period end)
+    # phi = A[N-1] ... A[j]: the transition from phase j to the period end
     BL = np.zeros((n, N * m))
-    CL = np.zeros((N * p, n))
-    DL = np.zeros((N * p, N * m))
     phi = np.eye(n)
     for j in range(N - 1, -1, -1):
         BL[:, j * m:(j + 1) * m] = phi @ B[j]
         phi = phi @ A[j]
     AL = phi
-    forward = np.eye(n)  # A[k-1] ... A[0]
+    # CL[k] = C[k] A[k-1] ... A[0]
+    CL = np.zeros((N * p, n))
+    forward = np.eye(n)
     for k in range(N):
         CL[k * p:(k + 1) * p] = C[k] @ forward
-        DL[k * p:(k + 1) * p, k * m:(k + 1) * m] = D[k]
-        to_k = C[k]  # C[k] A[k-1] ... A[j+1]
-        for j in range(k - 1, -1, -1):
-            DL[k * p:(k + 1) * p, j * m:(j + 1) * m] = to_k @ B[j]
-            to_k = to_k @ A[j]
         forward = A[k] @ forward
-    return AL, BL, CL, DL
+    # DL[k, j] = C[k] A[k-1] ... A[j+1] B[j] for j < k, D[k] on the diagonal.
+    # One sub-diagonal d = k - j at a time, all its blocks at once:
+    # G[j] = A[j+d-1] ... A[j+1] B[j], so the Python loop runs N times, not N²/2.
+    DL = np.zeros((N, p, N, m))
+    phases = np.arange(N)
+    DL[phases, :, phases, :] = D
+    G = np.asarray(B, float)
+    for d in range(1, N):
+        j = phases[:N - d]
+        if d > 1:
+            G = A[j + d - 1] @ G[:N - d]
+        else:
+            G = G[:N - 1]
+        DL[j + d, :, j, :] = C[j + d] @ G
+    return AL, BL, CL, DL.reshape(N * p, N * m)
 
 
-def _lifted_names(names: Sequence[str], N: int) -> list[str]:
+def lifted_size(n: int, m: int, p: int, N: int) -> int:
+    """Number of entries of the lifted face ``(AL, BL, CL, DL)``."""
+    return n * n + N * n * (m + p) + N * N * p * m
+
+
+def check_lifted_size(n: int, m: int, p: int, N: int, name: str) -> None:
+    """Refuse a period whose lifted face exceeds :data:`MAX_LIFTED_ENTRIES`."""
+    size = lifted_size(n, m, p, N)
+    if N > 1 and size > MAX_LIFTED_ENTRIES:
+        raise ValueError(
+            f"{name}: period N = {N} is too long: the lifted mean system "
+            f"(n = {n}, {m} inputs, {p} outputs per step) would have "
+            f"{size:.3g} entries, more than MAX_LIFTED_ENTRIES = "
+            f"{MAX_LIFTED_ENTRIES:.3g} (its D alone is {N * p} x {N * m}); "
+            f"use shorter schedules, whose least common multiple sets N")
+
+
+def lifted_names(names: Sequence[str], N: int) -> list[str]:
+    """Signal names of the lifted face: ``'<name>[k]'`` for phase ``k``."""
     if N == 1:
         return list(names)
     return [f"{s}[{k}]" for k in range(N) for s in names]
@@ -235,8 +268,17 @@ class JumpStateSpace(ct.StateSpace):
         B_ = _phase_mode_array(b, "B", N, M, (n, m))
         c = real_array(C, "C", ndim=(2, 3, 4))
         q = c.shape[-2]
+        for arg, count, what in (("B", m, "input w (a column of B)"),
+                                 ("C", q, "output z (a row of C)")):
+            if count == 0:
+                raise ControlDimension(
+                    f"{arg}: a jump system needs at least one {what}; for "
+                    f"a system without one, pass a zero column or row")
+        check_lifted_size(n, m, q, N, "probabilities")
         C_ = _phase_mode_array(c, "C", N, M, (q, n))
         D_ = _phase_mode_array(D, "D", N, M, (q, m))
+        for X in (A_, B_, C_, D_, p):
+            X.setflags(write=False)
         self.modes = Modes(A_, B_, C_, D_, p)
         self.dt_step = discrete_dt(dt)
         self.nominal_mode = None if nominal is None else self._check_nominal(
@@ -254,9 +296,12 @@ class JumpStateSpace(ct.StateSpace):
             mats = lift(Abar, Bbar, Cbar, Dbar)
             lifted_dt = True if self.dt_step is True else self.dt_step * N
         super().__init__(*mats, lifted_dt, name=name,
-                         inputs=_lifted_names(self.jump_inputs, N),
-                         outputs=_lifted_names(self.jump_outputs, N),
+                         inputs=lifted_names(self.jump_inputs, N),
+                         outputs=lifted_names(self.jump_outputs, N),
                          states=self.jump_states)
+        # the face is the exact mean of self.modes only while neither changes
+        for X in (self.A, self.B, self.C, self.D):
+            X.setflags(write=False)
 
     @staticmethod
     def _check_nominal(nominal: Any, N: int, M: int) -> np.ndarray:
@@ -528,12 +573,14 @@ class JumpPlant:
         F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
         A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
         C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
-        merged = dict(self.info, gains=K, **info)
-        sys = JumpStateSpace(A, self.Bw, C, self.Dw, self.probabilities, self.dt,
-                             nominal=self.nominal, inputs=self.inputs,
-                             outputs=self.outputs, states=self.states,
-                             info=merged)
-        return sys.merged()
+        # merge before building: the lifted face is then built once
+        mats = (A, self.Bw, C, self.Dw)
+        groups, nominal = _merge_groups(mats, self.probabilities, self.nominal)
+        mats, p = _apply_groups(mats, self.probabilities, groups)
+        return JumpStateSpace(*mats, p, self.dt, nominal=nominal,
+                              inputs=self.inputs, outputs=self.outputs,
+                              states=self.states,
+                              info=dict(self.info, gains=K, **info))
 
     def merged(self) -> "JumpPlant":
         """The same plant with coinciding modes merged (MATH §8, merged form)."""

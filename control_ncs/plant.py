@@ -99,6 +99,9 @@ class NetworkedStateSpace(ct.StateSpace):
         self.actuator_schedule = self.actuator_schedule.repeat(period)
         self.sensor_loss = loss_probability(sensor_loss, "sensor_loss")
         self.actuator_loss = loss_probability(actuator_loss, "actuator_loss")
+        if not isinstance(shared_channel, (bool, np.bool_)):
+            raise ControlArgument(f"shared_channel: expected True or False, "
+                                  f"got {shared_channel!r}")
         self.shared_channel = bool(shared_channel)
         if self.shared_channel:
             both = (self.sensor_schedule.pattern.any(axis=1)
@@ -119,6 +122,11 @@ class NetworkedStateSpace(ct.StateSpace):
                 [f"y[{i}]" for i in range(self.nmeas)]
         super().__init__(A, B, C, D, dt, name=name, inputs=inputs,
                          outputs=outputs, states=states)
+        # the network settings were validated against these matrices: they
+        # may not change afterwards (a NaN written into D would surface deep
+        # inside an analysis)
+        for X in (self.A, self.B, self.C, self.D):
+            X.setflags(write=False)
 
     # -- partition (MATH §2) -------------------------------------------------
     @property

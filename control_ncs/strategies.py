@@ -13,11 +13,11 @@ import math
 from typing import Any
 
 import numpy as np
-from control.exception import ControlArgument
+from control.exception import ControlArgument, ControlDimension
 
 from ._checks import choice, no_extra_kwargs, real_array
 from .gain import ACTUATORS, CONTROLLERS, PeriodicGain
-from .jump import JumpPlant, JumpStateSpace
+from .jump import JumpPlant, JumpStateSpace, check_lifted_size
 from .plant import NetworkedStateSpace
 
 __all__ = ["build", "feedback", "loop_closes"]
@@ -57,6 +57,10 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     if N % P.period:
         raise ValueError(f"period: {N} is not a multiple of the plant's network "
                          f"period {P.period}")
+    # the state has at least n entries: refuse a hopeless period before the
+    # per-phase work, not after it
+    check_lifted_size(P.nstates, len(P.disturbance_labels),
+                      len(P.performance_labels), N, "P")
     if controller == "predictor" and not _measures_state(P):
         raise ControlArgument(
             "controller='predictor' needs the full state measured: y = x "
@@ -231,6 +235,10 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         # validate here so that messages name the argument K, not 'gains'
         gains = PeriodicGain(real_array(K, "K", ndim=(2, 3)),
                              controller or "static", actuator or "zero").gains
+    if 0 in gains.shape:
+        raise ControlDimension(f"K: expected a non-empty gain (at least one "
+                               f"phase, one row, one column), got shape "
+                               f"{gains.shape}")
     controller = choice(controller or "static", "controller", CONTROLLERS)
     actuator = choice(actuator or "zero", "actuator", ACTUATORS)
     if not isinstance(P, NetworkedStateSpace):
@@ -247,7 +255,6 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     plant = build(P, controller, actuator, period=N)
     want = plant.gain_shape()[1:]
     if gains.shape[1:] != want:
-        from control.exception import ControlDimension
         raise ControlDimension(
             f"K: expected gains of shape {want} (or ({gains.shape[0]}, "
             f"{want[0]}, {want[1]}) per phase) for controller={controller!r}, "
