@@ -212,13 +212,17 @@ class JumpStateSpace(ct.StateSpace):
     at phase 1). Hence ``control.step_response`` and ``control.bode_plot``
     of this object are exact statements about ``E z``. Products and
     interconnections return the plain mean :class:`control.StateSpace`.
-    Series and parallel connections with a deterministic system are exact
-    for the mean; a *feedback* loop is exact only when no product of two
-    mode-dependent matrices arises (e.g. the other system has no
-    feedthrough, or the loops built by :func:`control_ncs.feedback`).
-    MATH §7 claims it always is, which is wrong: tests/test_interconnect.py
-    has a counterexample. For a loop that stays a jump system, use
-    :func:`control_ncs.jump_feedback`.
+    With a deterministic LTI system ``G``, the mean of the interconnection
+    is the interconnection of the means whenever the mode-dependent
+    matrices enter it linearly: always for series and parallel
+    connections, and for a feedback loop when ``G`` has no direct
+    feedthrough (the input at time ``t`` then depends on the past only),
+    or when ``D`` and one of ``B``, ``C`` are the same in every mode (as in
+    every loop of :func:`control_ncs.feedback`). Otherwise the algebraic
+    loop through ``G``'s feedthrough multiplies two mode-dependent
+    matrices and the feedback of the means only approximates the mean;
+    :func:`control_ncs.jump_feedback` is exact in every case and keeps a
+    jump system.
 
     Build one with :func:`jss` or :func:`control_ncs.feedback`.
 
@@ -236,6 +240,8 @@ class JumpStateSpace(ct.StateSpace):
     name, inputs, outputs, states : optional
         As in :class:`control.StateSpace`; ``inputs``/``outputs`` name the
         per-step signals ``w`` and ``z``, not the lifted ones.
+    info : dict, optional
+        What built the system, kept as the ``info`` attribute.
 
     Attributes
     ----------
@@ -332,6 +338,44 @@ class JumpStateSpace(ct.StateSpace):
     def mean_phase(self, k: int) -> tuple[np.ndarray, ...]:
         """Mean matrices ``(Σ p A, Σ p B, Σ p C, Σ p D)`` at phase ``k mod N``."""
         return tuple(M[k % self.period] for M in self.modes.mean())
+
+    def deterministic(self) -> tuple[np.ndarray, ...] | None:
+        """Per-phase ``(A, B, C, D)`` if the system is deterministic, else None.
+
+        The system is deterministic when, at every phase, all modes of
+        positive probability have identical matrices (whether or not they
+        were merged); then each step applies one known linear map and the
+        mean system is the system itself.
+
+        Returns
+        -------
+        tuple of ndarray or None
+            ``(A, B, C, D)`` of shapes ``(N, n, n)``, ``(N, n, m)``,
+            ``(N, p, n)``, ``(N, p, m)`` (read-only views), or None if some
+            phase has two live modes that differ.
+
+        Examples
+        --------
+        Two identical modes make a deterministic system; two different ones
+        do not:
+
+        >>> jss([[[0.5]], [[0.5]]], [[1.0]], [[1.0]], [[0.0]],
+        ...     [0.3, 0.7]).deterministic()[0].tolist()
+        [[[0.5]]]
+        >>> jss([[[0.5]], [[0.4]]], [[1.0]], [[1.0]], [[0.0]],
+        ...     [0.3, 0.7]).deterministic() is None
+        True
+        """
+        m = self.modes
+        live = m.probabilities > 0
+        first = np.argmax(live, axis=1)  # a live mode of each phase
+        k = np.arange(self.period)
+        mats = tuple(X[k, first] for X in (m.A, m.B, m.C, m.D))
+        for X, ref in zip((m.A, m.B, m.C, m.D), mats):
+            same = np.all(X == ref[:, None], axis=(2, 3))
+            if not np.all(same | ~live):
+                return None
+        return mats
 
     def mean(self) -> ct.StateSpace:
         """The mean system as a plain :class:`control.StateSpace` (a copy)."""
@@ -496,12 +540,26 @@ def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any, dt: Any = True,
     dt : True or float > 0, optional
         Sampling period (discrete time only; default True = unspecified).
     **kwargs
-        ``nominal``, ``name``, ``inputs``, ``outputs``, ``states``; anything
-        else raises ``TypeError``.
+        ``nominal`` (loss-free mode index per phase), ``name``, ``inputs``,
+        ``outputs``, ``states`` (as for :class:`control.StateSpace`), and
+        ``info`` (a dict kept on the result for reference, never read by
+        analysis); anything else raises ``TypeError``.
 
     Returns
     -------
     JumpStateSpace
+
+    Raises
+    ------
+    ValueError
+        Complex, string, non-finite or overflowing (``> 1e150``) entries,
+        probabilities outside ``[0, 1]`` or not summing to 1, a
+        continuous-time ``dt``, or a period whose lifted face exceeds
+        ``MAX_LIFTED_ENTRIES``.
+    ControlDimension
+        Inconsistent shapes, or no input or output.
+    TypeError
+        Unknown keyword.
 
     Examples
     --------
@@ -590,6 +648,18 @@ class JumpPlant:
         return JumpPlant(*new, self.E, p, self.dt, nominal=nominal,
                          inputs=self.inputs, outputs=self.outputs,
                          states=self.states, info=self.info)
+
+    def mean(self) -> tuple[np.ndarray, ...]:
+        """Per-phase mean matrices ``Σ_i p_ki X_ki`` of every field.
+
+        Returns
+        -------
+        A, Bu, Bw, Cz, Du, Dw : ndarray, each shape (N, ., .)
+            In the order of the attributes, as :meth:`Modes.mean`.
+        """
+        p = self.probabilities
+        return tuple(np.einsum("km,kmij->kij", p, getattr(self, f))
+                     for f in self._FIELDS)
 
     def known_coordinates(self, k: int) -> np.ndarray:
         """Coordinates of ``ξ`` the controller sees at phase ``k``."""

@@ -245,3 +245,85 @@ def test_long_period_within_the_bound_is_built():
     assert CL.period == N and CL.D.shape == (N, N)
     assert np.allclose(np.tril(CL.D), CL.D)  # block lower triangular
     assert lifted_names(["w"], 2) == ["w[0]", "w[1]"]
+
+
+# -- 7. one detector of a deterministic system; per-phase plant means ---------
+def test_period_two_single_mode_system_is_deterministic():
+    A_ = np.array([[[[0.5]]], [[[1.5]]]])          # (N=2, M=1, 1, 1)
+    sys = jss(A_, [[1.0]], [[1.0]], [[0.0]], np.ones((2, 1)))
+    A_d, B_d, C_d, D_d = sys.deterministic()
+    assert A_d.shape == (2, 1, 1) and A_d[:, 0, 0].tolist() == [0.5, 1.5]
+    assert B_d.shape == (2, 1, 1) and C_d.shape == (2, 1, 1)
+    assert D_d.shape == (2, 1, 1)
+
+
+def test_identical_unmerged_modes_are_deterministic():
+    sys = jss([[[0.5]], [[0.5]]], [[1.0]], [[2.0]], [[0.1]], [0.3, 0.7])
+    assert sys.nmodes == 2
+    A_d, B_d, C_d, D_d = sys.deterministic()
+    assert (A_d[0, 0, 0], C_d[0, 0, 0], D_d[0, 0, 0]) == (0.5, 2.0, 0.1)
+
+
+def test_modes_of_zero_probability_do_not_count():
+    sys = jss([[[0.5]], [[9.0]]], [[1.0]], [[1.0]], [[0.0]], [1.0, 0.0])
+    assert sys.deterministic()[0][0, 0, 0] == 0.5
+
+
+@pytest.mark.parametrize("field", ["A", "B", "C", "D"])
+def test_two_live_modes_that_differ_anywhere_are_not_deterministic(field):
+    mats = dict(A=[[[0.5]], [[0.5]]], B=[[[1.0]], [[1.0]]],
+                C=[[[1.0]], [[1.0]]], D=[[[0.0]], [[0.0]]])
+    mats[field] = np.array(mats[field])
+    mats[field][1] += 0.25
+    assert jss(*mats.values(), [0.3, 0.7]).deterministic() is None
+
+
+def test_one_random_phase_makes_a_periodic_system_random():
+    A_ = np.array([[[[0.5]], [[0.5]]], [[[0.5]], [[0.2]]]])  # phase 1 differs
+    sys = jss(A_, [[1.0]], [[1.0]], [[0.0]], [[0.5, 0.5], [0.5, 0.5]])
+    assert sys.deterministic() is None
+
+
+def test_loss_free_closed_loop_is_deterministic():
+    CL = feedback(plant(sensor_schedule=[1, 2]), [[-0.5, 0.0]])
+    assert CL.deterministic() is not None
+    lossy = feedback(plant(sensor_schedule=[1, 2], sensor_loss=0.2),
+                     [[-0.5, 0.0]])
+    assert lossy.deterministic() is None
+
+
+def test_jump_plant_mean_weights_each_field_by_the_mode_probabilities():
+    J = build(plant(sensor_schedule=[1, 2], sensor_loss=0.2,
+                    actuator_loss=0.1))
+    means = J.mean()
+    assert len(means) == 6
+    for f, M in zip(("A", "Bu", "Bw", "Cz", "Du", "Dw"), means):
+        X = getattr(J, f)
+        want = sum(J.probabilities[:, i, None, None] * X[:, i]
+                   for i in range(X.shape[1]))
+        assert M.shape == (J.period,) + X.shape[2:]
+        assert np.allclose(M, want)
+    # the mean of the loop's Bu carries the success probability q
+    q = 0.8 * 0.9
+    assert np.allclose(means[1], q * J.Bu[:, 3])
+
+
+# -- 5. the package never hides a broken import of itself ---------------------
+def test_no_module_guards_an_import_of_its_own_package():
+    import ast
+    import pathlib
+    import control_ncs
+    guarded = []
+    for path in pathlib.Path(control_ncs.__file__).parent.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, ast.Try):
+                continue
+            catches = {ast.unparse(h.type) for h in node.handlers if h.type}
+            if not catches & {"ImportError", "ModuleNotFoundError"}:
+                continue
+            own = [n for n in node.body if isinstance(n, ast.ImportFrom)
+                   and (n.level > 0 or (n.module or "").startswith(
+                       "control_ncs"))]
+            if own:
+                guarded.append(f"{path.name}:{node.lineno}")
+    assert guarded == []
