@@ -626,7 +626,24 @@ class JumpPlant:
         return (self.period, s["nu"], s["nk"])
 
     def close(self, gains: np.ndarray, **info: Any) -> JumpStateSpace:
-        """The closed loop with ``v = K_k E_k ξ`` as a :class:`JumpStateSpace`."""
+        """The closed loop with ``v = K_k E_k ξ`` as a :class:`JumpStateSpace`.
+
+        The gain acts in positive feedback, as it is (``u = K x`` for
+        ``E = I``); negate a gain designed for ``u = -K x``, such as
+        :func:`control.dlqr`'s.
+
+        Parameters
+        ----------
+        gains : array_like, shape (N, nu, nk)
+            ``K_k`` per phase (:meth:`gain_shape`).
+        **info
+            Added to the result's ``info``.
+
+        Returns
+        -------
+        JumpStateSpace
+            Coinciding modes merged.
+        """
         K = np.asarray(gains, float)
         F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
         A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)

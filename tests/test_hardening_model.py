@@ -327,3 +327,43 @@ def test_no_module_guards_an_import_of_its_own_package():
             if own:
                 guarded.append(f"{path.name}:{node.lineno}")
     assert guarded == []
+
+
+# -- 7. strategies live in one registry ---------------------------------------
+def test_accepted_controllers_and_actuators_come_from_the_registry(
+        monkeypatch):
+    from control_ncs import strategies
+    zero = strategies.STRATEGIES["static", "zero"]
+    ramp = strategies.Strategy(zero.phase, lambda P: ["a", "b"],
+                               memoryless=True, needs_state=False)
+    with pytest.raises(ControlArgument, match="^actuator:.*'ramp'"):
+        build(plant(), "static", "ramp")
+    monkeypatch.setitem(strategies.STRATEGIES, ("static", "ramp"), ramp)
+    J = build(plant(sensor_loss=0.1), "static", "ramp")
+    assert J.states == ["a", "b"] and J.info["actuator"] == "ramp"
+    monkeypatch.delitem(strategies.STRATEGIES, ("predictor", "hold"))
+    with pytest.raises(ControlArgument, match="^actuator: 'hold' is not "
+                       "available with controller='predictor'"):
+        build(plant(), "predictor", "hold")
+
+
+def test_build_over_a_multiple_of_the_period_repeats_the_phases():
+    P = plant(sensor_schedule=[1, 2, 0], actuator_schedule=[1, 0],
+              sensor_loss=0.1, actuator_loss=0.2)
+    for controller, actuator in [("static", "zero"), ("static", "hold"),
+                                 ("predictor", "zero"),
+                                 ("predictor", "hold")]:
+        one = build(P, controller, actuator)
+        two = build(P, controller, actuator, period=2 * P.period)
+        for f in ("A", "Bu", "Bw", "Cz", "Du", "Dw", "E", "probabilities"):
+            X = getattr(one, f)
+            assert np.array_equal(getattr(two, f),
+                                  np.concatenate([X, X])), (controller, f)
+
+
+def test_feedback_applies_the_gain_as_is_in_positive_feedback():
+    P = scalar_plant(actuator_loss=0.2)
+    K, _, _ = ct.dlqr(P.A, P.B2, np.eye(1), np.eye(1))   # for u = -K x
+    CL = feedback(P, -K)
+    arrived = CL.modes.A[0, CL.nominal_mode[0]]
+    assert np.allclose(arrived, P.A - P.B2 @ K)
