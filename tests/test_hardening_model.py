@@ -11,8 +11,7 @@ import pytest
 from control.exception import ControlArgument, ControlDimension
 
 from control_ncs import build, feedback, jss, nss
-from control_ncs.jump import (MAX_LIFTED_ENTRIES, JumpStateSpace, lift,
-                              lifted_names)
+from control_ncs.jump import MAX_LIFTED_ENTRIES, lift, lifted_names
 
 
 # n = 2, w ∈ R¹, u ∈ R¹, z ∈ R¹, y = x ∈ R²
@@ -38,8 +37,7 @@ def scalar_plant(**kw):
 
 def _lift_loops(A, B, C, D):
     """The block-by-block lifting (the former implementation), as reference."""
-    N, n = A.shape[0], A.shape[1]
-    m, p = B.shape[2], C.shape[1]
+    N, m, p = A.shape[0], B.shape[2], C.shape[1]
     DL = np.zeros((N * p, N * m))
     for k in range(N):
         DL[k * p:(k + 1) * p, k * m:(k + 1) * m] = D[k]

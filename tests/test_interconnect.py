@@ -1,4 +1,4 @@
-"""Interconnections with deterministic LTI systems (control_ncs.interconnect).
+"""Interconnections with deterministic LTI systems (control_ncs.connect).
 
 MATH §7: the mean of a jump system interconnected with a deterministic LTI
 system is the interconnection of the means.
