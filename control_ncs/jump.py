@@ -224,7 +224,10 @@ class JumpStateSpace(ct.StateSpace):
     :func:`control_ncs.jump_feedback` is exact in every case and keeps a
     jump system.
 
-    Build one with :func:`jss` or :func:`control_ncs.feedback`.
+    Build one with :func:`jss` or :func:`control_ncs.feedback`. Its arrays
+    (the modes and the mean face) are read-only, so the face stays the mean
+    of the modes. A period whose lifted face would exceed
+    ``MAX_LIFTED_ENTRIES`` entries is refused.
 
     Parameters
     ----------
@@ -351,8 +354,8 @@ class JumpStateSpace(ct.StateSpace):
         -------
         tuple of ndarray or None
             ``(A, B, C, D)`` of shapes ``(N, n, n)``, ``(N, n, m)``,
-            ``(N, p, n)``, ``(N, p, m)`` (read-only views), or None if some
-            phase has two live modes that differ.
+            ``(N, p, n)``, ``(N, p, m)`` (copies), or None if some phase
+            has two live modes that differ.
 
         Examples
         --------

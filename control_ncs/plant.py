@@ -29,7 +29,8 @@ class NetworkedStateSpace(ct.StateSpace):
     ``sensor_schedule`` phase ``t mod N`` send, in one packet lost with
     probability ``sensor_loss``; the controller's packet reaches the
     actuators of ``actuator_schedule`` unless lost (``actuator_loss``).
-    Losses are i.i.d. Bernoulli, independent of each other.
+    Losses are i.i.d. Bernoulli, independent of each other. The matrices
+    are read-only: the network was validated against them.
 
     Use :func:`nss` to create one.
 
@@ -275,12 +276,15 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
     Raises
     ------
     ValueError
-        Continuous-time plant, non-finite matrices, bad schedule or
-        probability, ``D21``/``D22`` nonzero, shared-channel conflicts.
+        Continuous-time plant, matrices with complex, string, non-finite or
+        overflowing (``> 1e150``) entries, bad schedule, a loss that is not
+        a real number in ``[0, 1]`` (bools and strings included),
+        ``D21``/``D22`` nonzero, shared-channel conflicts.
     ControlDimension
         Inconsistent shapes, ``nmeas``/``ncon`` out of range.
     ControlArgument
-        ``nmeas``/``ncon`` missing or not an int.
+        ``nmeas``/``ncon`` missing or not an int; ``shared_channel`` not a
+        bool.
     TypeError
         Unknown keyword.
 
