@@ -24,7 +24,7 @@ from .responses import (simulate, SamplePaths, EnsembleResponse,
                         forced_response, step_response, impulse_response,
                         initial_response)
 from .plots import plot_ensemble, schedule_plot
-from .interconnect import jump_feedback, lift_lti
+from .connect import jump_feedback, lift_lti
 
 __all__ = [
     "Schedule", "schedule", "mode_probabilities",

@@ -10,9 +10,33 @@ from control.exception import ControlArgument, ControlDimension
 __all__: list[str] = []
 
 
+#: Largest magnitude accepted for an entry of a matrix: squares of larger
+#: numbers overflow float64 (about 1.3e154), which would surface later as an
+#: OverflowError or LinAlgError deep inside a Kronecker product or a solver.
+MAX_ENTRY = 1e150
+
+
 def real_array(value: Any, name: str, ndim: int | Iterable[int] | None = None
                ) -> np.ndarray:
-    """``value`` as a finite float array, with a message naming ``name``."""
+    """``value`` as a finite float array, with a message naming ``name``.
+
+    Complex data and strings are refused (numpy would drop an imaginary
+    part with only a warning, and parse ``'1.5'`` as a number); so are
+    entries larger than :data:`MAX_ENTRY` in magnitude.
+    """
+    raw = value if isinstance(value, np.ndarray) else None
+    if raw is None:
+        try:
+            raw = np.asarray(value)
+        except ValueError:  # ragged nesting
+            raw = None
+    kind = None if raw is None else raw.dtype.kind
+    if kind == "c" or isinstance(value, complex):
+        raise ValueError(f"{name}: expected a real numeric array, got complex "
+                         f"data (take .real explicitly if that is meant)")
+    if kind in ("U", "S"):
+        raise ValueError(f"{name}: expected a real numeric array, got str "
+                         f"data {value!r}")
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -26,6 +50,10 @@ def real_array(value: Any, name: str, ndim: int | Iterable[int] | None = None
                                    f"got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name}: entries must be finite (no nan or inf)")
+    if arr.size and np.max(np.abs(arr)) > MAX_ENTRY:
+        raise ValueError(f"{name}: entries must not exceed {MAX_ENTRY:g} in "
+                         f"magnitude (their squares would overflow), got "
+                         f"{np.max(np.abs(arr)):g}")
     return arr
 
 
@@ -48,6 +76,9 @@ def discrete_dt(dt: Any, name: str = "dt") -> float | bool:
     """A discrete-time sampling period: True (unspecified) or a number > 0."""
     if dt is True:
         return True
+    if np.ndim(dt) != 0 or isinstance(dt, (str, bytes)):
+        raise ValueError(f"{name}: expected True or a sampling period > 0, "
+                         f"got {dt!r}")
     if dt is None or dt is False or dt == 0:
         raise ValueError(
             f"{name}: control_ncs works in discrete time; got a continuous-time "
@@ -93,16 +124,19 @@ def positive_int(value: Any, name: str, allow_none: bool = False
 
 def positive_real(value: Any, name: str) -> float:
     """A finite real number ``> 0``."""
-    out = _real(value)
+    out = real_or_nan(value)
     if not out > 0:
         raise ValueError(f"{name}: expected a positive finite number, got "
                          f"{value!r}")
     return out
 
 
-def _real(value: Any) -> float:
+def real_or_nan(value: Any) -> float:
     """``value`` as a finite float, or nan (bools are not numbers here)."""
-    if isinstance(value, (bool, np.bool_)):
+    # bools, strings and complex numbers convert to float silently (or with
+    # only a warning); none of them is meant as a real number
+    if isinstance(value, (bool, np.bool_, str, bytes)) or np.iscomplexobj(
+            value) or np.ndim(value) != 0:
         return np.nan
     try:
         out = float(value)
@@ -126,7 +160,7 @@ def finite_real(value: Any, name: str, allow_none: bool = False
     """A finite real number (or None when allowed)."""
     if value is None and allow_none:
         return None
-    out = _real(value)
+    out = real_or_nan(value)
     if np.isnan(out):
         raise ValueError(f"{name}: expected a finite number"
                          f"{' or None' if allow_none else ''}, got {value!r}")

@@ -93,6 +93,7 @@ def run_demo(outdir: str = "demo-output", *, trials: int = 200, seed: int = 0,
 
     from .meancov import moments
     from .passivity import mean_input_ff_index
+    from .responses import simulate
     from .stability import ms_radius
     from .strategies import feedback
     from .synthesis import passivesyn
@@ -136,11 +137,10 @@ def run_demo(outdir: str = "demo-output", *, trials: int = 200, seed: int = 0,
     mean, std = mom.outputs_mean[0], mom.outputs_std[0]
     ax.fill_between(t, mean - 2 * std, mean + 2 * std, alpha=0.25,
                     label="exact mean ± 2 std")
-    paths = _sample_paths(CL, steps, w, trials, seed)
-    if paths is not None:
-        for path in paths[:5]:
-            ax.plot(t, path, lw=0.6, color="0.5")
-        ax.plot(t, paths.mean(axis=0), "--", label=f"sample mean ({trials} paths)")
+    paths = np.asarray(simulate(CL, steps, w, trials=trials, seed=seed).outputs)[0]
+    for path in paths[:5]:
+        ax.plot(t, path, lw=0.6, color="0.5")
+    ax.plot(t, paths.mean(axis=0), "--", label=f"sample mean ({trials} paths)")
     ax.plot(t, mean, label="exact mean E z (MATH §7)")
     ax.plot(t, nominal, ":", label="loss-free loop")
     ax.set_xlabel("time [s]")
@@ -194,13 +194,3 @@ def _periodic_nominal(CL):
     mats = [M[k, CL.nominal_mode][:, None] for M in (
         CL.modes.A, CL.modes.B, CL.modes.C, CL.modes.D)]
     return JumpStateSpace(*mats, np.ones((CL.period, 1)), CL.dt_step)
-
-
-def _sample_paths(CL, steps, w, trials, seed):
-    """Monte Carlo paths of z (trials × steps), via simulate() if present."""
-    try:
-        from .responses import simulate
-    except ImportError:  # pragma: no cover - simulate is part of the package
-        return None
-    r = simulate(CL, steps, w, trials=trials, seed=seed)
-    return np.asarray(r.outputs)[0]

@@ -36,6 +36,12 @@ __all__ = ["Modes", "JumpStateSpace", "JumpPlant", "jss", "lift"]
 
 _PROB_TOL = 1e-9
 
+#: Largest lifted face (entries of ``A, B, C, D`` over one period) that a
+#: JumpStateSpace builds: 5e7 float64 entries are 400 MB. The block lower
+#: triangular ``D`` of size ``N·p × N·m`` is inherent to the lifted face, so a
+#: longer period is refused at once rather than after minutes of work.
+MAX_LIFTED_ENTRIES = 50_000_000
+
 
 @dataclass(frozen=True, eq=False)
 class Modes:
@@ -133,28 +139,55 @@ def lift(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
     """
     N, n = A.shape[0], A.shape[1]
     m, p = B.shape[2], C.shape[1]
-    # phi[j] = A[N-1] ... A[j]  (state transition from phase j to the period end)
+    # phi = A[N-1] ... A[j]: the transition from phase j to the period end
     BL = np.zeros((n, N * m))
-    CL = np.zeros((N * p, n))
-    DL = np.zeros((N * p, N * m))
     phi = np.eye(n)
     for j in range(N - 1, -1, -1):
         BL[:, j * m:(j + 1) * m] = phi @ B[j]
         phi = phi @ A[j]
     AL = phi
-    forward = np.eye(n)  # A[k-1] ... A[0]
+    # CL[k] = C[k] A[k-1] ... A[0]
+    CL = np.zeros((N * p, n))
+    forward = np.eye(n)
     for k in range(N):
         CL[k * p:(k + 1) * p] = C[k] @ forward
-        DL[k * p:(k + 1) * p, k * m:(k + 1) * m] = D[k]
-        to_k = C[k]  # C[k] A[k-1] ... A[j+1]
-        for j in range(k - 1, -1, -1):
-            DL[k * p:(k + 1) * p, j * m:(j + 1) * m] = to_k @ B[j]
-            to_k = to_k @ A[j]
         forward = A[k] @ forward
-    return AL, BL, CL, DL
+    # DL[k, j] = C[k] A[k-1] ... A[j+1] B[j] for j < k, D[k] on the diagonal.
+    # One sub-diagonal d = k - j at a time, all its blocks at once:
+    # G[j] = A[j+d-1] ... A[j+1] B[j], so the Python loop runs N times, not N²/2.
+    DL = np.zeros((N, p, N, m))
+    phases = np.arange(N)
+    DL[phases, :, phases, :] = D
+    G = np.asarray(B, float)
+    for d in range(1, N):
+        j = phases[:N - d]
+        if d > 1:
+            G = A[j + d - 1] @ G[:N - d]
+        else:
+            G = G[:N - 1]
+        DL[j + d, :, j, :] = C[j + d] @ G
+    return AL, BL, CL, DL.reshape(N * p, N * m)
 
 
-def _lifted_names(names: Sequence[str], N: int) -> list[str]:
+def lifted_size(n: int, m: int, p: int, N: int) -> int:
+    """Number of entries of the lifted face ``(AL, BL, CL, DL)``."""
+    return n * n + N * n * (m + p) + N * N * p * m
+
+
+def check_lifted_size(n: int, m: int, p: int, N: int, name: str) -> None:
+    """Refuse a period whose lifted face exceeds :data:`MAX_LIFTED_ENTRIES`."""
+    size = lifted_size(n, m, p, N)
+    if N > 1 and size > MAX_LIFTED_ENTRIES:
+        raise ValueError(
+            f"{name}: period N = {N} is too long: the lifted mean system "
+            f"(n = {n}, {m} inputs, {p} outputs per step) would have "
+            f"{size:.3g} entries, more than MAX_LIFTED_ENTRIES = "
+            f"{MAX_LIFTED_ENTRIES:.3g} (its D alone is {N * p} x {N * m}); "
+            f"use shorter schedules, whose least common multiple sets N")
+
+
+def lifted_names(names: Sequence[str], N: int) -> list[str]:
+    """Signal names of the lifted face: ``'<name>[k]'`` for phase ``k``."""
     if N == 1:
         return list(names)
     return [f"{s}[{k}]" for k in range(N) for s in names]
@@ -179,15 +212,22 @@ class JumpStateSpace(ct.StateSpace):
     at phase 1). Hence ``control.step_response`` and ``control.bode_plot``
     of this object are exact statements about ``E z``. Products and
     interconnections return the plain mean :class:`control.StateSpace`.
-    Series and parallel connections with a deterministic system are exact
-    for the mean; a *feedback* loop is exact only when no product of two
-    mode-dependent matrices arises (e.g. the other system has no
-    feedthrough, or the loops built by :func:`control_ncs.feedback`).
-    MATH §7 claims it always is, which is wrong: tests/test_interconnect.py
-    has a counterexample. For a loop that stays a jump system, use
-    :func:`control_ncs.jump_feedback`.
+    With a deterministic LTI system ``G``, the mean of the interconnection
+    is the interconnection of the means whenever the mode-dependent
+    matrices enter it linearly: always for series and parallel
+    connections, and for a feedback loop when ``G`` has no direct
+    feedthrough (the input at time ``t`` then depends on the past only),
+    or when ``D`` and one of ``B``, ``C`` are the same in every mode (as in
+    every loop of :func:`control_ncs.feedback`). Otherwise the algebraic
+    loop through ``G``'s feedthrough multiplies two mode-dependent
+    matrices and the feedback of the means only approximates the mean;
+    :func:`control_ncs.jump_feedback` is exact in every case and keeps a
+    jump system.
 
-    Build one with :func:`jss` or :func:`control_ncs.feedback`.
+    Build one with :func:`jss` or :func:`control_ncs.feedback`. Its arrays
+    (the modes and the mean face) are read-only, so the face stays the mean
+    of the modes. A period whose lifted face would exceed
+    ``MAX_LIFTED_ENTRIES`` entries is refused.
 
     Parameters
     ----------
@@ -203,6 +243,8 @@ class JumpStateSpace(ct.StateSpace):
     name, inputs, outputs, states : optional
         As in :class:`control.StateSpace`; ``inputs``/``outputs`` name the
         per-step signals ``w`` and ``z``, not the lifted ones.
+    info : dict, optional
+        What built the system, kept as the ``info`` attribute.
 
     Attributes
     ----------
@@ -235,8 +277,17 @@ class JumpStateSpace(ct.StateSpace):
         B_ = _phase_mode_array(b, "B", N, M, (n, m))
         c = real_array(C, "C", ndim=(2, 3, 4))
         q = c.shape[-2]
+        for arg, count, what in (("B", m, "input w (a column of B)"),
+                                 ("C", q, "output z (a row of C)")):
+            if count == 0:
+                raise ControlDimension(
+                    f"{arg}: a jump system needs at least one {what}; for "
+                    f"a system without one, pass a zero column or row")
+        check_lifted_size(n, m, q, N, "probabilities")
         C_ = _phase_mode_array(c, "C", N, M, (q, n))
         D_ = _phase_mode_array(D, "D", N, M, (q, m))
+        for X in (A_, B_, C_, D_, p):
+            X.setflags(write=False)
         self.modes = Modes(A_, B_, C_, D_, p)
         self.dt_step = discrete_dt(dt)
         self.nominal_mode = None if nominal is None else self._check_nominal(
@@ -254,9 +305,12 @@ class JumpStateSpace(ct.StateSpace):
             mats = lift(Abar, Bbar, Cbar, Dbar)
             lifted_dt = True if self.dt_step is True else self.dt_step * N
         super().__init__(*mats, lifted_dt, name=name,
-                         inputs=_lifted_names(self.jump_inputs, N),
-                         outputs=_lifted_names(self.jump_outputs, N),
+                         inputs=lifted_names(self.jump_inputs, N),
+                         outputs=lifted_names(self.jump_outputs, N),
                          states=self.jump_states)
+        # the face is the exact mean of self.modes only while neither changes
+        for X in (self.A, self.B, self.C, self.D):
+            X.setflags(write=False)
 
     @staticmethod
     def _check_nominal(nominal: Any, N: int, M: int) -> np.ndarray:
@@ -287,6 +341,44 @@ class JumpStateSpace(ct.StateSpace):
     def mean_phase(self, k: int) -> tuple[np.ndarray, ...]:
         """Mean matrices ``(Σ p A, Σ p B, Σ p C, Σ p D)`` at phase ``k mod N``."""
         return tuple(M[k % self.period] for M in self.modes.mean())
+
+    def deterministic(self) -> tuple[np.ndarray, ...] | None:
+        """Per-phase ``(A, B, C, D)`` if the system is deterministic, else None.
+
+        The system is deterministic when, at every phase, all modes of
+        positive probability have identical matrices (whether or not they
+        were merged); then each step applies one known linear map and the
+        mean system is the system itself.
+
+        Returns
+        -------
+        tuple of ndarray or None
+            ``(A, B, C, D)`` of shapes ``(N, n, n)``, ``(N, n, m)``,
+            ``(N, p, n)``, ``(N, p, m)`` (copies), or None if some phase
+            has two live modes that differ.
+
+        Examples
+        --------
+        Two identical modes make a deterministic system; two different ones
+        do not:
+
+        >>> jss([[[0.5]], [[0.5]]], [[1.0]], [[1.0]], [[0.0]],
+        ...     [0.3, 0.7]).deterministic()[0].tolist()
+        [[[0.5]]]
+        >>> jss([[[0.5]], [[0.4]]], [[1.0]], [[1.0]], [[0.0]],
+        ...     [0.3, 0.7]).deterministic() is None
+        True
+        """
+        m = self.modes
+        live = m.probabilities > 0
+        first = np.argmax(live, axis=1)  # a live mode of each phase
+        k = np.arange(self.period)
+        mats = tuple(X[k, first] for X in (m.A, m.B, m.C, m.D))
+        for X, ref in zip((m.A, m.B, m.C, m.D), mats):
+            same = np.all(X == ref[:, None], axis=(2, 3))
+            if not np.all(same | ~live):
+                return None
+        return mats
 
     def mean(self) -> ct.StateSpace:
         """The mean system as a plain :class:`control.StateSpace` (a copy)."""
@@ -451,12 +543,26 @@ def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any, dt: Any = True,
     dt : True or float > 0, optional
         Sampling period (discrete time only; default True = unspecified).
     **kwargs
-        ``nominal``, ``name``, ``inputs``, ``outputs``, ``states``; anything
-        else raises ``TypeError``.
+        ``nominal`` (loss-free mode index per phase), ``name``, ``inputs``,
+        ``outputs``, ``states`` (as for :class:`control.StateSpace`), and
+        ``info`` (a dict kept on the result for reference, never read by
+        analysis); anything else raises ``TypeError``.
 
     Returns
     -------
     JumpStateSpace
+
+    Raises
+    ------
+    ValueError
+        Complex, string, non-finite or overflowing (``> 1e150``) entries,
+        probabilities outside ``[0, 1]`` or not summing to 1, a
+        continuous-time ``dt``, or a period whose lifted face exceeds
+        ``MAX_LIFTED_ENTRIES``.
+    ControlDimension
+        Inconsistent shapes, or no input or output.
+    TypeError
+        Unknown keyword.
 
     Examples
     --------
@@ -523,17 +629,36 @@ class JumpPlant:
         return (self.period, s["nu"], s["nk"])
 
     def close(self, gains: np.ndarray, **info: Any) -> JumpStateSpace:
-        """The closed loop with ``v = K_k E_k ξ`` as a :class:`JumpStateSpace`."""
+        """The closed loop with ``v = K_k E_k ξ`` as a :class:`JumpStateSpace`.
+
+        The gain acts in positive feedback, as it is (``u = K x`` for
+        ``E = I``); negate a gain designed for ``u = -K x``, such as
+        :func:`control.dlqr`'s.
+
+        Parameters
+        ----------
+        gains : array_like, shape (N, nu, nk)
+            ``K_k`` per phase (:meth:`gain_shape`).
+        **info
+            Added to the result's ``info``.
+
+        Returns
+        -------
+        JumpStateSpace
+            Coinciding modes merged.
+        """
         K = np.asarray(gains, float)
         F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
         A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
         C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
-        merged = dict(self.info, gains=K, **info)
-        sys = JumpStateSpace(A, self.Bw, C, self.Dw, self.probabilities, self.dt,
-                             nominal=self.nominal, inputs=self.inputs,
-                             outputs=self.outputs, states=self.states,
-                             info=merged)
-        return sys.merged()
+        # merge before building: the lifted face is then built once
+        mats = (A, self.Bw, C, self.Dw)
+        groups, nominal = _merge_groups(mats, self.probabilities, self.nominal)
+        mats, p = _apply_groups(mats, self.probabilities, groups)
+        return JumpStateSpace(*mats, p, self.dt, nominal=nominal,
+                              inputs=self.inputs, outputs=self.outputs,
+                              states=self.states,
+                              info=dict(self.info, gains=K, **info))
 
     def merged(self) -> "JumpPlant":
         """The same plant with coinciding modes merged (MATH §8, merged form)."""
@@ -543,6 +668,18 @@ class JumpPlant:
         return JumpPlant(*new, self.E, p, self.dt, nominal=nominal,
                          inputs=self.inputs, outputs=self.outputs,
                          states=self.states, info=self.info)
+
+    def mean(self) -> tuple[np.ndarray, ...]:
+        """Per-phase mean matrices ``Σ_i p_ki X_ki`` of every field.
+
+        Returns
+        -------
+        A, Bu, Bw, Cz, Du, Dw : ndarray, each shape (N, ., .)
+            In the order of the attributes, as :meth:`Modes.mean`.
+        """
+        p = self.probabilities
+        return tuple(np.einsum("km,kmij->kij", p, getattr(self, f))
+                     for f in self._FIELDS)
 
     def known_coordinates(self, k: int) -> np.ndarray:
         """Coordinates of ``ξ`` the controller sees at phase ``k``."""

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from ._checks import real_or_nan
+
 __all__ = ["Schedule", "schedule", "mode_probabilities"]
 
 
@@ -144,7 +146,7 @@ def schedule(spec: Any, nodes: int, name: str = "schedule") -> Schedule:
                          f"{spec!r}") from None
     if arr.dtype == bool and arr.ndim == 2:
         arr = arr.astype(int)  # a boolean matrix is a 0/1 matrix
-    if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
+    if arr.dtype == object or arr.dtype.kind not in "biuf":
         raise ValueError(f"{name}: expected None, an index vector or a 0/1 "
                          f"matrix, got {spec!r}")
     if arr.ndim == 1:
@@ -178,13 +180,10 @@ def common_period(*schedules: Schedule) -> int:
 
 def loss_probability(value: Any, name: str) -> float:
     """Validate a Bernoulli loss probability ``P(θ = 0)`` in [0, 1]."""
-    try:
-        alpha = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a probability in [0, 1], "
-                         f"got {value!r}") from None
-    if not 0.0 <= alpha <= 1.0:  # also rejects nan
-        raise ValueError(f"{name}: expected a probability in [0, 1], got {alpha}")
+    alpha = real_or_nan(value)
+    if not 0.0 <= alpha <= 1.0:  # also rejects nan (a bool, str, complex)
+        raise ValueError(f"{name}: expected a probability in [0, 1] (a real "
+                         f"number), got {value!r}")
     return alpha
 
 

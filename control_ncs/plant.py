@@ -29,7 +29,8 @@ class NetworkedStateSpace(ct.StateSpace):
     ``sensor_schedule`` phase ``t mod N`` send, in one packet lost with
     probability ``sensor_loss``; the controller's packet reaches the
     actuators of ``actuator_schedule`` unless lost (``actuator_loss``).
-    Losses are i.i.d. Bernoulli, independent of each other.
+    Losses are i.i.d. Bernoulli, independent of each other. The matrices
+    are read-only: the network was validated against them.
 
     Use :func:`nss` to create one.
 
@@ -99,6 +100,9 @@ class NetworkedStateSpace(ct.StateSpace):
         self.actuator_schedule = self.actuator_schedule.repeat(period)
         self.sensor_loss = loss_probability(sensor_loss, "sensor_loss")
         self.actuator_loss = loss_probability(actuator_loss, "actuator_loss")
+        if not isinstance(shared_channel, (bool, np.bool_)):
+            raise ControlArgument(f"shared_channel: expected True or False, "
+                                  f"got {shared_channel!r}")
         self.shared_channel = bool(shared_channel)
         if self.shared_channel:
             both = (self.sensor_schedule.pattern.any(axis=1)
@@ -119,6 +123,11 @@ class NetworkedStateSpace(ct.StateSpace):
                 [f"y[{i}]" for i in range(self.nmeas)]
         super().__init__(A, B, C, D, dt, name=name, inputs=inputs,
                          outputs=outputs, states=states)
+        # the network settings were validated against these matrices: they
+        # may not change afterwards (a NaN written into D would surface deep
+        # inside an analysis)
+        for X in (self.A, self.B, self.C, self.D):
+            X.setflags(write=False)
 
     # -- partition (MATH §2) -------------------------------------------------
     @property
@@ -267,12 +276,15 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
     Raises
     ------
     ValueError
-        Continuous-time plant, non-finite matrices, bad schedule or
-        probability, ``D21``/``D22`` nonzero, shared-channel conflicts.
+        Continuous-time plant, matrices with complex, string, non-finite or
+        overflowing (``> 1e150``) entries, bad schedule, a loss that is not
+        a real number in ``[0, 1]`` (bools and strings included),
+        ``D21``/``D22`` nonzero, shared-channel conflicts.
     ControlDimension
         Inconsistent shapes, ``nmeas``/``ncon`` out of range.
     ControlArgument
-        ``nmeas``/``ncon`` missing or not an int.
+        ``nmeas``/``ncon`` missing or not an int; ``shared_channel`` not a
+        bool.
     TypeError
         Unknown keyword.
 

@@ -1,10 +1,17 @@
-"""Event-level Monte Carlo simulator of a networked control protocol.
+"""Event-level reference simulator of the networked protocol (validation only).
 
-This module simulates, packet by packet, a plant controlled over a shared
-network with periodic medium-access schedules and Bernoulli packet losses.
-It is deliberately written from the protocol description alone -- it never
-builds the augmented (Markov jump) system matrices -- so that its trajectories
-can serve as an independent reference when validating such a formulation.
+This module is the independent reference that the tests use to validate the
+jump matrices built by :mod:`control_ncs.strategies`; it is **not** an API
+for modelling (it is not exported by the package, and its interface may
+change). To model, analyse or simulate a networked loop use
+:func:`control_ncs.nss`, :func:`control_ncs.feedback` and
+:func:`control_ncs.simulate`.
+
+It simulates, packet by packet, a plant controlled over a shared network
+with periodic medium-access schedules and Bernoulli packet losses, written
+from the protocol description alone -- it never builds the augmented
+(Markov jump) system matrices -- so that its trajectories are evidence
+independent of that formulation.
 
 Model
 -----

@@ -10,14 +10,16 @@ downstream looks at schedules or losses again.
 from __future__ import annotations
 
 import math
-from typing import Any
+from dataclasses import dataclass
+from functools import partial
+from typing import Any, Callable
 
 import numpy as np
-from control.exception import ControlArgument
+from control.exception import ControlArgument, ControlDimension
 
 from ._checks import choice, no_extra_kwargs, real_array
-from .gain import ACTUATORS, CONTROLLERS, PeriodicGain
-from .jump import JumpPlant, JumpStateSpace
+from .gain import PeriodicGain
+from .jump import JumpPlant, JumpStateSpace, check_lifted_size
 from .plant import NetworkedStateSpace
 
 __all__ = ["build", "feedback", "loop_closes"]
@@ -28,6 +30,11 @@ MODES = ((0, 0), (1, 0), (0, 1), (1, 1))
 def build(P: NetworkedStateSpace, controller: str = "static",
           actuator: str = "zero", *, period: int | None = None) -> JumpPlant:
     """The networked loop of ``P`` as a :class:`JumpPlant`, before the gain.
+
+    The gain the plant is closed with (:meth:`JumpPlant.close`,
+    :func:`control_ncs.passivesyn`) acts in positive feedback, as it is:
+    ``v_k = K_k E_k ξ`` (``u = K y`` for the static controller, ``u = K x̂``
+    for the predictor). Negate a gain designed for ``u = -K x``.
 
     Parameters
     ----------
@@ -51,33 +58,44 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
-    choice(controller, "controller", CONTROLLERS)
-    choice(actuator, "actuator", ACTUATORS)
+    strategy = _strategy(controller, actuator)
     N = P.period if period is None else int(period)
     if N % P.period:
         raise ValueError(f"period: {N} is not a multiple of the plant's network "
                          f"period {P.period}")
-    if controller == "predictor" and not _measures_state(P):
+    # the state has at least n entries: refuse a hopeless period before the
+    # per-phase work, not after it
+    check_lifted_size(P.nstates, len(P.disturbance_labels),
+                      len(P.performance_labels), N, "P")
+    if strategy.needs_state and not _measures_state(P):
         raise ControlArgument(
-            "controller='predictor' needs the full state measured: y = x "
+            f"controller={controller!r} needs the full state measured: y = x "
             f"(C2 = I), got C2 of shape {P.C2.shape}")
-    maker = _predictor_phase if controller == "predictor" else _static_phase
-    fields = [maker(P, k, actuator, t1, t2) for k in range(N)
-              for (t1, t2) in MODES]
+    # a phase's matrices depend on k only through the schedules' rows at k
+    # and k + 1: build each distinct phase once (long periods repeat them)
+    s1 = P.sensor_schedule.pattern
+    s2 = P.actuator_schedule.pattern
+    built: dict = {}
+    fields = []
+    for k in range(N):
+        key = (s1[k % P.period].tobytes(), s1[(k + 1) % P.period].tobytes(),
+               s2[k % P.period].tobytes())
+        if key not in built:
+            built[key] = [strategy.phase(P, k, t1, t2) for (t1, t2) in MODES]
+        fields.extend(built[key])
     stacked = {f: np.array([m[f] for m in fields]).reshape(
         (N, 4) + fields[0][f].shape) for f in fields[0] if f != "E"}
     E = np.array([fields[4 * k]["E"] for k in range(N)])
     a1, a2 = P.sensor_loss, P.actuator_loss
     prob = P.mode_probabilities()
     p = np.tile([prob[m] for m in MODES], (N, 1))
-    nx = stacked["A"].shape[-1]
-    states = _state_names(P, controller, actuator, nx)
     info = dict(controller=controller, actuator=actuator, sensor_loss=a1,
                 actuator_loss=a2, plant_period=P.period)
     return JumpPlant(stacked["A"], stacked["Bu"], stacked["Bw"], stacked["Cz"],
                      stacked["Du"], stacked["Dw"], E, p, P.dt,
                      nominal=np.full(N, 3), inputs=P.disturbance_labels,
-                     outputs=P.performance_labels, states=states, info=info)
+                     outputs=P.performance_labels,
+                     states=strategy.states(P), info=info)
 
 
 def _measures_state(P: NetworkedStateSpace) -> bool:
@@ -85,7 +103,7 @@ def _measures_state(P: NetworkedStateSpace) -> bool:
         P.C2, np.eye(P.nstates))
 
 
-def _static_phase(P, k, actuator, t1, t2) -> dict:
+def _static_phase(P, k, t1, t2, *, actuator) -> dict:
     """Memoryless gain, MATH §4: ``u = θ2 Σ2 K θ1 Σ1 y``."""
     n, m2 = P.nstates, P.ncon
     S1 = P.sensor_schedule.selection(k)
@@ -122,7 +140,7 @@ def _held(P) -> np.ndarray:
     return H
 
 
-def _predictor_phase(P, k, actuator, t1_next, t2) -> dict:
+def _predictor_phase(P, k, t1_next, t2, *, actuator) -> dict:
     """Model-based controller, MATH §8b; the mode is ``(θ1,k+1, θ2,k)``.
 
     State ``[x̂; e]`` (zero actuator) or ``[x̂; u⁻; e]`` (hold; ``u⁻`` the
@@ -160,16 +178,77 @@ def _predictor_phase(P, k, actuator, t1_next, t2) -> dict:
         E=E)
 
 
-def _state_names(P, controller, actuator, nx) -> list[str]:
-    x = list(P.state_labels)
+def _plant_states(P) -> list[str]:
+    return list(P.state_labels)
+
+
+def _held_names(P) -> list[str]:
     controls = P.input_labels[len(P.disturbance_labels):]
-    u = [f"{controls[i]}_prev"
-         for i in np.flatnonzero(P.actuator_schedule.pattern.any(axis=0))]
-    if controller == "static":
-        return x + (u if actuator == "hold" else [])
-    xhat = [f"{s}_hat" for s in x]
-    err = [f"{s}_err" for s in x]
-    return xhat + (u if actuator == "hold" else []) + err
+    return [f"{controls[i]}_prev"
+            for i in np.flatnonzero(P.actuator_schedule.pattern.any(axis=0))]
+
+
+def _predictor_states(P, hold: bool) -> list[str]:
+    x = list(P.state_labels)
+    return ([f"{s}_hat" for s in x] + (_held_names(P) if hold else [])
+            + [f"{s}_err" for s in x])
+
+
+@dataclass(frozen=True)
+class Strategy:
+    """How one (controller, actuator) pair builds a phase of the jump plant.
+
+    Attributes
+    ----------
+    phase : callable
+        ``phase(P, k, t1, t2)`` -> dict of ``A, Bu, Bw, Cz, Du, Dw, E`` of the
+        network mode ``(t1, t2)`` at phase ``k``.
+    states : callable
+        ``states(P)`` -> names of the state ``ξ``.
+    memoryless : bool
+        The controller keeps nothing between messages, so it acts only at
+        phases that schedule a sensor and an actuator together (MATH §4).
+    needs_state : bool
+        The controller needs ``y = x`` (``C2 = I``).
+    """
+
+    phase: Callable[..., dict]
+    states: Callable[[NetworkedStateSpace], list]
+    memoryless: bool
+    needs_state: bool
+
+
+#: Every network strategy, keyed by ``(controller, actuator)``: a new one is
+#: one entry here (and its gain shape in :class:`~control_ncs.jump.JumpPlant`
+#: follows from its ``E``). The accepted choices are derived from the keys.
+STRATEGIES: dict[tuple[str, str], Strategy] = {
+    ("static", "zero"): Strategy(
+        partial(_static_phase, actuator="zero"), _plant_states,
+        memoryless=True, needs_state=False),
+    ("static", "hold"): Strategy(
+        partial(_static_phase, actuator="hold"),
+        lambda P: _plant_states(P) + _held_names(P),
+        memoryless=True, needs_state=False),
+    ("predictor", "zero"): Strategy(
+        partial(_predictor_phase, actuator="zero"),
+        partial(_predictor_states, hold=False),
+        memoryless=False, needs_state=True),
+    ("predictor", "hold"): Strategy(
+        partial(_predictor_phase, actuator="hold"),
+        partial(_predictor_states, hold=True),
+        memoryless=False, needs_state=True),
+}
+
+
+def _strategy(controller: Any, actuator: Any) -> Strategy:
+    """The registered strategy, or ControlArgument naming the choices."""
+    choice(controller, "controller", dict.fromkeys(c for c, _ in STRATEGIES))
+    choice(actuator, "actuator", dict.fromkeys(a for _, a in STRATEGIES))
+    if (controller, actuator) not in STRATEGIES:
+        raise ControlArgument(
+            f"actuator: {actuator!r} is not available with controller="
+            f"{controller!r}; available pairs: {sorted(STRATEGIES)}")
+    return STRATEGIES[controller, actuator]
 
 
 def loop_closes(P: NetworkedStateSpace) -> bool:
@@ -182,6 +261,12 @@ def loop_closes(P: NetworkedStateSpace) -> bool:
 def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
              actuator: str | None = None, **kwargs: Any) -> JumpStateSpace:
     """Close the networked loop of ``P`` with a (periodic) gain.
+
+    The gain is applied as it is, in positive feedback: the controller sends
+    ``v_k = K_k ŷ_k`` (static: ``u = K y`` when every message arrives, so
+    ``u = K x`` for ``y = x``) or ``v_k = K_k x̂_k`` (predictor: ``u = K x̂``).
+    A gain designed for ``u = -K x``, as :func:`control.dlqr` returns, must be
+    negated (see the Examples).
 
     Parameters
     ----------
@@ -218,9 +303,18 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     >>> import numpy as np
     >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1, actuator_loss=0.2)
-    >>> CL = feedback(P, [[-2.0]])
+    >>> CL = feedback(P, [[-2.0]])                 # u = -2 x when it arrives
     >>> CL.modes.probabilities.round(3).tolist()
     [[0.2, 0.8]]
+    >>> CL.modes.A[0, :, 0, 0].tolist()           # lost: 2, arrived: 2 - 2
+    [2.0, 0.0]
+
+    An LQR gain is designed for ``u = -K x``: pass ``-K``.
+
+    >>> K, _, _ = ct.dlqr(P.A, P.B2, np.eye(1), np.eye(1))
+    >>> CL = feedback(P, -K)
+    >>> bool(ms_radius(CL) < 1)
+    True
     """
     no_extra_kwargs("feedback", kwargs)
     if isinstance(K, PeriodicGain):
@@ -231,12 +325,16 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         # validate here so that messages name the argument K, not 'gains'
         gains = PeriodicGain(real_array(K, "K", ndim=(2, 3)),
                              controller or "static", actuator or "zero").gains
-    controller = choice(controller or "static", "controller", CONTROLLERS)
-    actuator = choice(actuator or "zero", "actuator", ACTUATORS)
+    if 0 in gains.shape:
+        raise ControlDimension(f"K: expected a non-empty gain (at least one "
+                               f"phase, one row, one column), got shape "
+                               f"{gains.shape}")
+    controller, actuator = controller or "static", actuator or "zero"
+    strategy = _strategy(controller, actuator)
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
-    if controller == "static" and not loop_closes(P):
+    if strategy.memoryless and not loop_closes(P):
         raise ValueError(
             "K: a memoryless (static) gain never closes this loop: no phase "
             "schedules a sensor and an actuator together (a shared channel "
@@ -247,7 +345,6 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     plant = build(P, controller, actuator, period=N)
     want = plant.gain_shape()[1:]
     if gains.shape[1:] != want:
-        from control.exception import ControlDimension
         raise ControlDimension(
             f"K: expected gains of shape {want} (or ({gains.shape[0]}, "
             f"{want[0]}, {want[1]}) per phase) for controller={controller!r}, "

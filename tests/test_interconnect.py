@@ -1,4 +1,4 @@
-"""Interconnections with deterministic LTI systems (control_ncs.interconnect).
+"""Interconnections with deterministic LTI systems (control_ncs.connect).
 
 MATH §7: the mean of a jump system interconnected with a deterministic LTI
 system is the interconnection of the means.
@@ -13,7 +13,7 @@ import control as ct
 from control.exception import ControlArgument, ControlDimension
 
 import control_ncs as cn
-from control_ncs.interconnect import jump_feedback, lift_lti
+from control_ncs.connect import jump_feedback, lift_lti
 from control_ncs.responses import simulate, step_response
 
 A = [[1.1, 0.2], [0.0, 0.9]]

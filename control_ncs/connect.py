@@ -61,7 +61,7 @@ import control as ct
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, no_extra_kwargs, real_array
-from .jump import JumpStateSpace, _lifted_names, as_jump, lift
+from .jump import JumpStateSpace, lifted_names, as_jump, lift
 from .plant import NetworkedStateSpace
 
 __all__ = ["jump_feedback", "lift_lti"]
@@ -159,7 +159,7 @@ def jump_feedback(sys: Any, other: Any = 1, sign: float = -1, *,
     --------
     A lossy loop in series with an integrator-like filter:
 
-    >>> from control_ncs.interconnect import jump_feedback
+    >>> from control_ncs.connect import jump_feedback
     >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
     >>> G = ct.ss([[0.5]], [[1.0]], [[0.2]], [[0.0]], True)
     >>> loop = jump_feedback(sys, G)
@@ -234,7 +234,7 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
 
     Examples
     --------
-    >>> from control_ncs.interconnect import lift_lti
+    >>> from control_ncs.connect import lift_lti
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], 0.1)
     >>> GL = lift_lti(G, 2)
     >>> GL.A.tolist(), GL.dt, GL.input_labels
@@ -253,6 +253,6 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
     mats = lift(*(np.repeat(np.asarray(X, float)[None], N, axis=0)
                   for X in (G.A, G.B, G.C, G.D)))
     return ct.StateSpace(*mats, True if dt is True else dt * N,
-                         inputs=_lifted_names(G.input_labels, N),
-                         outputs=_lifted_names(G.output_labels, N),
+                         inputs=lifted_names(G.input_labels, N),
+                         outputs=lifted_names(G.output_labels, N),
                          states=list(G.state_labels), name=f"{G.name}$lifted")
