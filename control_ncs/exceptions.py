@@ -65,7 +65,7 @@ class CertificationError(RuntimeError):
     """
 
     def __init__(self, message: str, reason: str,
-                 figures: dict | None = None):
+                 figures: dict | None = None) -> None:
         super().__init__(message)
         self.reason = reason
         self.figures = dict(figures or {})

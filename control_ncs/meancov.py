@@ -243,7 +243,7 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
         Covariance of ``ξ_0`` (default zero: known initial state; symmetric
         positive semidefinite).
     **kwargs
-        None is accepted: an unknown keyword raises ``TypeError``.
+        Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
     Returns
     -------

@@ -889,7 +889,7 @@ def frequency_ff_index(sys: Any, omega: Any = None, *,
     points : int, optional
         Grid size when ``omega`` is None (default ``kyp.KYP_POINTS``).
     **kwargs
-        None is accepted: an unknown keyword raises ``TypeError``.
+        Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
     Returns
     -------

@@ -427,7 +427,7 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     progress : bool, optional
         Show a progress bar (needs the optional package ``tqdm``).
     **kwargs
-        None is accepted: an unknown keyword raises ``TypeError``.
+        Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
     Returns
     -------
@@ -609,7 +609,7 @@ _OPTIONS_DOC = """trials : int, optional
     progress : bool, optional
         Show a progress bar (needs ``tqdm``).
     **kwargs
-        None is accepted: an unknown keyword raises ``TypeError``."""
+        Reserved: any keyword raises ``TypeError`` (unknown keyword)."""
 
 
 def forced_response(sys: Any, timepts: Any, inputs: Any = None,

@@ -53,16 +53,21 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
     Examples
     --------
     ``x⁺ = 2x`` with probability 0.2, else ``x⁺ = 0``: ``E x²`` is
-    multiplied by ``0.2·4 = 0.8``; with period 2 the monodromy applies it
-    twice.
+    multiplied by ``0.2·4 = 0.8``.
 
     >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
     >>> second_moment_operator(sys).matvec(np.array([1.0])).round(12).tolist()
     [0.8]
+
+    With period 2 and ``x⁺ = 0.5x`` at phase 1, ``k=1`` gives that phase's
+    map (``0.25``) and the monodromy both phases (``0.8·0.25 = 0.2``):
+
     >>> sys2 = jss([[[[2.0]], [[0.0]]], [[[0.5]], [[0.5]]]], [[1.0]], [[1.0]],
     ...            [[0.0]], [[0.2, 0.8], [0.5, 0.5]])
     >>> second_moment_operator(sys2, k=1) @ np.array([1.0])
     array([0.25])
+    >>> (second_moment_operator(sys2) @ np.array([1.0])).round(12)
+    array([0.2])
     """
     sys = as_jump(sys)
     if k is not None and (isinstance(k, (bool, np.bool_))
@@ -133,7 +138,7 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
         Relative accuracy asked of ARPACK (matrix-free route); a finite
         number > 0.
     **kwargs
-        None is accepted: an unknown keyword raises ``TypeError``.
+        Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
     Returns
     -------
