@@ -65,7 +65,7 @@ class CertificationError(RuntimeError):
     """
 
     def __init__(self, message: str, reason: str,
-                 figures: dict | None = None):
+                 figures: dict | None = None) -> None:
         super().__init__(message)
         self.reason = reason
         self.figures = dict(figures or {})
@@ -79,4 +79,26 @@ class CertificationError(RuntimeError):
 
 
 class SynthesisError(CertificationError):
-    """:func:`control_ncs.passivesyn` found no gain it could certify."""
+    """:func:`control_ncs.passivesyn` found no gain it could certify.
+
+    A :class:`CertificationError`: ``except CertificationError`` catches it.
+
+    Parameters
+    ----------
+    message : str
+    reason : str
+        One of :data:`REASONS`.
+    figures : dict, optional
+        Whatever was measured (solver status, eigenvalues, ``ms_radius``).
+
+    Attributes
+    ----------
+    reason : str
+    figures : dict
+
+    Examples
+    --------
+    >>> err = SynthesisError("no gain", INFEASIBLE, {"status": "infeasible"})
+    >>> isinstance(err, CertificationError), err.reason
+    (True, 'infeasible')
+    """

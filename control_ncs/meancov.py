@@ -69,10 +69,15 @@ def _count_grid(timepts: Any, dt: float) -> np.ndarray:
     if isinstance(timepts, (bool, np.bool_)) or not isinstance(
             timepts, numbers.Real):
         raise bad
-    if not isinstance(timepts, numbers.Integral) and not (
-            math.isfinite(timepts) and timepts == int(timepts)):
-        raise bad
-    steps = int(timepts)
+    if isinstance(timepts, numbers.Integral):
+        steps = int(timepts)
+    else:
+        # every numbers.Real has __floor__ (math.floor is exact for
+        # Fraction); typeshed's Real declares no __int__ for int()
+        whole = math.floor(timepts) if math.isfinite(timepts) else None
+        if whole is None or timepts != whole:
+            raise bad
+        steps = int(whole)
     if steps < 1:
         raise bad
     try:
@@ -150,6 +155,17 @@ class MomentsResponse:
     states_second_moment : ndarray, shape (n, n, T)
         ``E[ξ ξᵀ]``.
     sys : JumpStateSpace
+        The system, for its signal names.
+
+    Examples
+    --------
+    ``x⁺ = 2x`` with probability 0.2, else 0, from ``x_0 = 1``:
+    ``E x_t = 0.4^t`` and ``E x_t² = 0.8^t``.
+
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = moments(sys, 3, initial_state=1.0)
+    >>> r.outputs_mean.round(6).tolist(), r.outputs_cov[0, 0].round(6).tolist()
+    ([[1.0, 0.4, 0.16]], [0.0, 0.64, 0.6144])
     """
 
     time: np.ndarray
@@ -162,12 +178,37 @@ class MomentsResponse:
 
     @property
     def outputs_std(self) -> np.ndarray:
-        """Standard deviation of each output, shape (p, T)."""
+        """Standard deviation of each output, shape (p, T).
+
+        The square root of the diagonal of :attr:`outputs_cov` (rounding
+        below zero clipped).
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> moments(sys, 3, initial_state=1.0).outputs_std.round(4).tolist()
+        [[0.0, 0.8, 0.7838]]
+        """
         d = np.einsum("iit->it", self.outputs_cov)
         return np.sqrt(np.maximum(d, 0.0))
 
     def to_response(self) -> ct.TimeResponseData:
-        """The mean as a :class:`control.TimeResponseData` (plottable)."""
+        """The mean as a :class:`control.TimeResponseData` (plottable).
+
+        Returns
+        -------
+        control.TimeResponseData
+            Outputs ``E z``, states ``E ξ``, labelled like ``sys``; no
+            inputs.
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
+        ...           name="loop")
+        >>> data = moments(sys, 3, initial_state=1.0).to_response()
+        >>> data.outputs.round(6).tolist(), data.title
+        ([[1.0, 0.4, 0.16]], 'Exact mean of loop')
+        """
         s = self.sys
         return ct.TimeResponseData(
             self.time, self.outputs_mean, self.states_mean, issiso=False,
@@ -201,6 +242,8 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     initial_covariance : array_like, shape (n, n), optional
         Covariance of ``ξ_0`` (default zero: known initial state; symmetric
         positive semidefinite).
+    **kwargs
+        Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
     Returns
     -------

@@ -86,7 +86,21 @@ GEMM_SERIAL, MIN_COLUMNS = 1 << 18, 16
 
 @functools.cache
 def tqdm_check() -> bool:
-    """True when the optional package ``tqdm`` (progress bars) is installed."""
+    """True when the optional package ``tqdm`` (progress bars) is installed.
+
+    Cached: the import is tried once per process.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> from control_ncs.montecarlo import tqdm_check
+    >>> import importlib.util
+    >>> tqdm_check() == (importlib.util.find_spec("tqdm") is not None)
+    True
+    """
     try:
         import tqdm  # noqa: F401
     except ImportError:
@@ -209,7 +223,9 @@ def _phases(modes: Any) -> list[_Phase]:
         p_k = modes.probabilities[k]
         live = np.flatnonzero(p_k > 0)
         base = live[np.argmax(p_k[live])]
-        U, V, parts, r = [], [], [], 0
+        Us: list[np.ndarray] = []
+        Vs: list[np.ndarray] = []
+        parts, r = [], 0
         for i in live:
             delta = M[i] - M[base]
             # Factor only the rows and columns where the modes differ, so a
@@ -230,24 +246,24 @@ def _phases(modes: Any) -> list[_Phase]:
             Ui[rows] = u[:, :rank] * sv[:rank]
             Vi = np.zeros((rank, n + m))
             Vi[:, cols] = vt[:rank]
-            U.append(Ui)
-            V.append(Vi)
+            Us.append(Ui)
+            Vs.append(Vi)
             parts.append((int(i), slice(r, r + rank)))
             r += rank
-        G = np.concatenate([M[base]] + U, axis=1)
-        V = np.concatenate(V) if V else np.zeros((0, n + m))
+        G = np.concatenate([M[base]] + Us, axis=1)
+        V = np.concatenate(Vs) if Vs else np.zeros((0, n + m))
         phases.append(_Phase(G, V, tuple(parts)))
     return phases
 
 
-def _mode_masks(run: Run, a: int, c: int) -> np.ndarray | None:
+def _mode_masks(run: Run, a: int, c: int) -> np.ndarray:
     """``mask[t, j]``: 1.0 for the trials in the ``j``-th non-base mode of
     phase ``t mod N`` at step ``t``, else 0.0; shape (T, q, c)."""
     phases = run.phases
     q = max(len(ph.parts) for ph in phases)
-    if q == 0:
-        return None
     T, N = run.time.size, len(phases)
+    if q == 0:
+        return np.empty((T, 0, c))      # one mode per phase: nothing to draw
     cdf = np.cumsum(run.sys.modes.probabilities, axis=1)
     cdf /= cdf[:, -1:]
     lower = np.concatenate([np.zeros((N, 1)), cdf[:, :-1]], axis=1)
@@ -497,8 +513,8 @@ def ensemble_statistics(run: Run, levels: tuple, kept: Storage,
             mean += delta * (c / total)
             count = total
     cov = M2 / (count - 1) if count > 1 else np.zeros_like(M2)
-    qv = np.quantile(everything, levels, axis=1) if levels else \
-        np.zeros((0, p, T))
+    qv = np.quantile(everything, levels, axis=1) if everything is not None \
+        else np.zeros((0, p, T))
     return Statistics(mean.T.copy(), cov.transpose(1, 2, 0).copy(), qv,
                       (states_sum / count).T.copy())
 

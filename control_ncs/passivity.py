@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
@@ -47,7 +47,8 @@ from ._checks import (choice, decay_bound, finite_real, no_extra_kwargs,
 from .exceptions import (CERTIFIED, FEEDTHROUGH, INACCURATE, INFEASIBLE,
                          NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
                          CertificationError)
-from .lmi import (DEFAULT_MARGIN, SolveReport, analysis_model,
+from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
+                  analysis_model,
                   fallback_solver, solve, supply_model)
 from .stability import ms_radius
 from .verify import (Certificate, _system, certify_index, certify_ofp_index,
@@ -150,6 +151,21 @@ class PassivityResult:
     frequency search, ``solve_time`` the Riccati solves, pencil corrections
     and exact checks, ``iterations`` the number of Riccati solves, ``value``
     the level ``η`` of the last one and ``options`` its ``level`` and ``eps``.
+
+    Examples
+    --------
+    ``G(z) = 1 + 1/(z - 0.5)`` has input-feedforward index
+    ``min Re G = 1/3``; a deterministic system takes the Riccati route:
+
+    >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    >>> result = passivity_certificate(G)      # ifp_index=None: the index
+    >>> result.passive, result.reason, result.method
+    (True, 'certified', 'riccati')
+    >>> round(result.eta, 5), round(result.eta_upper, 10)
+    (0.33333, 0.3333333333)
+    >>> refuted = passivity_certificate(G, 0.4)
+    >>> refuted.passive, refuted.reason, refuted.certificate is None
+    (False, 'infeasible', True)
     """
 
     passive: bool
@@ -309,7 +325,8 @@ def _riccati_certificate(sys, mats, ifp_index, decay
     plan = [None] if fixed else list(RICCATI_BACKOFFS)
     while plan:
         backoff = plan.pop(0)
-        step = 0.0 if fixed else backoff * max(1.0, abs(upper))
+        # backoff is None exactly when the level is fixed
+        step = 0.0 if backoff is None else backoff * max(1.0, abs(upper))
         level = float(ifp_index) if fixed else upper - step
         eps = strictness(level)
         levels.append(level)
@@ -536,7 +553,11 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
             (LEVEL_ATTEMPTS if fixed else INDEX_ATTEMPTS)]
     if fallback_solver(solver):
         plan.append(((None if fixed else 1.0), None, fallback_solver(solver)))
-    attempts, last, best, refuted = [], None, None, False
+    attempts, best, refuted = [], None, False
+    # (report, certificate, reason) of the last attempt that failed
+    last: tuple[SolveReport, Certificate | None, str] | None = None
+    cert: Certificate | None
+    model: AnalysisModel | SupplyModel
     while plan:
         scale, backoff, name = plan.pop(0)
         target = None
@@ -587,7 +608,8 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
         else:
             # the solver's ρ is only where to start: certify_ofp_index
             # computes the certified level from P
-            guess = report.value if target is None else target
+            # an 'optimal' status comes with a value (lmi.solve)
+            guess = cast(float, report.value if target is None else target)
             cert = certify_ofp_index(sys, P, guess, eta=ifp_index,
                                      decay=decay)
         # For a given level the exact check is the proof, whatever the
@@ -597,6 +619,8 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
             return PassivityResult(True, cert.eta, cert, report, CERTIFIED,
                                    ofp_index=cert.ofp_index)
         last = (report, cert, NOT_VERIFIED if report.ok else INACCURATE)
+    # the first attempt never backs off, so it always records an outcome
+    assert last is not None
     report, cert, reason = last
     if refuted:
         # No certificate with a margin exists, and without one none verified.
@@ -671,8 +695,9 @@ def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
     >>> ispassive(G, ifp_index=1.3), ispassive(G, ifp_index=1.4)
     (True, False)
     """
-    ofp_index = finite_real(ofp_index, "ofp_index")
-    ifp_index = finite_real(ifp_index, "ifp_index")
+    # finite_real without allow_none never returns None
+    ofp_index = cast(float, finite_real(ofp_index, "ofp_index"))
+    ifp_index = cast(float, finite_real(ifp_index, "ifp_index"))
     return passivity_certificate(sys, ifp_index, ofp_index=ofp_index,
                                  **kwargs).passive
 
@@ -800,6 +825,41 @@ def mean_input_ff_index(sys: Any, **kwargs: Any) -> float:
     this is its passivity index, certified the same way. It bounds ``E z``
     for deterministic ``w`` only, and is never below
     :func:`get_input_ff_index` (MATH §6-§7).
+
+    Parameters
+    ----------
+    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+        Square (``w`` and ``z`` of equal size).
+    **kwargs
+        As for :func:`get_input_ff_index` (``method``, ``decay``,
+        ``ofp_index`` held fixed, ``solver``, ``margin``, solver options);
+        unknown keywords raise ``TypeError``.
+
+    Returns
+    -------
+    float
+        The certified index of ``sys.mean()``.
+
+    Raises
+    ------
+    CertificationError
+        ``reason='not_mss'`` if the mean system is not Schur stable; see
+        :func:`passivity_certificate` for the others.
+
+    See Also
+    --------
+    get_input_ff_index : the stochastic index, for inputs adapted to the
+        past (feedback).
+
+    Examples
+    --------
+    ``x⁺ = a x + w``, ``z = x + w`` with ``a`` 0.5 or 0 (probability 1/2
+    each): the mean system has ``a = 0.25`` and index ``1 - 1/1.25 = 0.2``;
+    the stochastic index is smaller.
+
+    >>> sys = jss([[[0.5]], [[0.0]]], [[1.0]], [[1.0]], [[1.0]], [0.5, 0.5])
+    >>> round(mean_input_ff_index(sys), 4), round(get_input_ff_index(sys), 4)
+    (0.2, 0.1791)
     """
     sys = _system(sys)
     return get_input_ff_index(sys.mean(), **kwargs)
@@ -826,17 +886,23 @@ def frequency_ff_index(sys: Any, omega: Any = None, *,
     sys : discrete-time StateSpace (for a jump system: its mean system)
     omega : array_like, optional
         Frequencies (rad per time unit) of the grid.
-    points : int
-        Grid size when ``omega`` is None.
+    points : int, optional
+        Grid size when ``omega`` is None (default ``kyp.KYP_POINTS``).
+    **kwargs
+        Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
     Returns
     -------
     float
+        ``min λmin(G + Gᴴ)/2`` over the frequencies searched.
 
     Raises
     ------
+    TypeError
+        Unknown keyword.
     ValueError
-        If the system is not Schur stable (the test does not apply).
+        If the system is not Schur stable (the test does not apply), or
+        ``omega`` is empty, complex or not finite.
 
     Examples
     --------

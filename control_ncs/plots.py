@@ -7,7 +7,7 @@ Every function returns python-control's :class:`control.ControlPlot`
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import control as ct
@@ -100,9 +100,9 @@ def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
     shown = min(int(paths), response.paths.ntraces)
     t = response.time
     lines = np.empty((p, 1), dtype=object)
-    lo = hi = None
+    bounds: tuple[np.ndarray, np.ndarray] | None = None
     if band and len(response.quantiles) >= 2:
-        lo, hi = response.quantile_values[0], response.quantile_values[-1]
+        bounds = (response.quantile_values[0], response.quantile_values[-1])
         band_label = (f"{100 * response.quantiles[0]:g}–"
                       f"{100 * response.quantiles[-1]:g}% band")
     for i, a in enumerate(axes):
@@ -111,9 +111,9 @@ def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
             drawn += a.plot(t, response.paths.y[i, :shown].T, color="0.55",
                             linewidth=0.7, alpha=0.8)
             drawn[0].set_label("sample paths")
-        if lo is not None:
-            a.fill_between(t, lo[i], hi[i], color="C0", alpha=0.25,
-                           linewidth=0, label=band_label)
+        if bounds is not None:
+            a.fill_between(t, bounds[0][i], bounds[1][i], color="C0",
+                           alpha=0.25, linewidth=0, label=band_label)
         drawn += a.plot(t, response.sample_mean[i], color="C0", linewidth=1.8,
                         label=f"sample mean ({response.trials} trials)")
         drawn += a.plot(t, response.exact_mean[i], color="k", linestyle="--",
@@ -174,7 +174,8 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
                               f"got {type(P).__name__}")
     if steps is None:
         steps = max(8, 2 * P.period)
-    steps = positive_int(steps, "steps")
+    # positive_int without allow_none never returns None
+    steps = cast(int, positive_int(steps, "steps"))
     if ax is None:
         _, ax = plt.subplots(figsize=(min(12, 2 + 0.35 * steps),
                                       0.6 + 0.35 * (P.nmeas + P.ncon)))

@@ -62,10 +62,29 @@ class SamplePaths(ct.TimeResponseData):
     ----------
     trials : int
         Number of sample paths (``ntraces``).
+
+    See Also
+    --------
+    simulate : produces one.
+
+    Examples
+    --------
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> paths = simulate(sys, 4, initial_state=1.0, trials=3, seed=0)
+    >>> paths.trials, paths.outputs.shape, paths.states.shape
+    (3, (1, 3, 4), (1, 3, 4))
     """
 
     @property
     def trials(self) -> int:
+        """Number of sample paths (``ntraces``).
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> simulate(sys, 4, trials=3, seed=0).trials
+        3
+        """
         return self.ntraces
 
     def plot(self, *args: Any, paths: int | None = 20,
@@ -79,15 +98,32 @@ class SamplePaths(ct.TimeResponseData):
 
         Parameters
         ----------
+        *args
+            Passed to :func:`control.time_response_plot` (e.g. a format
+            string).
         paths : int or None, optional
             Plot only the first ``paths`` trials (an int >= 1; default 20;
-        None = all).
-        *args, **kwargs
+            None = all).
+        **kwargs
             Passed to :func:`control.time_response_plot`.
 
         Returns
         -------
         control.ControlPlot
+            One axes per output, one line per plotted trial.
+
+        Raises
+        ------
+        ValueError
+            ``paths`` is not an int >= 1 or None.
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> paths = simulate(sys, 5, initial_state=1.0, trials=50, seed=0)
+        >>> cplt = paths.plot(paths=10)
+        >>> cplt.axes.shape, len(cplt.lines[0, 0])
+        ((1, 1), 10)
         """
         paths = positive_int(paths, "paths", allow_none=True)
         data = self
@@ -143,6 +179,24 @@ class EnsembleResponse:
     paths : SamplePaths
         The first ``keep_paths`` sample paths.
     title : str
+        Figure title.
+
+    See Also
+    --------
+    step_response, impulse_response, initial_response, forced_response :
+        produce one.
+    plot_ensemble : its usual figure.
+
+    Examples
+    --------
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = initial_response(sys, 3, 1.0, trials=100, keep_paths=5, seed=0)
+    >>> r.kind, r.trials, r.quantiles, r.paths.trials
+    ('initial', 100, (0.05, 0.95), 5)
+    >>> r.sample_mean.shape, r.quantile_values.shape
+    ((1, 3), (2, 1, 3))
+    >>> r.exact_mean.round(6).tolist()          # E z_t = 0.4**t
+    [[1.0, 0.4, 0.16]]
     """
 
     time: np.ndarray
@@ -160,26 +214,72 @@ class EnsembleResponse:
 
     @property
     def sample_std(self) -> np.ndarray:
-        """Sample standard deviation of each output, shape (p, T)."""
+        """Sample standard deviation of each output, shape (p, T).
+
+        The square root of the diagonal of :attr:`sample_cov` (``ddof=1``).
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> r = initial_response(sys, 3, 1.0, trials=4000, seed=0)
+        >>> bool(np.all(abs(r.sample_std - r.exact_std) < 0.05))
+        True
+        """
         return np.sqrt(np.maximum(np.einsum("iit->it", self.sample_cov), 0.0))
 
     @property
     def standard_error(self) -> np.ndarray:
-        """Standard error of :attr:`sample_mean`, ``sample_std/√trials``."""
+        """Standard error of :attr:`sample_mean`, ``sample_std/√trials``.
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> r = initial_response(sys, 3, 1.0, trials=400, seed=0)
+        >>> bool(np.allclose(r.standard_error, r.sample_std / 20))
+        True
+        """
         return self.sample_std / math.sqrt(self.trials)
 
     @property
     def exact_mean(self) -> np.ndarray:
-        """``E z`` (MATH §7), shape (p, T)."""
+        """``E z`` (MATH §7), shape (p, T).
+
+        The outputs' mean of :attr:`exact`, computed without sampling.
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> initial_response(sys, 3, 1.0, trials=10, seed=0).exact_mean.round(6)
+        array([[1.  , 0.4 , 0.16]])
+        """
         return self.exact.outputs_mean
 
     @property
     def exact_std(self) -> np.ndarray:
-        """Exact standard deviation of each output, shape (p, T)."""
+        """Exact standard deviation of each output, shape (p, T).
+
+        From the exact covariance of :attr:`exact` (MATH §7).
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> r = initial_response(sys, 3, 1.0, trials=10, seed=0)
+        >>> r.exact_std.round(4).tolist()        # sqrt(0.8**t - 0.4**(2t))
+        [[0.0, 0.8, 0.7838]]
+        """
         return self.exact.outputs_std
 
     @property
     def output_labels(self) -> list[str]:
+        """Names of the outputs, as in the system.
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
+        ...           outputs=["z"])
+        >>> initial_response(sys, 3, 1.0, trials=10, seed=0).output_labels
+        ['z']
+        """
         return list(self.paths.output_labels)
 
     def to_response(self) -> ct.TimeResponseData:
@@ -187,6 +287,18 @@ class EnsembleResponse:
 
         Traces: exact mean, sample mean, then one per quantile; the inputs
         of every trace are the deterministic ``w``.
+
+        Returns
+        -------
+        control.TimeResponseData
+            ``outputs`` of shape ``(p, 2 + len(quantiles), T)``.
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> data = initial_response(sys, 3, 1.0, trials=10, seed=0).to_response()
+        >>> data.outputs.shape, data.trace_labels[0]
+        ((1, 4, 3), 'exact mean')
         """
         traces = [self.exact_mean, self.sample_mean, *self.quantile_values]
         y = np.stack(traces, axis=1)
@@ -208,9 +320,25 @@ class EnsembleResponse:
         passed on (e.g. ``plot_inputs=True``, ``overlay_traces=False``).
         For a band with sample paths use :func:`plot_ensemble`.
 
+        Parameters
+        ----------
+        *args
+            Passed to :func:`control.time_response_plot` (e.g. a format
+            string; then the default line styles are not set).
+        **kwargs
+            Passed to :func:`control.time_response_plot`.
+
         Returns
         -------
         control.ControlPlot
+            One axes per output.
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> cplt = initial_response(sys, 3, 1.0, trials=10, seed=0).plot()
+        >>> [line.get_linestyle() for line in cplt.lines[0, 0]]
+        ['-', '--', ':', ':']
         """
         kwargs.setdefault("overlay_traces", True)
         if not args:
@@ -298,6 +426,8 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
         result.
     progress : bool, optional
         Show a progress bar (needs the optional package ``tqdm``).
+    **kwargs
+        Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
     Returns
     -------
@@ -401,6 +531,24 @@ def default_steps(sys: Any) -> int:
     :func:`control_ncs.ms_radius` (which bounds the decay of the mean as
     well), clipped to ``[20, 1000]``; 50 steps for a system that is not
     mean-square stable. Rounded up to whole periods.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time control.StateSpace
+
+    Returns
+    -------
+    int
+        A multiple of the period.
+
+    Examples
+    --------
+    ``ms_radius = 0.8``: ``0.8^t < 1e-4`` from ``t = 42``:
+
+    >>> from control_ncs.responses import default_steps
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> default_steps(sys)
+    42
     """
     sys = as_jump(sys)
     try:
@@ -459,7 +607,9 @@ _OPTIONS_DOC = """trials : int, optional
         sample paths (as in :func:`simulate`); the statistics, accumulated
         chunk by chunk, agree to rounding.
     progress : bool, optional
-        Show a progress bar (needs ``tqdm``)."""
+        Show a progress bar (needs ``tqdm``).
+    **kwargs
+        Reserved: any keyword raises ``TypeError`` (unknown keyword)."""
 
 
 def forced_response(sys: Any, timepts: Any, inputs: Any = None,

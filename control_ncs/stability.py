@@ -49,6 +49,25 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
     ------
     ValueError
         ``k`` is not an int.
+
+    Examples
+    --------
+    ``x⁺ = 2x`` with probability 0.2, else ``x⁺ = 0``: ``E x²`` is
+    multiplied by ``0.2·4 = 0.8``.
+
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> second_moment_operator(sys).matvec(np.array([1.0])).round(12).tolist()
+    [0.8]
+
+    With period 2 and ``x⁺ = 0.5x`` at phase 1, ``k=1`` gives that phase's
+    map (``0.25``) and the monodromy both phases (``0.8·0.25 = 0.2``):
+
+    >>> sys2 = jss([[[[2.0]], [[0.0]]], [[[0.5]], [[0.5]]]], [[1.0]], [[1.0]],
+    ...            [[0.0]], [[0.2, 0.8], [0.5, 0.5]])
+    >>> second_moment_operator(sys2, k=1) @ np.array([1.0])
+    array([0.25])
+    >>> (second_moment_operator(sys2) @ np.array([1.0])).round(12)
+    array([0.2])
     """
     sys = as_jump(sys)
     if k is not None and (isinstance(k, (bool, np.bool_))
@@ -118,6 +137,8 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
     tol : float
         Relative accuracy asked of ARPACK (matrix-free route); a finite
         number > 0.
+    **kwargs
+        Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
     Returns
     -------
@@ -183,12 +204,29 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
 def is_mss(sys: Any, **kwargs: Any) -> bool:
     """True when ``sys`` is mean-square stable (``ms_radius(sys) < 1``).
 
-    Keywords are passed to :func:`ms_radius`.
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time control.StateSpace
+    **kwargs
+        ``method`` and ``tol``, passed to :func:`ms_radius`; an unknown
+        keyword raises ``TypeError``.
+
+    Returns
+    -------
+    bool
+        ``E‖ξ_t‖² → 0`` for the unforced system from every initial state.
+
+    Raises
+    ------
+    TypeError, ControlArgument, ValueError, RuntimeError
+        As :func:`ms_radius`.
 
     Examples
     --------
-    >>> import control as ct
     >>> is_mss(ct.ss([[0.5]], [[1]], [[1]], [[0]], True))
     True
+    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+    >>> is_mss(sys), round(ms_radius(sys), 12)     # 0.3·2² = 1.2
+    (False, 1.2)
     """
     return ms_radius(sys, **kwargs) < 1.0

@@ -19,7 +19,7 @@ public functions check their arguments once and call them.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import control as ct
@@ -80,7 +80,9 @@ def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
     Parameters
     ----------
     probabilities : ndarray, shape (M,)
-    A, B, C, D : ndarray, shapes (M, n, n), (M, n, m), (m, n), (M, m, m)
+        Mode probabilities ``p_i`` of the phase.
+    A, B, C, D : ndarray, shapes (M, n, n), (M, n, m), (M, m, n), (M, m, m)
+        Per-mode matrices of the phase.
     P, P_next : ndarray, shape (n, n)
         ``P_k`` and ``P_{k+1}``.
     eta : float
@@ -94,6 +96,16 @@ def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
     -------
     ndarray, shape (n + m, n + m)
         Symmetric.
+
+    Examples
+    --------
+    One mode, ``G(z) = 1 + 1/(z - 0.5)``, ``P = 1``, as
+    :func:`dissipation_matrices` gives it:
+
+    >>> from control_ncs.verify import dissipation_blocks
+    >>> A, B, C, D = (np.array([[[x]]]) for x in (0.5, 1.0, 1.0, 1.0))
+    >>> dissipation_blocks([1.0], A, B, C, D, np.eye(1), np.eye(1), 0.0).tolist()
+    [[-0.75, -0.5], [-0.5, -1.0]]
     """
     p = np.asarray(probabilities, float)
     n, m = A.shape[-1], B.shape[-1]
@@ -132,6 +144,16 @@ def ifp_supremum(theta0: np.ndarray, n: int) -> float:
     Returns
     -------
     float
+        The supremum; ``-inf`` if no ``η`` works.
+
+    Examples
+    --------
+    ``Θ`` of :func:`dissipation_blocks`' example: the Schur complement is
+    ``-1 - 0.25/(-0.75) = -2/3``, so ``η < 1/3``:
+
+    >>> from control_ncs.verify import ifp_supremum
+    >>> round(ifp_supremum(np.array([[-0.75, -0.5], [-0.5, -1.0]]), 1), 12)
+    0.333333333333
     """
     M11, M12, M22 = theta0[:n, :n], theta0[:n, n:], theta0[n:, n:]
     if n and np.linalg.eigvalsh(M11).max() >= -_float_margin(M11):
@@ -152,7 +174,9 @@ def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
     Parameters
     ----------
     probabilities : ndarray, shape (N, M) or (M,)
+        Mode probabilities per phase (one phase if 1-D).
     D : ndarray, shape (N, M, m, m) or (M, m, m)
+        Per-mode feedthrough matrices.
     ofp_index : float, optional
         Output-feedback level ``ρ``.
 
@@ -162,6 +186,14 @@ def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
         ``min_k λmin(D̄_k + D̄_kᵀ - 2ρ Σ_i p_ki D_kiᵀ D_ki) / 2``.
     phase : int
         The phase ``k`` attaining it.
+
+    Examples
+    --------
+    A feedthrough ``D = 1`` lost with probability 0.1 (``D̄ = 0.9``):
+
+    >>> from control_ncs.verify import feedthrough_bound
+    >>> feedthrough_bound([0.9, 0.1], np.array([[[1.0]], [[0.0]]]))
+    (0.9, 0)
     """
     p = np.asarray(probabilities, float).reshape(-1, D.shape[-3])
     D = np.asarray(D, float).reshape(p.shape + D.shape[-2:])
@@ -205,8 +237,9 @@ def _certificate_array(P: Any, sys: JumpStateSpace) -> np.ndarray:
 
 def _levels(eta: Any, decay: Any, ofp_index: Any
             ) -> tuple[float, float, float]:
-    return (finite_real(eta, "eta"), decay_bound(decay),
-            finite_real(ofp_index, "ofp_index"))
+    # finite_real without allow_none never returns None
+    return (cast(float, finite_real(eta, "eta")), decay_bound(decay),
+            cast(float, finite_real(ofp_index, "ofp_index")))
 
 
 def _thetas(sys: JumpStateSpace, P: np.ndarray, eta: float, rho: float,
@@ -350,6 +383,23 @@ class Certificate:
         What failed, in words.
     ofp_index : float
         Output-feedback level ``ρ`` checked (0: none).
+
+    See Also
+    --------
+    check_certificate, certify_index, certify_ofp_index : produce one.
+
+    Examples
+    --------
+    ``G(z) = 1 + 1/(z - 0.5)`` with ``P = 1`` proves every ``η < 1/3``:
+
+    >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    >>> cert = check_certificate(G, [[1.0]], 0.3)
+    >>> cert.verified, cert.failures
+    (True, [])
+    >>> cert.theta_max.round(4).tolist(), round(cert.eta_sup, 6)
+    ([-0.0453], 0.333333)
+    >>> check_certificate(G, [[1.0]], 0.4).failures
+    ['λmax(Θ_k) = 9.564e-02 is not < 0']
     """
 
     verified: bool
@@ -360,11 +410,28 @@ class Certificate:
     P_min: np.ndarray
     ms_radius: float
     eta_sup: float
-    failures: list = field(default_factory=list)
+    failures: list[str] = field(default_factory=list)
     ofp_index: float = 0.0
 
-    def figures(self) -> dict:
-        """The measured numbers as a plain dict (for messages and reports)."""
+    def figures(self) -> dict[str, Any]:
+        """The measured numbers as a plain dict (for messages and reports).
+
+        Returns
+        -------
+        dict
+            ``eta``, ``ofp_index``, ``decay``, ``theta_max`` and ``P_min``
+            (as lists), ``ms_radius`` and ``eta_sup``: plain Python values,
+            ready for an error's ``figures`` or a JSON report.
+
+        Examples
+        --------
+        >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+        >>> figures = check_certificate(G, [[1.0]], 0.3).figures()
+        >>> sorted(figures)
+        ['P_min', 'decay', 'eta', 'eta_sup', 'ms_radius', 'ofp_index', 'theta_max']
+        >>> figures["P_min"], round(figures["ms_radius"], 12)
+        ([1.0], 0.25)
+        """
         return dict(eta=self.eta, ofp_index=self.ofp_index,
                     decay=self.decay, theta_max=self.theta_max.tolist(),
                     P_min=self.P_min.tolist(), ms_radius=self.ms_radius,
@@ -489,8 +556,7 @@ def _certify(sys: JumpStateSpace, P: np.ndarray, rho: float, decay: float
         low, _ = feedthrough_bound(sys.modes.probabilities, sys.modes.D,
                                    ofp_index=rho)
         return _check(sys, P, low - 1.0, rho, decay)
-    cert = None
-    for backoff in INDEX_BACKOFFS:
+    for backoff in INDEX_BACKOFFS:          # never empty
         cert = _check(sys, P, sup - backoff * max(1.0, abs(sup)), rho, decay)
         if cert.verified:
             break
@@ -552,8 +618,7 @@ def _certify_ofp(sys: JumpStateSpace, P: np.ndarray, eta: float,
                  guess: float, decay: float) -> Certificate:
     """:func:`certify_ofp_index` on checked arguments."""
     m = sys.modes
-    cert = None
-    for backoff in INDEX_BACKOFFS:
+    for backoff in INDEX_BACKOFFS:          # never empty
         rho0 = guess - backoff * max(1.0, abs(guess))
         cert = _check(sys, P, eta, rho0, decay)
         if cert.verified:
