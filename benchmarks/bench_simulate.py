@@ -77,12 +77,14 @@ def simulate_section(quick: bool) -> Section:
         x0 = np.ones(sys.modes.A.shape[-1])
         sim_trials = 2000 if quick else (20000 if n <= 8 else 5000)
         base = 20 if quick else 200
+        # defaults bind this iteration's system (ruff B023)
         routes = {
-            "simulate": (sim_trials, lambda k: simulate(sys, T, w, x0,
-                                                        trials=k, seed=1)),
-            "numpy loop": (base, lambda k: numpy_loop(sys, T, k, w, x0)),
-            "forced_response loop": (base,
-                                     lambda k: forced_loop(sys, T, k, w, x0)),
+            "simulate": (sim_trials, lambda k, sys=sys, w=w, x0=x0: simulate(
+                sys, T, w, x0, trials=k, seed=1)),
+            "numpy loop": (base, lambda k, sys=sys, w=w, x0=x0: numpy_loop(
+                sys, T, k, w, x0)),
+            "forced_response loop": (base, lambda k, sys=sys, w=w, x0=x0:
+                                     forced_loop(sys, T, k, w, x0)),
         }
         times = {name: [] for name in routes}
         for _ in range(reps):         # interleaved: load changes hit all alike

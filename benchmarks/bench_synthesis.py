@@ -421,8 +421,8 @@ def routes(quick: bool, riccati_ref: dict | None = None) -> Section:
             got = ok64(fixed, True)
             sec.targets.append(Target(
                 f"n = 64, N = 4: verified gain in < 2 min, {what}",
-                bool(got), line(lambda sp: (sp.get("eta", ETA) is not None)
-                                == fixed),
+                bool(got), line(lambda sp, fixed=fixed:
+                                (sp.get("eta", ETA) is not None) == fixed),
                 (f"by the default call (Riccati route), "
                  f"{fmt_x(120 / max(r['total'] for r in got))} under the "
                  "limit" if got else "the default route did not get there")))

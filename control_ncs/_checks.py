@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Iterable
+from typing import Any, Iterable, Literal, overload
 
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
@@ -110,6 +110,17 @@ def choice(value: Any, name: str, allowed: Iterable[str]) -> str:
     return value
 
 
+# overloads: without allow_none the result is never None, so callers need
+# no cast
+@overload
+def positive_int(value: Any, name: str, allow_none: Literal[False] = ...
+                 ) -> int: ...
+
+
+@overload
+def positive_int(value: Any, name: str, allow_none: bool) -> int | None: ...
+
+
 def positive_int(value: Any, name: str, allow_none: bool = False
                  ) -> int | None:
     """An int ``>= 1`` (not a bool), or None when allowed."""
@@ -153,6 +164,15 @@ def decay_bound(value: Any, name: str = "decay") -> float:
     if r > 1.0:
         raise ValueError(f"{name}: expected r in (0, 1], got {value!r}")
     return r
+
+
+@overload
+def finite_real(value: Any, name: str, allow_none: Literal[False] = ...
+                ) -> float: ...
+
+
+@overload
+def finite_real(value: Any, name: str, allow_none: bool) -> float | None: ...
 
 
 def finite_real(value: Any, name: str, allow_none: bool = False

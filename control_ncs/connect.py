@@ -131,12 +131,17 @@ def jump_feedback(sys: Any, other: Any = 1, sign: float = -1, *,
     Parameters
     ----------
     sys : JumpStateSpace or discrete-time control.StateSpace
+        The forward path; a deterministic system becomes a one-mode jump
+        system.
     other : StateSpace, TransferFunction, scalar or 2-D array, optional
         Deterministic discrete-time system with the same ``dt`` (or an
         unspecified one), or a static gain; default 1 (unity feedback).
     sign : float, optional
         Feedback sign (default -1, negative feedback).
     name : str, optional
+        Name of the result (default: a generated one).
+    **kwargs
+        None are accepted: an unknown keyword raises ``TypeError``.
 
     Returns
     -------
@@ -227,10 +232,20 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
         Discrete-time (``dt`` True or > 0).
     period : int
         ``N >= 1``.
+    **kwargs
+        None are accepted: an unknown keyword raises ``TypeError``.
 
     Returns
     -------
     control.StateSpace
+        The lifted system, named ``'<sys.name>$lifted'``.
+
+    Raises
+    ------
+    ControlArgument
+        If ``sys`` is not a deterministic LTI system.
+    ValueError
+        If ``sys`` is continuous-time or ``period`` is not an int >= 1.
 
     Examples
     --------

@@ -54,6 +54,17 @@ class Modes:
         ``i`` at phase ``k``.
     probabilities : ndarray, shape (N, M)
         ``P(mode i at phase k)``; rows sum to one. Modes are i.i.d. in time.
+
+    Examples
+    --------
+    Every :class:`JumpStateSpace` holds one; here two scalar modes with
+    probabilities 0.3 and 0.7 (period 1):
+
+    >>> m = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7]).modes
+    >>> m.A.shape, m.period, m.count
+    ((1, 2, 1, 1), 1, 2)
+    >>> m.mean()[0].tolist()                 # 0.3 * 0.5 + 0.7 * 0.9
+    [[[0.78]]]
     """
 
     A: np.ndarray
@@ -64,10 +75,12 @@ class Modes:
 
     @property
     def period(self) -> int:
+        """Number of phases ``N``."""
         return self.probabilities.shape[0]
 
     @property
     def count(self) -> int:
+        """Number of modes ``M`` per phase."""
         return self.probabilities.shape[1]
 
     def mean(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -81,7 +94,9 @@ class Modes:
             np.array_equal(getattr(self, f), getattr(other, f))
             for f in ("A", "B", "C", "D", "probabilities"))
 
-    __hash__ = None  # mutable numpy content
+    # unhashable: mutable numpy content. None is Python's documented way to
+    # say so; typeshed types object.__hash__ as a method only.
+    __hash__ = None  # type: ignore[assignment]
 
 
 def _phase_mode_array(value: Any, name: str, N: int, M: int, shape: tuple
@@ -136,6 +151,18 @@ def lift(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
         phase 0 first) to ``x[(j+1)N]`` and the stacked outputs
         ``[z[jN]; …; z[jN+N-1]]``. Shapes (n, n), (n, N m), (N p, n),
         (N p, N m); ``DL`` is block lower triangular.
+
+    Examples
+    --------
+    A scalar system with ``A = 2`` at phase 0 and ``A = 0.5`` at phase 1:
+    over one period ``x[2] = 0.5 · 2 · x[0] + 0.5 w[0] + w[1]``, and
+    ``z[1] = 2 x[0] + w[0]``:
+
+    >>> A = np.array([[[2.0]], [[0.5]]])
+    >>> B, C, D = np.ones((2, 1, 1)), np.ones((2, 1, 1)), np.zeros((2, 1, 1))
+    >>> AL, BL, CL, DL = lift(A, B, C, D)
+    >>> AL.tolist(), BL.tolist(), CL.tolist(), DL.tolist()
+    ([[1.0]], [[0.5, 1.0]], [[1.0], [2.0]], [[0.0, 0.0], [1.0, 0.0]])
     """
     N, n = A.shape[0], A.shape[1]
     m, p = B.shape[2], C.shape[1]
@@ -160,12 +187,12 @@ def lift(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
     DL[phases, :, phases, :] = D
     G = np.asarray(B, float)
     for d in range(1, N):
-        j = phases[:N - d]
+        first = phases[:N - d]  # the phases j of the blocks (j + d, j)
         if d > 1:
-            G = A[j + d - 1] @ G[:N - d]
+            G = A[first + d - 1] @ G[:N - d]
         else:
             G = G[:N - 1]
-        DL[j + d, :, j, :] = C[j + d] @ G
+        DL[first + d, :, first, :] = C[first + d] @ G
     return AL, BL, CL, DL.reshape(N * p, N * m)
 
 
@@ -245,6 +272,8 @@ class JumpStateSpace(ct.StateSpace):
         per-step signals ``w`` and ``z``, not the lifted ones.
     info : dict, optional
         What built the system, kept as the ``info`` attribute.
+    **kwargs
+        None are accepted: an unknown keyword raises ``TypeError``.
 
     Attributes
     ----------
@@ -257,6 +286,18 @@ class JumpStateSpace(ct.StateSpace):
     info : dict
         What built the system (controller kind, actuator strategy, plant,
         gains), for reference; analysis never reads it.
+
+    Examples
+    --------
+    A scalar loop that loses its control with probability 0.2; the
+    StateSpace face is the mean ``0.2 · 2 + 0.8 · 0``:
+
+    >>> sys = JumpStateSpace([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]],
+    ...                      [0.2, 0.8], nominal=[1])
+    >>> sys.period, sys.nmodes, float(sys.A[0, 0])
+    (1, 2, 0.4)
+    >>> sys.nominal().A.tolist()
+    [[0.0]]
     """
 
     def __init__(self, A: Any, B: Any, C: Any, D: Any, probabilities: Any,
@@ -399,12 +440,10 @@ class JumpStateSpace(ct.StateSpace):
             raise ValueError("nominal: this jump system does not know which "
                              "mode is loss-free; pass nominal= to jss()")
         k = np.arange(self.period)
-        mats = [M[k, self.nominal_mode] for M in (self.modes.A, self.modes.B,
-                                                 self.modes.C, self.modes.D)]
-        if self.period > 1:
-            mats = lift(*mats)
-        else:
-            mats = [M[0] for M in mats]
+        A, B, C, D = (M[k, self.nominal_mode] for M in (
+            self.modes.A, self.modes.B, self.modes.C, self.modes.D))
+        mats = (lift(A, B, C, D) if self.period > 1
+                else (A[0], B[0], C[0], D[0]))
         return ct.StateSpace(*mats, self.dt, inputs=self.input_labels,
                              outputs=self.output_labels,
                              name=f"{self.name}$nominal")
@@ -416,10 +455,12 @@ class JumpStateSpace(ct.StateSpace):
                                         self.nominal_mode)
         return self._rebuild(groups, nominal)
 
-    def _rebuild(self, groups, nominal) -> "JumpStateSpace":
-        mats, p = _apply_groups((self.modes.A, self.modes.B, self.modes.C,
-                                 self.modes.D), self.modes.probabilities, groups)
-        return JumpStateSpace(*mats, p, self.dt_step, nominal=nominal,
+    def _rebuild(self, groups: list, nominal: np.ndarray | None
+                 ) -> "JumpStateSpace":
+        (A, B, C, D), p = _apply_groups(
+            (self.modes.A, self.modes.B, self.modes.C, self.modes.D),
+            self.modes.probabilities, groups)
+        return JumpStateSpace(A, B, C, D, p, self.dt_step, nominal=nominal,
                               name=self.name, inputs=self.jump_inputs,
                               outputs=self.jump_outputs, states=self.jump_states,
                               info=self.info)
@@ -439,9 +480,10 @@ class JumpStateSpace(ct.StateSpace):
                 and self.dt_step == other.dt_step
                 and self.jump_inputs == other.jump_inputs
                 and self.jump_outputs == other.jump_outputs
-                and np.array_equal(self.nominal_mode, other.nominal_mode))
+                and _same_nominal(self.nominal_mode, other.nominal_mode))
 
-    __hash__ = None
+    # unhashable, as Modes
+    __hash__ = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
         n = self.modes.A.shape[-1]
@@ -471,6 +513,13 @@ def _restore_jss(A, B, C, D, p, dt, nominal, name, inputs, outputs, states,
                           info=info)
 
 
+def _same_nominal(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    """Whether two loss-free mode sequences (or their absence) agree."""
+    if a is None or b is None:
+        return a is b
+    return bool(np.array_equal(a, b))
+
+
 def _names(value: Any, count: int, prefix: str, argname: str) -> list[str]:
     if value is None:
         return [f"{prefix}[{i}]" for i in range(count)]
@@ -490,9 +539,10 @@ def _merge_groups(mats: Sequence[np.ndarray], p: np.ndarray,
     Modes of probability zero are dropped, except the loss-free one.
     """
     N, M = p.shape
-    groups, new_nominal = [], None if nominal is None else np.zeros(N, int)
+    groups = []
+    new_nominal = np.zeros(N, int)
     for k in range(N):
-        phase = []
+        phase: list[list[int]] = []
         for i in range(M):
             if p[k, i] == 0 and (nominal is None or nominal[k] != i):
                 continue
@@ -509,7 +559,7 @@ def _merge_groups(mats: Sequence[np.ndarray], p: np.ndarray,
             new_nominal[k] = next(g for g, grp in enumerate(phase)
                                   if nominal[k] in grp)
         groups.append(phase)
-    return groups, new_nominal
+    return groups, None if nominal is None else new_nominal
 
 
 def _apply_groups(mats: Sequence[np.ndarray], p: np.ndarray, groups: list
@@ -586,23 +636,64 @@ class JumpPlant:
     (``strategies.py``); :func:`control_ncs.passivesyn` designs ``K``;
     :meth:`close` applies it.
 
+    Parameters
+    ----------
+    A, Bu, Bw, Cz, Du, Dw : array_like, shape (N, M, ., .)
+        Per-phase, per-mode matrices of the loop before the gain: shapes
+        ``(nx, nx)``, ``(nx, nu)``, ``(nx, nw)``, ``(nz, nx)``, ``(nz, nu)``,
+        ``(nz, nw)``. Taken as they are (no broadcasting, no validation):
+        builders such as :func:`control_ncs.build` check their inputs.
+    E : array_like, shape (N, nk, nx)
+        What the controller sees of ``ξ`` at each phase.
+    probabilities : array_like, shape (N, M)
+        Mode probabilities per phase; each row sums to 1.
+    dt : True or float > 0, optional
+        Sampling period of one step (default True, unspecified).
+    nominal : array_like of int, shape (N,), optional
+        The loss-free mode of each phase.
+    inputs, outputs, states : list of str, optional
+        Names of ``w``, ``z`` and ``ξ``, handed to the closed loop.
+    info : dict, optional
+        Strategy description, kept as the ``info`` attribute.
+
     Attributes
     ----------
     A, Bu, Bw, Cz, Du, Dw : ndarray, shape (N, M, ., .)
+        The matrices above, as float arrays.
     E : ndarray, shape (N, nk, nx)
+        The selection of ``ξ`` that the gain acts on.
     probabilities : ndarray, shape (N, M)
+        Mode probabilities per phase.
     dt : True or float
+        Sampling period of one step.
     nominal : ndarray of int, shape (N,), or None
         The loss-free mode of each phase.
+    inputs, outputs, states : list of str or None
+        Signal names of ``w``, ``z`` and ``ξ``.
     info : dict
         Strategy description (controller, actuator, network), for reference.
+
+    Examples
+    --------
+    The scalar plant ``x⁺ = 2x + u`` whose actuator message is lost with
+    probability 0.2, closed with ``u = -2x``:
+
+    >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+    ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=0.2)
+    >>> plant = build(P)
+    >>> plant.gain_shape(), plant.probabilities.tolist()
+    ((1, 1, 1), [[0.0, 0.2, 0.0, 0.8]])
+    >>> CL = plant.close(np.full((1, 1, 1), -2.0))
+    >>> CL.modes.A[0, :, 0, 0].tolist(), CL.modes.probabilities.tolist()
+    ([2.0, 0.0], [[0.2, 0.8]])
     """
 
     _FIELDS = ("A", "Bu", "Bw", "Cz", "Du", "Dw")
 
-    def __init__(self, A, Bu, Bw, Cz, Du, Dw, E, probabilities, dt=True, *,
-                 nominal=None, inputs=None, outputs=None, states=None,
-                 info=None):
+    def __init__(self, A: Any, Bu: Any, Bw: Any, Cz: Any, Du: Any, Dw: Any,
+                 E: Any, probabilities: Any, dt: Any = True, *,
+                 nominal: Any = None, inputs: Any = None, outputs: Any = None,
+                 states: Any = None, info: dict | None = None):
         self.A, self.Bu, self.Bw = (np.asarray(X, float) for X in (A, Bu, Bw))
         self.Cz, self.Du, self.Dw = (np.asarray(X, float) for X in (Cz, Du, Dw))
         self.E = np.asarray(E, float)
@@ -614,6 +705,7 @@ class JumpPlant:
 
     @property
     def period(self) -> int:
+        """Number of phases ``N``."""
         return self.probabilities.shape[0]
 
     @property
@@ -652,10 +744,10 @@ class JumpPlant:
         A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
         C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
         # merge before building: the lifted face is then built once
-        mats = (A, self.Bw, C, self.Dw)
-        groups, nominal = _merge_groups(mats, self.probabilities, self.nominal)
-        mats, p = _apply_groups(mats, self.probabilities, groups)
-        return JumpStateSpace(*mats, p, self.dt, nominal=nominal,
+        loop = (A, self.Bw, C, self.Dw)
+        groups, nominal = _merge_groups(loop, self.probabilities, self.nominal)
+        (A, B, C, D), p = _apply_groups(loop, self.probabilities, groups)
+        return JumpStateSpace(A, B, C, D, p, self.dt, nominal=nominal,
                               inputs=self.inputs, outputs=self.outputs,
                               states=self.states,
                               info=dict(self.info, gains=K, **info))
@@ -664,8 +756,9 @@ class JumpPlant:
         """The same plant with coinciding modes merged (MATH §8, merged form)."""
         mats = [getattr(self, f) for f in self._FIELDS]
         groups, nominal = _merge_groups(mats, self.probabilities, self.nominal)
-        new, p = _apply_groups(mats, self.probabilities, groups)
-        return JumpPlant(*new, self.E, p, self.dt, nominal=nominal,
+        (A, Bu, Bw, Cz, Du, Dw), p = _apply_groups(mats, self.probabilities,
+                                                   groups)
+        return JumpPlant(A, Bu, Bw, Cz, Du, Dw, self.E, p, self.dt, nominal=nominal,
                          inputs=self.inputs, outputs=self.outputs,
                          states=self.states, info=self.info)
 

@@ -37,8 +37,23 @@ class Schedule:
     Attributes
     ----------
     pattern : ndarray of bool, shape (N, nodes)
+        The access pattern (read-only).
     period : int
+        Number of phases ``N``.
     nodes : int
+        Number of sensors or actuators.
+    name : str
+        What the schedule is of, as given.
+
+    Examples
+    --------
+    Two sensors sending in turn, then a silent phase:
+
+    >>> S = Schedule([[1, 0], [0, 1], [0, 0]], "sensor_schedule")
+    >>> S.period, S.nodes, S.senders(1).tolist(), S.senders(2).tolist()
+    (3, 2, [1], [])
+    >>> S == schedule([1, 2, 0], 2)
+    True
     """
 
     def __init__(self, pattern: Any, name: str = "schedule"):

@@ -696,8 +696,8 @@ def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
     (True, False)
     """
     # finite_real without allow_none never returns None
-    ofp_index = cast(float, finite_real(ofp_index, "ofp_index"))
-    ifp_index = cast(float, finite_real(ifp_index, "ifp_index"))
+    ofp_index = finite_real(ofp_index, "ofp_index")
+    ifp_index = finite_real(ifp_index, "ifp_index")
     return passivity_certificate(sys, ifp_index, ofp_index=ofp_index,
                                  **kwargs).passive
 

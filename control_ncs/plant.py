@@ -55,16 +55,34 @@ class NetworkedStateSpace(ct.StateSpace):
         may schedule a sensor and an actuator together (paper §2).
     name, inputs, outputs, states : optional
         As for :class:`control.StateSpace`.
+    **kwargs
+        None are accepted: an unknown keyword raises ``TypeError``.
 
     Attributes
     ----------
     nmeas, ncon : int
+        Numbers of measured outputs and control inputs.
     sensor_schedule, actuator_schedule : Schedule
         Both written over the common ``period``.
     sensor_loss, actuator_loss : float
+        Loss probabilities ``α1`` and ``α2``.
     shared_channel : bool
+        Whether at most one message crosses the network per step.
     period : int
         Least common multiple of the two schedules' periods.
+
+    Examples
+    --------
+    A scalar plant ``x⁺ = 2x + w + u`` with ``z = x``, measured ``y = x``;
+    the actuator may act at even steps only:
+
+    >>> P = NetworkedStateSpace([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]],
+    ...                         [[0.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+    ...                         actuator_schedule=[1, 0], sensor_loss=0.1)
+    >>> P.period, P.B2.tolist(), P.disturbance_labels
+    (2, [[1.0]], ['w[0]'])
+    >>> P.actuator_schedule.senders(1).tolist()
+    []
     """
 
     def __init__(self, A: Any, B: Any, C: Any, D: Any, dt: Any = True, *,
@@ -207,7 +225,9 @@ class NetworkedStateSpace(ct.StateSpace):
         return all(np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray)
                    else a[k] == b[k] for k in a)
 
-    __hash__ = None
+    # unhashable: the matrices are numpy arrays. None is Python's documented
+    # way to say so; typeshed types object.__hash__ as a method only.
+    __hash__ = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
         return (f"<NetworkedStateSpace {self.name}: {self.nstates} states, "
@@ -256,18 +276,20 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
 
     Parameters
     ----------
-    sys : control.StateSpace
-        Discrete-time generalized plant, inputs ``[w; u]``, outputs ``[z; y]``
-        (signal names are kept).
-    A, B, C, D : array_like
-        Its matrices, if ``sys`` is not given.
-    dt : True or float > 0, optional
-        Sampling period when matrices are given (default True).
-    nmeas, ncon : int
-        Numbers of measurements ``y`` and controls ``u`` (last outputs/inputs).
-    sensor_schedule, actuator_schedule, sensor_loss, actuator_loss, shared_channel
-        The network; see :class:`NetworkedStateSpace`.
-    name : str, optional
+    *args : control.StateSpace, or array_like A, B, C, D and optional dt
+        Either one positional argument ``sys``, a discrete-time generalized
+        plant (a :class:`control.StateSpace`, or an LTI system converted
+        with :func:`control.ss`) with inputs ``[w; u]`` and outputs
+        ``[z; y]``, whose signal names and name are kept; or its matrices
+        ``A, B, C, D`` and optionally the sampling period ``dt`` (True or a
+        float > 0, default True).
+    **kwargs
+        The keywords of :class:`NetworkedStateSpace`: ``nmeas`` and ``ncon``
+        (required ints, the numbers of measurements ``y`` and controls
+        ``u``, the last outputs and inputs); the network ``sensor_schedule``,
+        ``actuator_schedule``, ``sensor_loss``, ``actuator_loss`` and
+        ``shared_channel``; and ``name``, ``inputs``, ``outputs``,
+        ``states``. Anything else raises ``TypeError``.
 
     Returns
     -------

@@ -7,7 +7,7 @@ Every function returns python-control's :class:`control.ControlPlot`
 
 from __future__ import annotations
 
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 import control as ct
@@ -175,7 +175,7 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
     if steps is None:
         steps = max(8, 2 * P.period)
     # positive_int without allow_none never returns None
-    steps = cast(int, positive_int(steps, "steps"))
+    steps = positive_int(steps, "steps")
     if ax is None:
         _, ax = plt.subplots(figsize=(min(12, 2 + 0.35 * steps),
                                       0.6 + 0.35 * (P.nmeas + P.ncon)))

@@ -299,15 +299,15 @@ def simulate_protocol(
     steps = _count(steps, "steps", 0)
     trials = _count(trials, "trials", 1)
 
-    if inputs is None:
-        W = np.zeros((m1, steps))
-    else:
-        W = _matrix(inputs, "inputs") if np.ndim(inputs) >= 1 else None
-        if W is None or W.shape != (m1, steps):
+    W: NDArray[np.float64] = np.zeros((m1, steps))
+    if inputs is not None:
+        given = _matrix(inputs, "inputs") if np.ndim(inputs) >= 1 else None
+        if given is None or given.shape != (m1, steps):
             raise ValueError(
                 f"inputs must have shape (m1, steps) = ({m1}, {steps}), "
                 f"got {np.shape(inputs)}"
             )
+        W = given
 
     x0 = np.zeros(n) if initial_state is None else _vector(
         initial_state, "initial_state", n
@@ -337,7 +337,8 @@ def simulate_protocol(
     x_hist = np.empty((trials, n, steps + 1))
     z_hist = np.empty((trials, p1, steps))
     u_hist = np.empty((trials, m2, steps))
-    xhat_hist = np.empty((trials, n, steps + 1)) if predictor else None
+    # empty (and not returned) without the predictor
+    xhat_hist = np.empty((trials, n if predictor else 0, steps + 1))
     th1_hist = np.empty((trials, steps), dtype=bool)
     th2_hist = np.empty((trials, steps), dtype=bool)
 

@@ -39,6 +39,7 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     Parameters
     ----------
     P : NetworkedStateSpace
+        Plant with its network.
     controller : {'static', 'predictor'}
         ``'static'``: ``v = K_k ŷ`` with ``ŷ = θ1 Σ1 y`` (paper eq. 2-3,
         MATH §4). ``'predictor'``: the model-based controller of MATH §8b,
@@ -54,6 +55,29 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     JumpPlant
         Unmerged: four modes per phase, eq. 14 order; ``nominal`` is the
         loss-free mode.
+
+    Raises
+    ------
+    ControlArgument
+        If ``P`` is not a :class:`NetworkedStateSpace`, the controller or
+        actuator is unknown, or the predictor is asked for without ``y = x``.
+    ValueError
+        If ``period`` is not a multiple of ``P.period`` or its lifted face
+        would be too large.
+
+    Examples
+    --------
+    The scalar plant ``x⁺ = 2x + u`` with ``y = x`` over a network that
+    loses the actuator's message with probability 0.2; the modes are
+    ``(θ1, θ2) = (0, 0), (0, 1), (1, 0), (1, 1)``:
+
+    >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+    ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=0.2)
+    >>> plant = build(P)
+    >>> plant.probabilities.tolist(), plant.nominal.tolist()
+    ([[0.0, 0.2, 0.0, 0.8]], [3])
+    >>> plant.close(np.full((1, 1, 1), -2.0)).modes.A[0, :, 0, 0].tolist()
+    [2.0, 0.0]
     """
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
@@ -282,6 +306,8 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         Default: the gain's own kind, else ``'static'``.
     actuator : {'zero', 'hold'}, optional
         Default: the gain's own strategy, else ``'zero'``.
+    **kwargs
+        None are accepted: an unknown keyword raises ``TypeError``.
 
     Returns
     -------

@@ -19,7 +19,7 @@ public functions check their arguments once and call them.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 import control as ct
@@ -238,8 +238,8 @@ def _certificate_array(P: Any, sys: JumpStateSpace) -> np.ndarray:
 def _levels(eta: Any, decay: Any, ofp_index: Any
             ) -> tuple[float, float, float]:
     # finite_real without allow_none never returns None
-    return (cast(float, finite_real(eta, "eta")), decay_bound(decay),
-            cast(float, finite_real(ofp_index, "ofp_index")))
+    return (finite_real(eta, "eta"), decay_bound(decay),
+            finite_real(ofp_index, "ofp_index"))
 
 
 def _thetas(sys: JumpStateSpace, P: np.ndarray, eta: float, rho: float,
