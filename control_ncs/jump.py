@@ -84,7 +84,13 @@ class Modes:
         return self.probabilities.shape[1]
 
     def mean(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Per-phase mean matrices ``Σ_i p_ki M_ki``, each shape (N, ., .)."""
+        """Per-phase mean matrices ``Σ_i p_ki M_ki``.
+
+        Returns
+        -------
+        A, B, C, D : ndarray
+            Shapes (N, n, n), (N, n, m), (N, p, n), (N, p, m).
+        """
         p = self.probabilities
         return tuple(np.einsum("km,kmij->kij", p, M)
                      for M in (self.A, self.B, self.C, self.D))
@@ -374,13 +380,49 @@ class JumpStateSpace(ct.StateSpace):
         return self.modes.count
 
     def mode(self, k: int, i: int) -> tuple[np.ndarray, ...]:
-        """Matrices ``(A, B, C, D)`` of mode ``i`` at phase ``k mod N``."""
+        """Matrices ``(A, B, C, D)`` of mode ``i`` at phase ``k mod N``.
+
+        Parameters
+        ----------
+        k : int
+            Time step or phase; taken modulo the period.
+        i : int
+            Mode index, ``0 <= i < nmodes``.
+
+        Returns
+        -------
+        A, B, C, D : ndarray
+            Read-only views of the mode's matrices.
+
+        Examples
+        --------
+        >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+        >>> sys.mode(0, 1)[0].tolist()
+        [[0.9]]
+        """
         k %= self.period
         return tuple(M[k, i] for M in (self.modes.A, self.modes.B,
                                        self.modes.C, self.modes.D))
 
     def mean_phase(self, k: int) -> tuple[np.ndarray, ...]:
-        """Mean matrices ``(Σ p A, Σ p B, Σ p C, Σ p D)`` at phase ``k mod N``."""
+        """Mean matrices ``(Σ p A, Σ p B, Σ p C, Σ p D)`` at phase ``k mod N``.
+
+        Parameters
+        ----------
+        k : int
+            Time step or phase; taken modulo the period.
+
+        Returns
+        -------
+        A, B, C, D : ndarray
+            The probability-weighted means over the modes of that phase.
+
+        Examples
+        --------
+        >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+        >>> sys.mean_phase(0)[0].tolist()
+        [[0.78]]
+        """
         return tuple(M[k % self.period] for M in self.modes.mean())
 
     def deterministic(self) -> tuple[np.ndarray, ...] | None:
@@ -422,7 +464,14 @@ class JumpStateSpace(ct.StateSpace):
         return mats
 
     def mean(self) -> ct.StateSpace:
-        """The mean system as a plain :class:`control.StateSpace` (a copy)."""
+        """The mean system as a plain :class:`control.StateSpace` (a copy).
+
+        Returns
+        -------
+        control.StateSpace
+            The face ``(self.A, self.B, self.C, self.D)`` with its signal
+            names, lifted if ``N > 1``.
+        """
         return ct.StateSpace(self.A, self.B, self.C, self.D, self.dt,
                              inputs=self.input_labels, outputs=self.output_labels,
                              states=self.state_labels,
@@ -430,6 +479,11 @@ class JumpStateSpace(ct.StateSpace):
 
     def nominal(self) -> ct.StateSpace:
         """The loss-free system (every message arrives), lifted if ``N > 1``.
+
+        Returns
+        -------
+        control.StateSpace
+            The loss-free mode of every phase, as a deterministic system.
 
         Raises
         ------
@@ -449,7 +503,15 @@ class JumpStateSpace(ct.StateSpace):
                              name=f"{self.name}$nominal")
 
     def merged(self) -> "JumpStateSpace":
-        """The same system with coinciding modes merged (probabilities added)."""
+        """The same system with coinciding modes merged (probabilities added).
+
+        Returns
+        -------
+        JumpStateSpace
+            Equal in distribution to ``self``, with fewer modes where modes
+            coincide; zero-probability modes are dropped (except the
+            loss-free one).
+        """
         keys = (self.modes.A, self.modes.B, self.modes.C, self.modes.D)
         groups, nominal = _merge_groups(keys, self.modes.probabilities,
                                         self.nominal_mode)
@@ -716,7 +778,13 @@ class JumpPlant:
                     nk=self.E.shape[1])
 
     def gain_shape(self) -> tuple[int, int, int]:
-        """Shape ``(N, nu, nk)`` of a gain sequence for :meth:`close`."""
+        """Shape ``(N, nu, nk)`` of a gain sequence for :meth:`close`.
+
+        Returns
+        -------
+        tuple of int
+            ``(period, nu, nk)``.
+        """
         s = self.shape
         return (self.period, s["nu"], s["nk"])
 
@@ -753,7 +821,13 @@ class JumpPlant:
                               info=dict(self.info, gains=K, **info))
 
     def merged(self) -> "JumpPlant":
-        """The same plant with coinciding modes merged (MATH §8, merged form)."""
+        """The same plant with coinciding modes merged (MATH §8, merged form).
+
+        Returns
+        -------
+        JumpPlant
+            Same ``E``, fewer modes where modes coincide.
+        """
         mats = [getattr(self, f) for f in self._FIELDS]
         groups, nominal = _merge_groups(mats, self.probabilities, self.nominal)
         (A, Bu, Bw, Cz, Du, Dw), p = _apply_groups(mats, self.probabilities,
@@ -775,18 +849,47 @@ class JumpPlant:
                      for f in self._FIELDS)
 
     def known_coordinates(self, k: int) -> np.ndarray:
-        """Coordinates of ``ξ`` the controller sees at phase ``k``."""
+        """Coordinates of ``ξ`` the controller sees at phase ``k``.
+
+        Parameters
+        ----------
+        k : int
+            Time step or phase; taken modulo the period.
+
+        Returns
+        -------
+        ndarray of int
+            Indices of the columns of ``E_k`` that are not zero.
+        """
         return np.flatnonzero(np.any(self.E[k % self.period] != 0, axis=0))
 
     def active_inputs(self, k: int) -> np.ndarray:
-        """Control inputs that can act at phase ``k`` (others are never applied)."""
+        """Control inputs that can act at phase ``k`` (others are never applied).
+
+        Parameters
+        ----------
+        k : int
+            Time step or phase; taken modulo the period.
+
+        Returns
+        -------
+        ndarray of int
+            Indices of the columns of ``Bu`` or ``Du`` nonzero in some mode.
+        """
         k %= self.period
         used = np.any(self.Bu[k] != 0, axis=(0, 1)) | np.any(self.Du[k] != 0,
                                                              axis=(0, 1))
         return np.flatnonzero(used)
 
     def is_selection(self) -> bool:
-        """True when every ``E_k`` is a 0/1 coordinate selection."""
+        """True when every ``E_k`` is a 0/1 coordinate selection.
+
+        Returns
+        -------
+        bool
+            Whether each row and each column of every ``E_k`` holds at most
+            one 1 and otherwise zeros (required by synthesis).
+        """
         E = self.E
         binary = np.all((E == 0) | (E == 1))
         return bool(binary and np.all(E.sum(axis=2) <= 1)

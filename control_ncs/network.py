@@ -84,15 +84,68 @@ class Schedule:
         return bool(self.pattern.all())
 
     def selection(self, k: int) -> np.ndarray:
-        """Diagonal 0/1 selection matrix ``Σ_k`` of phase ``k mod N``."""
+        """Diagonal 0/1 selection matrix ``Σ_k`` of phase ``k mod N``.
+
+        Parameters
+        ----------
+        k : int
+            Time step or phase; taken modulo the period.
+
+        Returns
+        -------
+        ndarray, shape (nodes, nodes)
+            Ones on the diagonal for the nodes that may send.
+
+        Examples
+        --------
+        >>> Schedule([[1, 0], [0, 1]]).selection(1).tolist()
+        [[0.0, 0.0], [0.0, 1.0]]
+        """
         return np.diag(self.pattern[k % self.period].astype(float))
 
     def senders(self, k: int) -> np.ndarray:
-        """Indices (0-based) of the nodes that may send at time ``k``."""
+        """Indices (0-based) of the nodes that may send at time ``k``.
+
+        Parameters
+        ----------
+        k : int
+            Time step or phase; taken modulo the period.
+
+        Returns
+        -------
+        ndarray of int
+            The senders, in increasing order (empty if nobody sends).
+
+        Examples
+        --------
+        >>> Schedule([[1, 0], [0, 1]]).senders(3).tolist()
+        [1]
+        """
         return np.flatnonzero(self.pattern[k % self.period])
 
     def repeat(self, period: int) -> "Schedule":
-        """The same schedule written over ``period`` phases (a multiple of N)."""
+        """The same schedule written over ``period`` phases (a multiple of N).
+
+        Parameters
+        ----------
+        period : int
+            The new number of phases; a multiple of :attr:`period`.
+
+        Returns
+        -------
+        Schedule
+            The pattern tiled ``period // N`` times.
+
+        Raises
+        ------
+        ValueError
+            If ``period`` is not a multiple of :attr:`period`.
+
+        Examples
+        --------
+        >>> Schedule([[1, 0], [0, 1]]).repeat(4).period
+        4
+        """
         if period % self.period:
             raise ValueError(f"{self.name}: period {period} is not a multiple of "
                              f"{self.period}")

@@ -155,26 +155,32 @@ class NetworkedStateSpace(ct.StateSpace):
 
     @property
     def B1(self) -> np.ndarray:
+        """Disturbance input matrix (columns of ``B`` for ``w``)."""
         return self.B[:, :self._m1]
 
     @property
     def B2(self) -> np.ndarray:
+        """Control input matrix (columns of ``B`` for ``u``)."""
         return self.B[:, self._m1:]
 
     @property
     def C1(self) -> np.ndarray:
+        """Performance output matrix (rows of ``C`` for ``z``)."""
         return self.C[:self._p1]
 
     @property
     def C2(self) -> np.ndarray:
+        """Measurement matrix (rows of ``C`` for ``y``)."""
         return self.C[self._p1:]
 
     @property
     def D11(self) -> np.ndarray:
+        """Feedthrough from ``w`` to ``z``."""
         return self.D[:self._p1, :self._m1]
 
     @property
     def D12(self) -> np.ndarray:
+        """Feedthrough from ``u`` to ``z``."""
         return self.D[:self._p1, self._m1:]
 
     @property
@@ -188,11 +194,43 @@ class NetworkedStateSpace(ct.StateSpace):
         return list(self.output_labels[:self._p1])
 
     def mode_probabilities(self) -> dict:
-        """``{(θ1, θ2): probability}`` of the four network modes (eq. 14)."""
+        """``{(θ1, θ2): probability}`` of the four network modes (eq. 14).
+
+        Returns
+        -------
+        dict
+            Keys ``(θ1, θ2)`` with ``θ = 1`` for a message that arrives.
+
+        Examples
+        --------
+        >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+        ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, sensor_loss=0.5)
+        >>> P.mode_probabilities()[(1, 1)]
+        0.5
+        """
         return mode_probabilities(self.sensor_loss, self.actuator_loss)
 
     def with_network(self, **changes: Any) -> "NetworkedStateSpace":
-        """A copy with some network settings changed (``sensor_loss=0.1``, …)."""
+        """A copy with some network settings changed (``sensor_loss=0.1``, …).
+
+        Parameters
+        ----------
+        **changes
+            Any keyword of :class:`NetworkedStateSpace` (network settings,
+            matrices, names); others raise ``TypeError``.
+
+        Returns
+        -------
+        NetworkedStateSpace
+            Validated afresh; ``self`` is unchanged.
+
+        Examples
+        --------
+        >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+        ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1)
+        >>> P.with_network(actuator_loss=0.3).actuator_loss, P.actuator_loss
+        (0.3, 0.0)
+        """
         args = self._init_args()
         unknown = set(changes) - set(args)
         if unknown:

@@ -276,8 +276,29 @@ def _strategy(controller: Any, actuator: Any) -> Strategy:
 
 
 def loop_closes(P: NetworkedStateSpace) -> bool:
-    """True if some phase schedules a sensor and an actuator together, the
-    only way a memoryless gain can act (MATH §4)."""
+    """Whether a memoryless (static) gain can act on the loop of ``P``.
+
+    It can only at a phase that schedules a sensor and an actuator together
+    (MATH §4).
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+        Plant with its network.
+
+    Returns
+    -------
+    bool
+        True if some phase schedules a sensor and an actuator together.
+
+    Examples
+    --------
+    >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+    ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+    ...         sensor_schedule=[1, 0], actuator_schedule=[0, 1])
+    >>> loop_closes(P), loop_closes(P.with_network(actuator_schedule=[1, 1]))
+    (False, True)
+    """
     return bool((P.sensor_schedule.pattern.any(axis=1)
                  & P.actuator_schedule.pattern.any(axis=1)).any())
 
