@@ -528,7 +528,7 @@ class JumpStateSpace(ct.StateSpace):
                               info=self.info)
 
     # -- python protocol -----------------------------------------------------
-    def __reduce__(self):
+    def __reduce__(self) -> tuple:
         # control.StateSpace holds lambdas and cannot be pickled; rebuild
         # from the defining data instead (this also serves copy/deepcopy).
         m = self.modes
@@ -568,8 +568,10 @@ class JumpStateSpace(ct.StateSpace):
         return head + what + ":\n" + ct.StateSpace.__str__(self.mean())
 
 
-def _restore_jss(A, B, C, D, p, dt, nominal, name, inputs, outputs, states,
-                 info):
+def _restore_jss(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray,
+                 p: np.ndarray, dt: float | bool, nominal: np.ndarray | None,
+                 name: str, inputs: list[str], outputs: list[str],
+                 states: list[str], info: dict) -> JumpStateSpace:
     return JumpStateSpace(A, B, C, D, p, dt, nominal=nominal, name=name,
                           inputs=inputs, outputs=outputs, states=states,
                           info=info)

@@ -161,7 +161,7 @@ class Schedule:
     def __repr__(self) -> str:
         return f"Schedule({self.pattern.astype(int).tolist()!r})"
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple:
         return (Schedule, (self.pattern.astype(int), self.name))
 
 

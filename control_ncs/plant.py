@@ -252,7 +252,7 @@ class NetworkedStateSpace(ct.StateSpace):
                     states=list(self.state_labels))
 
     # -- python protocol -----------------------------------------------------
-    def __reduce__(self):
+    def __reduce__(self) -> tuple:
         # control.StateSpace holds lambdas and cannot be pickled.
         return (_restore_nss, (self._init_args(),))
 

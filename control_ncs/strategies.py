@@ -127,7 +127,8 @@ def _measures_state(P: NetworkedStateSpace) -> bool:
         P.C2, np.eye(P.nstates))
 
 
-def _static_phase(P, k, t1, t2, *, actuator) -> dict:
+def _static_phase(P: NetworkedStateSpace, k: int, t1: int, t2: int, *,
+                  actuator: str) -> dict:
     """Memoryless gain, MATH §4: ``u = θ2 Σ2 K θ1 Σ1 y``."""
     n, m2 = P.nstates, P.ncon
     S1 = P.sensor_schedule.selection(k)
@@ -151,7 +152,7 @@ def _static_phase(P, k, t1, t2, *, actuator) -> dict:
         E=np.hstack([E, Z((E.shape[0], h))]))
 
 
-def _held(P) -> np.ndarray:
+def _held(P: NetworkedStateSpace) -> np.ndarray:
     """Selector of the actuators whose last value a hold actuator keeps.
 
     An actuator that no phase addresses applies its initial value 0 forever;
@@ -164,7 +165,8 @@ def _held(P) -> np.ndarray:
     return H
 
 
-def _predictor_phase(P, k, t1_next, t2, *, actuator) -> dict:
+def _predictor_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int,
+                     *, actuator: str) -> dict:
     """Model-based controller, MATH §8b; the mode is ``(θ1,k+1, θ2,k)``.
 
     State ``[x̂; e]`` (zero actuator) or ``[x̂; u⁻; e]`` (hold; ``u⁻`` the
@@ -202,17 +204,17 @@ def _predictor_phase(P, k, t1_next, t2, *, actuator) -> dict:
         E=E)
 
 
-def _plant_states(P) -> list[str]:
+def _plant_states(P: NetworkedStateSpace) -> list[str]:
     return list(P.state_labels)
 
 
-def _held_names(P) -> list[str]:
+def _held_names(P: NetworkedStateSpace) -> list[str]:
     controls = P.input_labels[len(P.disturbance_labels):]
     return [f"{controls[i]}_prev"
             for i in np.flatnonzero(P.actuator_schedule.pattern.any(axis=0))]
 
 
-def _predictor_states(P, hold: bool) -> list[str]:
+def _predictor_states(P: NetworkedStateSpace, hold: bool) -> list[str]:
     x = list(P.state_labels)
     return ([f"{s}_hat" for s in x] + (_held_names(P) if hold else [])
             + [f"{s}_err" for s in x])
