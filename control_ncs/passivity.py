@@ -50,6 +50,7 @@ from .exceptions import (CERTIFIED, FEEDTHROUGH, INACCURATE, INFEASIBLE,
 from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
                   analysis_model,
                   fallback_solver, solve, supply_model)
+from .jump import JumpStateSpace
 from .stability import ms_radius
 from .verify import (Certificate, _system, certify_index, certify_ofp_index,
                      check_certificate, feedthrough_bound)
@@ -188,18 +189,15 @@ def _feedthrough_refutes(sys, ifp_index, ofp_index=0.0) -> bool:
     return not bound > ifp_index
 
 
-def _deterministic(sys) -> tuple[np.ndarray, ...] | None:
-    """``(A, B, C, D)`` if ``sys`` is deterministic (period 1, all live
-    modes equal) with at least one state, else None."""
-    m = sys.modes
-    live = np.flatnonzero(m.probabilities[0] > 0)
-    if sys.period != 1 or m.A.shape[-1] == 0:
+def _deterministic(sys: JumpStateSpace) -> tuple[np.ndarray, ...] | None:
+    """``(A, B, C, D)`` of a deterministic system of period 1 with at least
+    one state (:meth:`JumpStateSpace.deterministic`), else None: the
+    frequency-domain and DARE routes need an LTI system."""
+    if sys.period != 1 or sys.nstates == 0:
         return None
-    first = live[0]
-    if any(not np.array_equal(X[0, i], X[0, first])
-           for i in live[1:] for X in (m.A, m.B, m.C, m.D)):
-        return None
-    return tuple(np.asarray(X[0, first], float) for X in (m.A, m.B, m.C, m.D))
+    mats = sys.deterministic()
+    return None if mats is None else tuple(np.asarray(X[0], float)
+                                           for X in mats)
 
 
 def _riccati_storage(resp: kyp._FrequencyResponse, eta: float, eps: float

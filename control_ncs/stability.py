@@ -21,7 +21,7 @@ import numpy as np
 from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
 
 from ._checks import choice, no_extra_kwargs, positive_real
-from .jump import as_jump
+from .jump import JumpStateSpace, as_jump
 
 __all__ = ["ms_radius", "is_mss", "second_moment_operator"]
 
@@ -103,17 +103,15 @@ def _dense_monodromy(sys) -> np.ndarray:
     return T
 
 
-def _deterministic_monodromy(sys) -> np.ndarray | None:
-    """``Φ = A_{N-1} ⋯ A_0`` when every phase has a single live mode (a
-    deterministic system), else None."""
-    A, p = sys.modes.A, sys.modes.probabilities
-    n = A.shape[-1]
-    phi = np.eye(n)
-    for k in range(sys.period):
-        live = np.flatnonzero(p[k] > 0)
-        if live.size != 1:
-            return None
-        phi = A[k, live[0]] @ phi
+def _deterministic_monodromy(sys: JumpStateSpace) -> np.ndarray | None:
+    """``Φ = A_{N-1} ⋯ A_0`` of a deterministic system
+    (:meth:`JumpStateSpace.deterministic`), else None."""
+    mats = sys.deterministic()
+    if mats is None:
+        return None
+    phi = np.eye(sys.nstates)
+    for A_k in mats[0]:
+        phi = A_k @ phi
     return phi
 
 
