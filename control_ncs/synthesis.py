@@ -27,7 +27,6 @@ from .lmi import (DEFAULT_MARGIN, SolveReport, check_options, check_solver,
                   data_scale, read_gains, solve, synthesis_model)
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
-from .stability import ms_radius
 from .strategies import build, loop_closes
 from .verify import (Certificate, SynthesisError, certify_index,
                      check_certificate)
@@ -92,9 +91,13 @@ STRUCTURES = ("auto", "full", "block", "extended")
 class SynthesisResult:
     """Everything :func:`passivesyn` knows about the gain it returned.
 
+    The gain is applied as is, ``u = K_k ŷ`` (positive feedback; a
+    :func:`control.dlqr` gain, for ``u = -K x``, must be negated).
+
     Attributes
     ----------
     gain : PeriodicGain
+        ``K_k``, applied as ``u = K_k ŷ``.
     eta : float
         Certified dissipation (the one returned): the requested one, or a
         relative 1e-6 below the supremum the certificate proves
@@ -105,8 +108,11 @@ class SynthesisResult:
     decay : float
         Decay bound ``r`` (1 = none); ``ms_radius < r²`` is checked.
     certificate : Certificate
-        ``P_k = X_k⁻¹`` and the exact figures: ``λmax(Θ_k)``, ``λmin(P_k)``,
-        ``ms_radius``, ``eta_sup``.
+        ``P_k = X_k⁻¹`` (in the plant's coordinates) and the exact figures:
+        ``λmax(Θ_k)``, ``λmin(P_k)``, ``ms_radius``, ``eta_sup``. For an LMI
+        solved in balanced coordinates ``x = T x̃`` the figures are those
+        of the exact check there (``Θ̃_k`` is congruent to ``Θ_k``: same
+        signs; ``ms_radius`` is the same).
     X, Y : ndarray
         LMI variables per phase (``Y`` zero-padded to ``(N, nu, nx)``); for
         the Riccati route ``X_k = P_k⁻¹`` and ``Y_k = K_k X_k`` (the LMI
@@ -221,12 +227,28 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
                ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """Periodic state feedback making a networked loop strictly passive.
 
+    The gain is applied as is, ``u = K_k x`` (positive feedback: no minus
+    sign, unlike :func:`control.dlqr` / :func:`control.lqr`, whose ``K``
+    is for ``u = -K x``; negate such a gain before using it here, see the
+    Examples).
+
     Solves the LMI of MATH §8 (paper Theorem 1, corrected) for ``X_k ≻ 0``,
     ``Y_k`` and, when ``eta`` is None, the largest dissipation ``η``; reads
     ``K_k = Y_k X_k⁻¹`` (or ``Y_k G_k⁻¹`` in the extended form); then checks
     the closed loop exactly: ``λmax(Θ_k) < 0`` with ``P_k = X_k⁻¹`` for every
     phase and ``ms_radius < 1`` (``< r²`` with ``decay=r``). A gain that fails
     is never returned.
+
+    The LMI is solved in balanced coordinates (a diagonal similarity by
+    powers of two, exact in floating point) and every solve goes through
+    one solve-and-verify loop (:func:`control_ncs.driver.drive`: retries
+    ``RETRIES``, then once ``lmi.FALLBACK_SOLVER``). Without ``solver=``
+    and with ``eta=None``, when the maximisation gives no verified gain,
+    fixed levels of ``η`` are tried (``_eta_search``) and, for structure
+    ``'full'``, the Riccati iteration; under ``structure='auto'`` a loop
+    that resolves to ``'extended'`` is also tried with ``'block'``.
+    Progress (each attempt) is logged on the ``'control_ncs'`` logger at
+    level INFO (``logging.basicConfig(level=logging.INFO)`` shows it).
 
     Parameters
     ----------
@@ -265,8 +287,15 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     margin : float, optional
         Relative strictness margin of the LMIs (for the Riccati iteration:
         the ``εI`` added at each step, relative to the data's scale).
+    time_limit : float or None, optional
+        Time budget in seconds (default ``TIME_LIMIT`` = 120 s; None: no
+        limit). The remaining time is passed to Clarabel
+        (``time_limit``); the budget is checked between attempts. A
+        Riccati iteration already running is not interrupted.
     **solver_options
-        Passed to the solver. For ``solver='riccati'``: ``rtol``
+        Passed to the solver, checked first: an option Clarabel (its
+        ``DefaultSettings``), SCS or CVXOPT does not know raises
+        ``TypeError``. For ``solver='riccati'``: ``rtol``
         (bisection tolerance on ``η``, default 1e-4), ``max_sweeps``
         (default 20000), ``probe_sweeps`` (per bisection level, default
         3000); see :func:`control_ncs.riccati.riccati_synthesis`.
@@ -274,8 +303,8 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     Returns
     -------
     K : PeriodicGain
-        ``K.gains`` has shape ``(N, m2, nk)``; ``K.result`` is the
-        :class:`SynthesisResult`.
+        ``K.gains`` has shape ``(N, m2, nk)``, applied as ``u = K_k ŷ``
+        (no minus sign); ``K.result`` is the :class:`SynthesisResult`.
     CL : JumpStateSpace
         The closed loop ``w → z``; ``CL.info['synthesis']`` is the result.
     eta : float
@@ -285,10 +314,15 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     Raises
     ------
     SynthesisError
-        The LMI is infeasible, the solver failed or was inaccurate, or the
-        answer failed the exact checks, after the retries (``RETRIES``) and,
-        without ``solver=``, one solve of the problem as posed by
-        ``lmi.FALLBACK_SOLVER``; ``reason`` and ``figures`` say which.
+        ``reason`` and ``figures`` say why: ``'infeasible'`` only with a
+        proof: the exact status 'infeasible' of the problem as posed (never
+        an ``*_inaccurate`` one), a diverging Riccati iteration, or the
+        gain-independent network modes alone having ``ms_radius ≥ 1``
+        (``≥ r²``; e.g. a loss of exactly 1 on an unstable plant; figure
+        ``ms_radius_without_control``); ``'solver_failed'``,
+        ``'inaccurate'``, ``'not_verified'`` after the retries
+        (``RETRIES``), the fallback solver and, for the default call, the
+        fallbacks above; ``'time_limit'`` when ``time_limit`` ran out.
         Riccati route: ``'infeasible'`` when some ``R_k`` loses positive
         definiteness (a proof that the LMI with its margin is infeasible),
         ``'solver_failed'`` when it runs out of sweeps or ``P`` grows beyond
@@ -299,7 +333,8 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         ``y ≠ x``, a static gain that can never close the loop,
         ``solver='riccati'`` for a loop whose structure is not ``'full'``.
     TypeError
-        An option the Riccati iteration does not know.
+        A solver option the chosen solver (or the Riccati iteration) does
+        not know.
 
     Examples
     --------
@@ -316,6 +351,15 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     >>> K, CL, eta = passivesyn(P, decay=0.9, solver='riccati')
     >>> K.result.report.solver, bool(ms_radius(CL) < 0.81)
     ('RICCATI', True)
+
+    A gain from :func:`control.dlqr` is for ``u = -K x``: negate it.
+
+    >>> import control as ct
+    >>> import control_ncs as ncs
+    >>> Klqr, _, _ = ct.dlqr([[2.0]], [[1.0]], [[1.0]], [[1.0]])
+    >>> CL = ncs.feedback(P, ncs.PeriodicGain(-Klqr))
+    >>> bool(ms_radius(CL) < 1)
+    True
     """
     plant = build(P, controller, actuator) if isinstance(
         P, NetworkedStateSpace) else None
