@@ -92,7 +92,8 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
                             tuple[SolveReport, Any]],
           verify: Callable[[Any], Any], *, eta: float | None,
           solver: str | None, deadline: float | None = None,
-          retries: tuple = RETRIES, label: str = "LMI") -> Outcome:
+          retries: tuple = RETRIES, fallback: tuple = (1.0, 0.0),
+          label: str = "LMI") -> Outcome:
     """Solve, read, verify and retry until a candidate passes the exact check.
 
     Parameters
@@ -113,7 +114,12 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
     deadline : float, optional
         ``time.perf_counter()`` value after which no attempt starts.
     retries : tuple of (float, float)
-        (margin multiplier, relative back-off of ``η``), in turn.
+        (margin multiplier, relative back-off of ``η``), in turn. The
+        multiplier is passed to ``attempt`` as is (an analysis may use
+        None for "margin maximised").
+    fallback : (float, float)
+        The attempt asked of ``lmi.FALLBACK_SOLVER`` (only when ``solver``
+        is None): by default the problem as posed.
     label : str
         Named in progress messages (logger ``'control_ncs'``, level INFO).
 
@@ -130,7 +136,7 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
     spare = None
     plan = [(scale, backoff, solver) for scale, backoff in retries]
     if fallback_solver(solver):
-        plan.append((1.0, 0.0, fallback_solver(solver)))
+        plan.append((*fallback, fallback_solver(solver)))
     for scale, backoff, name in plan:
         target = eta
         if eta is None and backoff:
