@@ -295,3 +295,32 @@ def test_driver_stops_at_its_deadline():
     out = driver.drive(attempt, verify, eta=None, solver="X",
                        deadline=time.perf_counter() - 1.0)
     assert out.reason == "time_limit" and not calls
+
+
+# -- 6. structure='auto': 'block' when 'extended' certifies nothing ----------------
+def scheduled_plant():
+    """Two sensors sending in turn (n = 2, N = 2): structure 'extended'."""
+    return ncs.nss([[0.9, 0.3], [0.0, 0.8]], [[1.0, 0.0], [0.5, 1.0]],
+                   [[1.0, 0.5], [1.0, 0.0], [0.0, 1.0]],
+                   [[1.0, 0.0], [0.0, 0.0], [0.0, 0.0]], nmeas=2, ncon=1, sensor_schedule=[[1, 0], [0, 1]],
+                   actuator_schedule=[[1], [1]], sensor_loss=0.1,
+                   actuator_loss=0.1)
+
+
+def test_auto_structure_falls_back_to_block_and_says_so(monkeypatch):
+    P = scheduled_plant()
+    real = synthesis.synthesis_model
+
+    def broken_extended(plant, eta, decay, margin, structure, form):
+        if structure == "extended":
+            # an 'extended' LMI that never verifies: η fixed above the
+            # feedthrough bound makes it infeasible
+            return real(plant, 10.0, decay, margin, structure, form)
+        return real(plant, eta, decay, margin, structure, form)
+
+    monkeypatch.setattr(synthesis, "synthesis_model", broken_extended)
+    with pytest.raises(SynthesisError):
+        ncs.passivesyn(P, structure="extended")
+    K, CL, eta = ncs.passivesyn(P)
+    assert K.result.structure == "block"
+    verified(P, K, CL, eta)
