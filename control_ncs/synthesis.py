@@ -397,9 +397,12 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
                     or plant.shape["nx"] > RICCATI_FALLBACK_MAX):
                 raise
     # Under structure='auto' the sufficient 'extended' LMI is followed by
-    # 'block' when it certifies nothing: neither contains the other's
-    # feasible set once solved numerically (measured: 6 of 80 structured
-    # cases), so the pair is never more conservative than either.
+    # 'block' when it certifies nothing: in exact arithmetic 'extended'
+    # contains 'block' (G = X), but solved numerically 'block' once
+    # certified a gain where 'extended' failed (project issue 19.6, 1 of 80
+    # structured cases; not reproduced on 384 seeded plants, n = 2-3,
+    # N = 2-3, since the fixed-η search below). Trying both keeps the
+    # README's "never more conservative" true of what is returned.
     order = [structure0] + (["block"] if structure == "auto"
                             and structure0 == "extended" else [])
     first = None

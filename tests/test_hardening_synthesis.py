@@ -126,6 +126,20 @@ def test_batch_reactor_above_critical_loss_is_proved_infeasible():
     assert info.value.figures["ms_radius_without_control"] >= 1.0
 
 
+def test_unreachable_unstable_state_is_proved_infeasible():
+    # x1⁺ = 2 x1 + w is not reached by u: no gain stabilises it, though
+    # the delivered mode has u acting (no open-loop bound applies); the
+    # Riccati iteration's divergence (R_k losing definiteness) proves it
+    P = ncs.nss([[2.0, 0.0], [0.0, 0.5]], [[1.0, 0.0], [1.0, 1.0]],
+                [[1.0, 1.0], [1.0, 0.0], [0.0, 1.0]],
+                [[1.0, 0.0], [0.0, 0.0], [0.0, 0.0]], nmeas=2, ncon=1,
+                actuator_loss=0.1)
+    with pytest.raises(SynthesisError) as info:
+        ncs.passivesyn(P)
+    assert info.value.reason == "infeasible"
+    assert "ms_radius_without_control" not in info.value.figures
+
+
 def test_loss_one_on_unstable_plant_is_infeasible_with_open_loop_figure():
     P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]],
                 [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=1.0)
