@@ -400,7 +400,7 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     # 'block' when it certifies nothing: in exact arithmetic 'extended'
     # contains 'block' (G = X), but solved numerically 'block' once
     # certified a gain where 'extended' failed (project issue 19.6, 1 of 80
-    # structured cases; not reproduced on 384 seeded plants, n = 2-3,
+    # structured cases; not reproduced on 760 seeded plants, n = 2-3,
     # N = 2-3, since the fixed-η search below). Trying both keeps the
     # README's "never more conservative" true of what is returned.
     order = [structure0] + (["block"] if structure == "auto"
