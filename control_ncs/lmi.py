@@ -173,26 +173,6 @@ def check_options(name: str, options: dict) -> None:
             f"{known}, and cvxpy's {sorted(CVXPY_SOLVE_KEYWORDS)})")
 
 
-def _clarabel_reduced() -> dict:
-    """Clarabel's ``reduced_*`` tolerances set to its own full defaults.
-
-    ``CLARABEL_DEFAULTS`` asks for 1e-9; on well-posed problems Clarabel
-    sometimes stalls just above it (measured: gap 1.19e-9 after 9 steps,
-    then a zero step) and reports ``AlmostSolved``, which cvxpy maps to
-    'optimal_inaccurate' although the answer meets Clarabel's default
-    ('Solved') accuracy. With the reduced tolerances equal to those
-    defaults, ``AlmostSolved`` means exactly that, and :func:`solve`
-    reports it as 'optimal'.
-    """
-    import clarabel
-    d = clarabel.DefaultSettings()
-    return dict(reduced_tol_gap_abs=d.tol_gap_abs,
-                reduced_tol_gap_rel=d.tol_gap_rel,
-                reduced_tol_feas=d.tol_feas, reduced_tol_ktratio=d.tol_ktratio,
-                reduced_tol_infeas_abs=d.tol_infeas_abs,
-                reduced_tol_infeas_rel=d.tol_infeas_rel)
-
-
 class _SolverOptionsRestored:
     """Restore ``cvxopt.solvers.options`` after a solve: cvxpy writes the
     caller's options into that global dictionary and leaves them there."""
@@ -214,6 +194,26 @@ class _SolverOptionsRestored:
         return False
 
 
+def _run(problem: cp.Problem, name: str, opts: dict) -> tuple[str, str]:
+    """One solver call: its status, or 'solver_error' and why."""
+    try:
+        with _SolverOptionsRestored():
+            problem.solve(solver=name, **opts)
+        return problem.status, ""
+    except (KeyboardInterrupt, SystemExit):
+        raise
+    except BaseException as err:
+        # Clarabel (Rust, via pyo3) turns an internal panic, e.g. a failed
+        # eigendecomposition in a PSD cone step near the boundary, into
+        # pyo3_runtime.PanicException, a BaseException; CVXOPT raises
+        # ZeroDivisionError or ArithmeticError from its own steps near the
+        # boundary. Each is a solver failure like any other.
+        kind = type(err).__name__
+        return "solver_error", (f"{name} panicked: {err}"
+                                if kind == "PanicException"
+                                else f"{name} raised {kind}: {err}")
+
+
 def solve(problem: cp.Problem, solver: str | None = None, *,
           time_limit: float | None = None, **options: Any) -> SolveReport:
     """Solve ``problem`` and report; any failure of the solver is a status.
@@ -229,37 +229,33 @@ def solve(problem: cp.Problem, solver: str | None = None, *,
     check_options(name, options)
     opts = {}
     if name == cp.CLARABEL:
-        opts.update(CLARABEL_DEFAULTS)
-        opts.update(_clarabel_reduced())
+        # warm_start=False: with True, cvxpy reuses the Clarabel solver of
+        # the previous solve of this (cached) problem and keeps every
+        # setting not given again (a time limit, tolerances of a retry)
+        opts.update(CLARABEL_DEFAULTS, warm_start=False)
         if time_limit is not None:
             opts["time_limit"] = max(float(time_limit), 1e-3)
     opts.update(_cache.compile_options.get(problem, {}))
     opts.update(options)
     start = time.perf_counter()
-    message = ""
-    try:
-        with _SolverOptionsRestored():
-            problem.solve(solver=name, **opts)
-        status = problem.status
-    except (KeyboardInterrupt, SystemExit):
-        raise
-    except BaseException as err:
-        # Clarabel (Rust, via pyo3) turns an internal panic, e.g. a failed
-        # eigendecomposition in a PSD cone step near the boundary, into
-        # pyo3_runtime.PanicException, a BaseException; CVXOPT raises
-        # ZeroDivisionError or ArithmeticError from its own steps near the
-        # boundary. Each is a solver failure like any other.
-        kind = type(err).__name__
-        status, message = "solver_error", (
-            f"{name} panicked: {err}" if kind == "PanicException"
-            else f"{name} raised {kind}: {err}")
-    total = time.perf_counter() - start
+    status, message = _run(problem, name, opts)
     if (status == cp.OPTIMAL_INACCURATE and name == cp.CLARABEL
             and "accept_unknown" not in options
             and not any(key.startswith(("tol_", "reduced_tol_"))
                         for key in options)):
-        # met Clarabel's default accuracy (see _clarabel_reduced)
-        status = cp.OPTIMAL
+        # CLARABEL_DEFAULTS ask for 1e-9; Clarabel sometimes stalls just
+        # above it (measured: gap 1.19e-9, then a zero step) and reports
+        # AlmostSolved. Asked again at its own default tolerances (1e-8)
+        # it says 'Solved' when the answer has that accuracy; otherwise the
+        # first answer is restored (the solver is deterministic).
+        relaxed = {key: value for key, value in opts.items()
+                   if key not in CLARABEL_DEFAULTS or key == "max_iter"}
+        status2, message2 = _run(problem, name, relaxed)
+        if status2 == cp.OPTIMAL:
+            status, message, opts = status2, message2, relaxed
+        else:
+            status, message = _run(problem, name, opts)
+    total = time.perf_counter() - start
     if status == cp.USER_LIMIT and time_limit is not None \
             and total >= 0.9 * time_limit:
         status, message = "time_limit", f"{name} reached its time limit"
