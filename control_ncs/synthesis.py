@@ -104,7 +104,9 @@ class SynthesisResult:
         (:func:`control_ncs.verify.certify_index`).
     eta_solver : float
         The solver's objective value (``η`` maximised), or the requested one;
-        for the Riccati route, the level its bisection reached.
+        for the Riccati route, the level its bisection reached; for the
+        fixed-``η`` search of the default call, the highest level that
+        verified (a lower bound, not an optimum).
     decay : float
         Decay bound ``r`` (1 = none); ``ms_radius < r²`` is checked.
     certificate : Certificate
