@@ -20,6 +20,10 @@ ACTUATORS = ("zero", "hold")
 class PeriodicGain:
     """Per-phase gains ``K_k`` of a networked controller.
 
+    The gain is applied as is: ``u = K_k ŷ`` (positive feedback, no minus
+    sign). :func:`control.dlqr` and :func:`control.lqr` return ``K`` for
+    ``u = -K x``: negate such a gain (``PeriodicGain(-K)``).
+
     Parameters
     ----------
     gains : array_like, shape (N, m2, nk) or (m2, nk)
@@ -43,6 +47,17 @@ class PeriodicGain:
     -----
     ``numpy.asarray(K)`` is the ``(m2, nk)`` matrix when ``N = 1`` (as
     :func:`control.lqr` returns) and the ``(N, m2, nk)`` stack otherwise.
+
+    Examples
+    --------
+    An LQR gain for ``x⁺ = 2x + u`` (``u = -K x`` in python-control),
+    used here as ``u = K x``:
+
+    >>> import control as ct
+    >>> Klqr, _, _ = ct.dlqr([[2.0]], [[1.0]], [[1.0]], [[1.0]])
+    >>> K = PeriodicGain(-Klqr)
+    >>> bool(abs(2.0 + K[0][0, 0]) < 1)
+    True
     """
 
     def __init__(self, gains: Any, controller: str = "static",

@@ -114,46 +114,151 @@ CVXOPT_OPTIONS = frozenset((
     "show_progress", "maxiters", "abstol", "reltol", "feastol", "refinement",
     "kktreg", "debug", "max_iters", "kktsolver"))
 
+#: Keys cvxpy's Clarabel interface consumes itself (not Clarabel settings).
+CLARABEL_CVXPY_KEYS = frozenset(("use_quad_obj", "accept_unknown"))
+
+#: Keys cvxpy's SCS interface consumes itself before calling ``scs.SCS``.
+SCS_CVXPY_KEYS = frozenset(("use_indirect", "gpu", "eps", "linear_solver"))
+
+
+def _clarabel_settings() -> frozenset:
+    """The settings the installed Clarabel knows (its ``DefaultSettings``)."""
+    import clarabel
+    return frozenset(name for name in dir(clarabel.DefaultSettings())
+                     if not name.startswith("_") and name != "default")
+
+
+def _unknown_scs(options: dict) -> list:
+    """Options the installed SCS rejects: asked of SCS itself, on a
+    one-variable problem (SCS publishes no list of its settings)."""
+    import scipy.sparse as sp
+    import scs
+    data = dict(A=sp.csc_matrix(np.ones((1, 1))), b=np.ones(1), c=np.ones(1))
+    bad = []
+    for key, value in options.items():
+        try:
+            scs.SCS(data, dict(l=1), **{"verbose": False, key: value})
+        except TypeError:
+            bad.append(key)
+    return bad
+
 
 def check_options(name: str, options: dict) -> None:
-    """``TypeError`` for solver options the solver would silently ignore.
+    """``TypeError`` for solver options the solver does not know.
 
-    Clarabel and SCS reject unknown settings themselves (``TypeError``);
-    CVXOPT does not, so its keys are checked against the known ones.
+    Checked here, at the boundary, for Clarabel (its ``DefaultSettings``),
+    SCS (asked of the installed SCS) and CVXOPT (which would ignore an
+    unknown key silently), so that a misspelt option never reaches the
+    solver deep inside cvxpy. Options of other solvers pass unchecked.
     """
     if name == cp.CVXOPT:
-        unknown = set(options) - CVXOPT_OPTIONS - CVXPY_SOLVE_KEYWORDS
-        if unknown:
-            raise TypeError(
-                f"solver option(s) {sorted(unknown)} not accepted by CVXOPT "
-                f"(known: {sorted(CVXOPT_OPTIONS)}, and cvxpy's "
-                f"{sorted(CVXPY_SOLVE_KEYWORDS)})")
+        unknown = sorted(set(options) - CVXOPT_OPTIONS - CVXPY_SOLVE_KEYWORDS)
+        known = sorted(CVXOPT_OPTIONS)
+    elif name == cp.CLARABEL:
+        settings = _clarabel_settings()
+        unknown = sorted(set(options) - settings - CLARABEL_CVXPY_KEYS
+                         - CVXPY_SOLVE_KEYWORDS)
+        known = sorted(settings | CLARABEL_CVXPY_KEYS)
+    elif name == cp.SCS:
+        unknown = sorted(_unknown_scs(
+            {k: v for k, v in options.items()
+             if k not in SCS_CVXPY_KEYS | CVXPY_SOLVE_KEYWORDS}))
+        known = ["the settings of scs.SCS (see SCS's documentation)"] + sorted(
+            SCS_CVXPY_KEYS)
+    else:
+        return
+    if unknown:
+        raise TypeError(
+            f"solver option(s) {unknown} not accepted by {name} (known: "
+            f"{known}, and cvxpy's {sorted(CVXPY_SOLVE_KEYWORDS)})")
 
 
-def solve(problem: cp.Problem, solver: str | None = None,
-          **options: Any) -> SolveReport:
-    """Solve ``problem`` and report; solver failures become a status."""
-    name = check_solver(solver)
-    check_options(name, options)
-    opts = dict(CLARABEL_DEFAULTS) if name == cp.CLARABEL else {}
-    opts.update(_cache.compile_options.get(problem, {}))
-    opts.update(options)
-    start = time.perf_counter()
-    message = ""
+class _SolverOptionsRestored:
+    """Restore ``cvxopt.solvers.options`` after a solve: cvxpy writes the
+    caller's options into that global dictionary and leaves them there."""
+
+    def __enter__(self):
+        try:
+            from cvxopt import solvers
+        except ImportError:
+            self.saved = None
+        else:
+            self.saved = (solvers, dict(solvers.options))
+        return self
+
+    def __exit__(self, *exc):
+        if self.saved is not None:
+            solvers, saved = self.saved
+            solvers.options.clear()
+            solvers.options.update(saved)
+        return False
+
+
+def _run(problem: cp.Problem, name: str, opts: dict) -> tuple[str, str]:
+    """One solver call: its status, or 'solver_error' and why."""
     try:
-        problem.solve(solver=name, **opts)
-        status = problem.status
-    except cp.error.SolverError as err:
-        status, message = "solver_error", str(err)
+        with _SolverOptionsRestored():
+            problem.solve(solver=name, **opts)
+        return problem.status, ""
+    except (KeyboardInterrupt, SystemExit):
+        raise
     except BaseException as err:
         # Clarabel (Rust, via pyo3) turns an internal panic, e.g. a failed
         # eigendecomposition in a PSD cone step near the boundary, into
-        # pyo3_runtime.PanicException, a BaseException that no `except
-        # Exception` catches. It is a solver failure like any other.
-        if type(err).__name__ != "PanicException":
-            raise
-        status, message = "solver_error", f"{name} panicked: {err}"
+        # pyo3_runtime.PanicException, a BaseException; CVXOPT raises
+        # ZeroDivisionError or ArithmeticError from its own steps near the
+        # boundary. Each is a solver failure like any other.
+        kind = type(err).__name__
+        return "solver_error", (f"{name} panicked: {err}"
+                                if kind == "PanicException"
+                                else f"{name} raised {kind}: {err}")
+
+
+def solve(problem: cp.Problem, solver: str | None = None, *,
+          time_limit: float | None = None, **options: Any) -> SolveReport:
+    """Solve ``problem`` and report; any failure of the solver is a status.
+
+    ``time_limit`` (seconds) is passed to solvers that support one
+    (Clarabel); others run to their own end. Any exception raised by the
+    solver call (cvxpy's ``SolverError``, CVXOPT's ``ZeroDivisionError``
+    or ``ArithmeticError``, Clarabel's Rust panic, ...) becomes the status
+    ``'solver_error'`` with its message; only ``KeyboardInterrupt`` and
+    ``SystemExit`` pass. Global solver options are restored afterwards.
+    """
+    name = check_solver(solver)
+    check_options(name, options)
+    opts = {}
+    if name == cp.CLARABEL:
+        # warm_start=False: with True, cvxpy reuses the Clarabel solver of
+        # the previous solve of this (cached) problem and keeps every
+        # setting not given again (a time limit, tolerances of a retry)
+        opts.update(CLARABEL_DEFAULTS, warm_start=False)
+        if time_limit is not None:
+            opts["time_limit"] = max(float(time_limit), 1e-3)
+    opts.update(_cache.compile_options.get(problem, {}))
+    opts.update(options)
+    start = time.perf_counter()
+    status, message = _run(problem, name, opts)
+    if (status == cp.OPTIMAL_INACCURATE and name == cp.CLARABEL
+            and "accept_unknown" not in options
+            and not any(key.startswith(("tol_", "reduced_tol_"))
+                        for key in options)):
+        # CLARABEL_DEFAULTS ask for 1e-9; Clarabel sometimes stalls just
+        # above it (measured: gap 1.19e-9, then a zero step) and reports
+        # AlmostSolved. Asked again at its own default tolerances (1e-8)
+        # it says 'Solved' when the answer has that accuracy; otherwise the
+        # first answer is restored (the solver is deterministic).
+        relaxed = {key: value for key, value in opts.items()
+                   if key not in CLARABEL_DEFAULTS or key == "max_iter"}
+        status2, message2 = _run(problem, name, relaxed)
+        if status2 == cp.OPTIMAL:
+            status, message, opts = status2, message2, relaxed
+        else:
+            status, message = _run(problem, name, opts)
     total = time.perf_counter() - start
+    if status == cp.USER_LIMIT and time_limit is not None \
+            and total >= 0.9 * time_limit:
+        status, message = "time_limit", f"{name} reached its time limit"
     template = _cache.templates.get(problem)
     if template is not None:
         template.solved = template.owner

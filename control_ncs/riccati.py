@@ -82,13 +82,13 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from control.exception import ControlArgument, ControlDimension
+from control.exception import ControlArgument
 
 from ._checks import decay_bound, positive_int, positive_real
-from .jump import JumpPlant, as_jump
+from .jump import JumpPlant
 from .verify import SynthesisError
 
-__all__ = ["RiccatiResult", "riccati_synthesis", "riccati_index",
+__all__ = ["RiccatiResult", "riccati_synthesis",
            "RICCATI_MARGIN"]
 
 #: Default margin ``ε`` of the iteration, relative to the scale of the data
@@ -104,12 +104,12 @@ _BLOWUP = 1e12
 
 @dataclass
 class RiccatiResult:
-    """Outcome of :func:`riccati_synthesis` or :func:`riccati_index`.
+    """Outcome of :func:`riccati_synthesis`.
 
     Attributes
     ----------
     gains : ndarray, shape (N, nu, nk), or None
-        ``K_k`` (None for :func:`riccati_index`: no gain is chosen).
+        ``K_k``.
     P : ndarray, shape (N, n, n)
         The certificate candidate ``P_k`` (an iterate of the monotone
         sequence). Not yet checked exactly: the caller does that.
@@ -434,63 +434,3 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
     return RiccatiResult(gains, P, float(e), sweeps, bis,
                          time.perf_counter() - start)
 
-
-def riccati_index(sys, *, decay: float = 1.0, margin: float = RICCATI_MARGIN,
-                  rtol: float = 1e-5, max_sweeps: int = 20000,
-                  probe_sweeps: int = 3000) -> RiccatiResult:
-    """Input-feedforward index of a jump system by the Riccati iteration.
-
-    The analysis counterpart of :func:`riccati_synthesis` (no gain): the
-    largest ``η`` for which the iteration ``r² P_k = G_k(P_{k+1}) + εI``
-    converges, with its ``P``. Not checked here: certify it with
-    :func:`control_ncs.verify.certify_index` (as
-    :func:`control_ncs.get_input_ff_index` does for the LMI's ``P``).
-
-    Parameters
-    ----------
-    sys : JumpStateSpace or discrete-time StateSpace
-    decay : float in (0, 1]
-    margin, rtol, max_sweeps, probe_sweeps
-        As for :func:`riccati_synthesis`.
-
-    Returns
-    -------
-    RiccatiResult
-        ``gains`` is None.
-
-    Raises
-    ------
-    SynthesisError
-        ``'infeasible'``: diverged at every level (``sys`` is not
-        mean-square stable with decay ``r``); ``'solver_failed'``:
-        inconclusive.
-
-    Examples
-    --------
-    ``G(z) = 1 + 1/(z - 0.5)`` has ``min Re G = 1/3`` on the unit circle:
-
-    >>> import control as ct
-    >>> res = riccati_index(ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True))
-    >>> round(res.eta, 4)
-    0.3333
-    """
-    start = time.perf_counter()
-    rtol, max_sweeps, probe_sweeps, margin, decay = _options(
-        rtol, max_sweeps, probe_sweeps, margin, decay)
-    sys = as_jump(sys)
-    m = sys.modes
-    if m.A.shape[-1] == 0:
-        raise ControlDimension("sys: the iteration needs at least one state")
-    if m.B.shape[-1] != m.C.shape[-2]:
-        raise ControlDimension(
-            f"sys: passivity needs as many inputs as outputs, got "
-            f"{m.B.shape[-1]} inputs and {m.C.shape[-2]} outputs")
-    M, n = m.A.shape[1], m.A.shape[-1]
-    none = np.zeros(0, int)
-    data = [_Phase(m.probabilities[k], m.A[k], np.zeros((M, n, 0)), m.B[k],
-                   m.C[k], np.zeros((M, m.C.shape[-2], 0)), m.D[k], none)
-            for k in range(sys.period)]
-    P, _, e, sweeps, bis = _search(data, None, float(decay), margin, rtol,
-                                   int(max_sweeps), int(probe_sweeps))
-    return RiccatiResult(None, P, float(e), sweeps, bis,
-                         time.perf_counter() - start)

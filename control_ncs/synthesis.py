@@ -12,7 +12,8 @@ checks.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import time
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -21,8 +22,9 @@ from control.exception import ControlArgument, ControlDimension
 from ._checks import choice, decay_bound, finite_real, positive_real
 from .gain import ACTUATORS, CONTROLLERS, PeriodicGain
 from .jump import JumpPlant, JumpStateSpace
-from .lmi import (DEFAULT_MARGIN, SolveReport, fallback_solver,
-                  read_gains, solve, synthesis_model)
+from .driver import RETRIES, drive
+from .lmi import (DEFAULT_MARGIN, SolveReport, check_options, check_solver,
+                  data_scale, read_gains, solve, synthesis_model)
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
 from .strategies import build, loop_closes
@@ -30,20 +32,6 @@ from .verify import (Certificate, SynthesisError, certify_index,
                      check_certificate)
 
 __all__ = ["passivesyn", "SynthesisResult", "SynthesisError"]
-
-#: Attempts made in turn while the answer is inaccurate or fails the exact
-#: checks: (margin multiplier, relative back-off of ``η`` below the first
-#: attempt's optimum). A maximum sits on the boundary of the feasible set,
-#: where interior-point answers are least accurate; a retry therefore solves
-#: the feasibility problem a little below it. Measured (loss-free plants
-#: with unstable A, tests/test_passivity.py): the maximisation ends
-#: 'optimal_inaccurate', the feasibility problem 1e-3 below is 'optimal',
-#: at a cost of ~9e-4 of η; trying 1e-5 and 1e-4 first rescued 1 of 3 such
-#: cases, so they are not tried. A retry reported infeasible proves nothing
-#: (its η comes from an inaccurate optimum): only the problem as posed, with
-#: the default or the fallback solver (``lmi.FALLBACK_SOLVER``), decides
-#: infeasibility.
-RETRIES = ((1.0, 0.0), (1.0, 1e-3), (1e2, 1e-2))
 
 #: With ``solver=None`` and no solver options, a loop whose structure
 #: resolves to ``'full'`` with more states than this is designed by the
@@ -72,6 +60,29 @@ RICCATI_FALLBACK_MAX = 16
 #: ``**solver_options``; any other raises TypeError.
 RICCATI_OPTIONS = ("rtol", "max_sweeps", "probe_sweeps")
 
+#: Default time budget of :func:`passivesyn`, seconds.
+TIME_LIMIT = 120.0
+
+#: The state is rescaled by a diagonal of powers of two (balancing the mode
+#: matrices, :func:`_balancing`) before the LMI when the scales it finds
+#: spread by at least this factor; below it the data are taken as they are.
+BALANCE_FROM = 16.0
+
+#: An ``η`` below ``-ETA_FLOOR`` times the data's scale is not read as an
+#: answer: there ``2ηI`` swamps the rest of the LMI, interior-point solvers
+#: report 'optimal' on problems that are infeasible (measured: Clarabel,
+#: 'optimal' at η = -4.9e12 on a structurally infeasible plant that CVXOPT
+#: proves infeasible, tests/test_synthesis.py) and no certificate there
+#: could be verified in double precision. Such an answer is a solver
+#: failure, not a gain to check.
+ETA_FLOOR = 1e8
+
+#: The fixed-η search of the default call (``_eta_search``): decades
+#: below the feedthrough bound (1e-2 .. 1e7 times its scale) and bisection
+#: steps after the first verified level.
+ETA_SEARCH_DECADES = 10
+ETA_SEARCH_STEPS = 12
+
 FORMS = ("merged", "paper")
 STRUCTURES = ("auto", "full", "block", "extended")
 
@@ -80,21 +91,30 @@ STRUCTURES = ("auto", "full", "block", "extended")
 class SynthesisResult:
     """Everything :func:`passivesyn` knows about the gain it returned.
 
+    The gain is applied as is, ``u = K_k ŷ`` (positive feedback; a
+    :func:`control.dlqr` gain, for ``u = -K x``, must be negated).
+
     Attributes
     ----------
     gain : PeriodicGain
+        ``K_k``, applied as ``u = K_k ŷ``.
     eta : float
         Certified dissipation (the one returned): the requested one, or a
         relative 1e-6 below the supremum the certificate proves
         (:func:`control_ncs.verify.certify_index`).
     eta_solver : float
         The solver's objective value (``η`` maximised), or the requested one;
-        for the Riccati route, the level its bisection reached.
+        for the Riccati route, the level its bisection reached; for the
+        fixed-``η`` search of the default call, the highest level that
+        verified (a lower bound, not an optimum).
     decay : float
         Decay bound ``r`` (1 = none); ``ms_radius < r²`` is checked.
     certificate : Certificate
-        ``P_k = X_k⁻¹`` and the exact figures: ``λmax(Θ_k)``, ``λmin(P_k)``,
-        ``ms_radius``, ``eta_sup``.
+        ``P_k = X_k⁻¹`` (in the plant's coordinates) and the exact figures:
+        ``λmax(Θ_k)``, ``λmin(P_k)``, ``ms_radius``, ``eta_sup``. For an LMI
+        solved in balanced coordinates ``x = T x̃`` the figures are those
+        of the exact check there (``Θ̃_k`` is congruent to ``Θ_k``: same
+        signs; ``ms_radius`` is the same).
     X, Y : ndarray
         LMI variables per phase (``Y`` zero-padded to ``(N, nu, nx)``); for
         the Riccati route ``X_k = P_k⁻¹`` and ``Y_k = K_k X_k`` (the LMI
@@ -204,9 +224,15 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
                decay: float | None = None, controller: str = "static",
                actuator: str = "zero", form: str = "merged",
                structure: str = "auto", solver: str | None = None,
-               margin: float = DEFAULT_MARGIN, **solver_options: Any
+               margin: float = DEFAULT_MARGIN,
+               time_limit: float | None = TIME_LIMIT, **solver_options: Any
                ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """Periodic state feedback making a networked loop strictly passive.
+
+    The gain is applied as is, ``u = K_k x`` (positive feedback: no minus
+    sign, unlike :func:`control.dlqr` / :func:`control.lqr`, whose ``K``
+    is for ``u = -K x``; negate such a gain before using it here, see the
+    Examples).
 
     Solves the LMI of MATH §8 (paper Theorem 1, corrected) for ``X_k ≻ 0``,
     ``Y_k`` and, when ``eta`` is None, the largest dissipation ``η``; reads
@@ -214,6 +240,17 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     the closed loop exactly: ``λmax(Θ_k) < 0`` with ``P_k = X_k⁻¹`` for every
     phase and ``ms_radius < 1`` (``< r²`` with ``decay=r``). A gain that fails
     is never returned.
+
+    The LMI is solved in balanced coordinates (a diagonal similarity by
+    powers of two, exact in floating point) and every solve goes through
+    one solve-and-verify loop (:func:`control_ncs.driver.drive`: retries
+    ``RETRIES``, then once ``lmi.FALLBACK_SOLVER``). Without ``solver=``
+    and with ``eta=None``, when the maximisation gives no verified gain,
+    fixed levels of ``η`` are tried (``_eta_search``) and, for structure
+    ``'full'``, the Riccati iteration; under ``structure='auto'`` a loop
+    that resolves to ``'extended'`` is also tried with ``'block'``.
+    Progress (each attempt) is logged on the ``'control_ncs'`` logger at
+    level INFO (``logging.basicConfig(level=logging.INFO)`` shows it).
 
     Parameters
     ----------
@@ -252,8 +289,15 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     margin : float, optional
         Relative strictness margin of the LMIs (for the Riccati iteration:
         the ``εI`` added at each step, relative to the data's scale).
+    time_limit : float or None, optional
+        Time budget in seconds (default ``TIME_LIMIT`` = 120 s; None: no
+        limit). The remaining time is passed to Clarabel
+        (``time_limit``); the budget is checked between attempts. A
+        Riccati iteration already running is not interrupted.
     **solver_options
-        Passed to the solver. For ``solver='riccati'``: ``rtol``
+        Passed to the solver, checked first: an option Clarabel (its
+        ``DefaultSettings``), SCS or CVXOPT does not know raises
+        ``TypeError``. For ``solver='riccati'``: ``rtol``
         (bisection tolerance on ``η``, default 1e-4), ``max_sweeps``
         (default 20000), ``probe_sweeps`` (per bisection level, default
         3000); see :func:`control_ncs.riccati.riccati_synthesis`.
@@ -261,8 +305,8 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     Returns
     -------
     K : PeriodicGain
-        ``K.gains`` has shape ``(N, m2, nk)``; ``K.result`` is the
-        :class:`SynthesisResult`.
+        ``K.gains`` has shape ``(N, m2, nk)``, applied as ``u = K_k ŷ``
+        (no minus sign); ``K.result`` is the :class:`SynthesisResult`.
     CL : JumpStateSpace
         The closed loop ``w → z``; ``CL.info['synthesis']`` is the result.
     eta : float
@@ -272,10 +316,15 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     Raises
     ------
     SynthesisError
-        The LMI is infeasible, the solver failed or was inaccurate, or the
-        answer failed the exact checks, after the retries (``RETRIES``) and,
-        without ``solver=``, one solve of the problem as posed by
-        ``lmi.FALLBACK_SOLVER``; ``reason`` and ``figures`` say which.
+        ``reason`` and ``figures`` say why: ``'infeasible'`` only with a
+        proof: the exact status 'infeasible' of the problem as posed (never
+        an ``*_inaccurate`` one), a diverging Riccati iteration, or the
+        gain-independent network modes alone having ``ms_radius ≥ 1``
+        (``≥ r²``; e.g. a loss of exactly 1 on an unstable plant; figure
+        ``ms_radius_without_control``); ``'solver_failed'``,
+        ``'inaccurate'``, ``'not_verified'`` after the retries
+        (``RETRIES``), the fallback solver and, for the default call, the
+        fallbacks above; ``'time_limit'`` when ``time_limit`` ran out.
         Riccati route: ``'infeasible'`` when some ``R_k`` loses positive
         definiteness (a proof that the LMI with its margin is infeasible),
         ``'solver_failed'`` when it runs out of sweeps or ``P`` grows beyond
@@ -286,7 +335,8 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         ``y ≠ x``, a static gain that can never close the loop,
         ``solver='riccati'`` for a loop whose structure is not ``'full'``.
     TypeError
-        An option the Riccati iteration does not know.
+        A solver option the chosen solver (or the Riccati iteration) does
+        not know.
 
     Examples
     --------
@@ -303,23 +353,40 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     >>> K, CL, eta = passivesyn(P, decay=0.9, solver='riccati')
     >>> K.result.report.solver, bool(ms_radius(CL) < 0.81)
     ('RICCATI', True)
+
+    A gain from :func:`control.dlqr` is for ``u = -K x``: negate it.
+
+    >>> import control as ct
+    >>> import control_ncs as ncs
+    >>> Klqr, _, _ = ct.dlqr([[2.0]], [[1.0]], [[1.0]], [[1.0]])
+    >>> CL = ncs.feedback(P, ncs.PeriodicGain(-Klqr))
+    >>> bool(ms_radius(CL) < 1)
+    True
     """
     plant = build(P, controller, actuator) if isinstance(
         P, NetworkedStateSpace) else None
-    eta, decay, structure = _checks(P, eta, decay, controller, actuator, form,
-                                    structure, plant)
+    eta, decay, structure0 = _checks(P, eta, decay, controller, actuator,
+                                     form, structure, plant)
     margin = positive_real(margin, "margin")
+    if time_limit is not None:
+        time_limit = positive_real(time_limit, "time_limit")
+    deadline = None if time_limit is None else time.perf_counter() + time_limit
     riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
-    if riccati and structure != "full":
+    if riccati and structure0 != "full":
         raise ValueError(
             f"solver: 'riccati' needs structure 'full' (the gain sees every "
             f"state at every phase); this loop resolves to structure "
-            f"{structure!r} (controller={controller!r}, actuator="
+            f"{structure0!r} (controller={controller!r}, actuator="
             f"{actuator!r}, sensor schedule or predictor): use an LMI solver")
-    chosen = (solver is None and not solver_options and structure == "full"
-              and plant.shape["nx"] > RICCATI_THRESHOLD)
+    if riccati:
+        _riccati_options(solver_options)
+    else:
+        check_options(check_solver(solver), solver_options)
+    _open_loop_bound(plant, decay)
     if riccati:
         return _riccati(plant, eta, decay, margin, solver_options)
+    chosen = (solver is None and not solver_options and structure0 == "full"
+              and plant.shape["nx"] > RICCATI_THRESHOLD)
     if chosen:
         try:
             return _riccati(plant, eta, decay, margin, solver_options)
@@ -331,78 +398,273 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
             if (err.reason != "solver_failed"
                     or plant.shape["nx"] > RICCATI_FALLBACK_MAX):
                 raise
-    attempts = []
-    last_cert = last_report = best = None
-    tried = set()
-    plan = [(scale, backoff, solver) for scale, backoff in RETRIES]
-    if fallback_solver(solver):
-        plan.append((1.0, 0.0, fallback_solver(solver)))
-    for scale, backoff, name in plan:
-        target = eta
-        if eta is None and backoff:
-            if best is None:
-                continue  # the first solve gave no optimum to back off from
-            target = best - backoff * max(1.0, abs(best))
-        if (scale, target, name) in tried:
-            continue  # a fixed η has nothing to back off from
-        tried.add((scale, target, name))
-        # the problem as posed (not a retry asking for more)
-        original = scale == 1.0 and target == eta
-        model = synthesis_model(plant, target, decay, margin * scale,
+    # Under structure='auto' the sufficient 'extended' LMI is followed by
+    # 'block' when it certifies nothing: in exact arithmetic 'extended'
+    # contains 'block' (G = X), but solved numerically 'block' once
+    # certified a gain where 'extended' failed (project issue 19.6, 1 of 80
+    # structured cases; not reproduced on 760 seeded plants, n = 2-3,
+    # N = 2-3, since the fixed-η search below). Trying both keeps the
+    # README's "never more conservative" true of what is returned.
+    order = [structure0] + (["block"] if structure == "auto"
+                            and structure0 == "extended" else [])
+    first = None
+    for struct in order:
+        out, finish = _lmi_route(plant, eta, decay, margin, struct, form,
+                                 solver, solver_options, deadline)
+        if out.ok:
+            return finish()
+        first = first or (out, struct)
+        if out.reason == "time_limit":
+            break
+    out, struct = first
+    if (solver is None and eta is None and out.reason not in
+            ("infeasible", "time_limit")):
+        for struct2 in order:
+            found = _eta_search(plant, decay, margin, struct2, form, solver,
+                                solver_options, deadline)
+            if found is not None:
+                return found
+    if (solver is None and structure0 == "full" and not chosen
+            and out.reason != "time_limit"
+            and (deadline is None or time.perf_counter() < deadline)):
+        # The default call: the Riccati iteration solves the same exact
+        # condition, and its divergence proves infeasibility, where an
+        # interior-point method ends inaccurate or fails near the edge of
+        # mean-square stability (the batch reactor at 0.97-0.9999 of the
+        # critical loss, tests/test_hardening_synthesis.py).
+        try:
+            return _riccati(plant, eta, decay, margin, {})
+        except SynthesisError as err:
+            if err.reason == "infeasible":
+                err.figures.update(lmi_statuses=out.figures()["statuses"])
+                raise
+    reason = out.reason
+    if reason == "infeasible":
+        what = (f"{out.message}: no gain of this kind "
+                + ("exists with a certificate" if struct == "full" else
+                   f"passes the sufficient '{struct}' condition")
+                + f" for eta={'max' if eta is None else eta}, decay={decay}")
+    else:
+        what = (f"no verified gain ({out.message}, (margin, back-off) = "
+                f"{[(margin * m, b) for m, b in RETRIES]})")
+    raise SynthesisError(f"passivesyn: {what}", reason,
+                         dict(out.figures(), structure=struct))
+
+
+def _eta_search(plant, decay, margin, structure, form, solver, options,
+                deadline):
+    """``η`` maximised by fixed-``η`` LMIs: the default call's fallback.
+
+    Near the edge of mean-square stability the maximisation's optimum lies
+    where interior-point answers are least accurate (the batch reactor at
+    0.97 of the critical loss ends 'inaccurate'), while a fixed ``η``
+    strictly below it is an interior problem. Levels ``u - 10^j / 100``
+    below the feedthrough bound ``u = min_k λmin(D̄w + D̄wᵀ)/2`` are tried
+    until one verifies, then the gap to the last refused level is bisected
+    (``ETA_SEARCH_STEPS`` times). Every level's answer is verified exactly
+    (``certify_index``: the returned ``η`` is what its ``P`` proves).
+    Returns the result of the best verified level, or None.
+    """
+    p = plant.probabilities
+    Dw = np.einsum("km,kmij->kij", p, plant.Dw)
+    u = min(float(np.linalg.eigvalsh(D + D.T).min()) / 2 for D in Dw)
+    unit = max(1.0, abs(u))
+    found = high = None
+
+    def level(target):
+        if deadline is not None and time.perf_counter() >= deadline:
+            return None
+        out, finish = _lmi_route(plant, target, decay, margin, structure,
+                                 form, solver, options, deadline,
+                                 supremum=True)
+        return finish if out.ok else None
+
+    for j in range(ETA_SEARCH_DECADES):
+        target = u - unit * 10.0 ** (j - 2)
+        finish = level(target)
+        if finish is not None:
+            found = (target, finish())
+            break
+        high = target
+    if found is None:
+        return None
+    low, best = found
+    for _ in range(ETA_SEARCH_STEPS if high is not None else 0):
+        low = max(low, best[2])
+        if high - low <= 1e-4 * max(1.0, abs(low)):
+            break
+        mid = 0.5 * (low + high)
+        finish = level(mid)
+        if finish is None:
+            high = mid
+        else:
+            result = finish()
+            if result[2] > best[2]:
+                best = result
+            low = mid
+    return best
+
+
+#: Largest state dimension at which ``_open_loop_bound`` forms the
+#: ``n² × n²`` matrices of the gain-independent second-moment operator.
+OPEN_LOOP_BOUND_MAX = 24
+
+
+def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
+    """``SynthesisError('infeasible')`` when the modes no gain acts in
+    already make the loop mean-square unstable (within ``r²``).
+
+    In a mode with ``Bu_ki = 0`` (the loss took every input) or a phase
+    with ``E_k = 0`` (nothing known), ``A_ki + Bu_ki K_k E_k = A_ki`` for
+    every gain. The second-moment operator of any closed loop,
+    ``X ↦ Σ_i p_ki Ā_ki X Ā_kiᵀ`` per phase, dominates the sum over those
+    modes alone in the positive-semidefinite order, so its spectral radius
+    (MATH §5) is at least that of the gain-independent part (monotonicity
+    of the spectral radius of cone-preserving maps). When that part's
+    per-step radius is ``≥ min(1, r²)`` no gain can be certified: a proof,
+    with the figure on the error. A loss of exactly 1 on an unstable plant
+    is the special case where every mode is gain-independent.
+    """
+    n = plant.shape["nx"]
+    if n > OPEN_LOOP_BOUND_MAX:
+        return
+    p, N = plant.probabilities, plant.period
+    M = np.eye(n * n)
+    for k in range(N):
+        step = np.zeros((n * n, n * n))
+        for i in np.flatnonzero(p[k] > 0):
+            if not np.any(plant.E[k]) or not np.any(plant.Bu[k, i]):
+                step += p[k, i] * np.kron(plant.A[k, i], plant.A[k, i])
+        M = step @ M
+    rho = float(np.max(np.abs(np.linalg.eigvals(M)))) ** (1.0 / N)
+    bound = min(1.0, decay ** 2)
+    # a clear margin over rounding (eigvals is backward stable)
+    if rho >= bound * (1 + 1e-9):
+        raise SynthesisError(
+            f"passivesyn: infeasible: the network modes in which no gain "
+            f"acts (every input lost, or nothing known) alone give a "
+            f"second-moment rate of {rho:.6g} >= {bound:.6g} per step, and "
+            f"every closed loop's rate is at least that: no gain makes the "
+            f"loop mean-square stable"
+            + (f" with decay {decay}" if decay < 1 else ""),
+            "infeasible", dict(ms_radius_without_control=rho, bound=bound,
+                               proof="gain-independent modes"))
+
+
+def _balancing(plant: JumpPlant) -> np.ndarray | None:
+    """Diagonal state scaling ``t`` (powers of two), or None.
+
+    Balances ``Σ |A_ki|`` (plus the input and output matrices' weights on
+    each state) like :func:`scipy.linalg.matrix_balance`: a similarity by
+    powers of two is exact in floating point and keeps every zero pattern.
+    Only for coordinate-selection ``E_k`` (then ``K = K̃ diag(E_k t)⁻¹``).
+    """
+    if not plant.is_selection():
+        return None
+    from scipy.linalg import matrix_balance
+    n = plant.shape["nx"]
+    A = np.abs(plant.A).sum(axis=(0, 1))
+    b = np.abs(np.concatenate([plant.Bu, plant.Bw], axis=-1)).sum(
+        axis=(0, 1)).sum(axis=1)
+    c = np.abs(plant.Cz).sum(axis=(0, 1)).sum(axis=0)
+    # one extra node standing for every input and output
+    S = np.zeros((n + 1, n + 1))
+    S[:n, :n], S[:n, n], S[n, :n] = A, b, c
+    if not np.all(np.isfinite(S)) or not np.any(S):
+        return None
+    _, (scale, _) = matrix_balance(S, permute=False, separate=True)
+    t = scale[:n] / scale[n]
+    if not t.max() / t.min() >= BALANCE_FROM:
+        return None
+    return t
+
+
+def _scaled(plant: JumpPlant, t: np.ndarray) -> JumpPlant:
+    """The plant in coordinates ``x = T x̃``, ``T = diag(t)``."""
+    inv = 1.0 / t
+    return JumpPlant(plant.A * inv[:, None] * t[None, :],
+                     plant.Bu * inv[:, None], plant.Bw * inv[:, None],
+                     plant.Cz * t[None, :], plant.Du, plant.Dw, plant.E,
+                     plant.probabilities, plant.dt, nominal=plant.nominal,
+                     inputs=plant.inputs, outputs=plant.outputs,
+                     states=plant.states, info=plant.info)
+
+
+def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
+               deadline, supremum=False):
+    """The LMI of ``structure``, through the one driver (``driver.drive``).
+
+    Returns the driver's outcome and a function building the result. The
+    LMI is solved in balanced coordinates (``_balancing``); gains and
+    certificates are mapped back (``K_k = K̃_k diag(E_k t)⁻¹``,
+    ``P_k = T⁻¹ P̃_k T⁻¹``) and verified exactly on the original plant.
+    """
+    t = _balancing(plant)
+    work = plant if t is None else _scaled(plant, t)
+    scale_of_data = data_scale(work.A, work.Bu, work.Bw, work.Cz, work.Du,
+                               work.Dw)
+
+    def attempt(scale, target, name, left):
+        model = synthesis_model(work, target, decay, margin * scale,
                                 structure, form)
+        extra = {} if left is None else dict(time_limit=left)
         # the caller's options are for the solver the caller chose
         report = solve(model.problem, name,
-                       **(solver_options if name == solver else {}))
-        attempts.append(report)
-        if original and best is None and eta is None:
-            best = report.value
-        if report.infeasible and not original:
-            # Only the problem as posed decides feasibility: a retry asks
-            # for more (a larger margin, or an η taken from an inaccurate
-            # optimum that may lie above the true one).
-            continue
-        if report.infeasible:
-            raise SynthesisError(
-                f"passivesyn: the LMI is infeasible (solver {report.solver}, "
-                f"status {report.status!r}): no gain of this kind "
-                + ("exists with a certificate" if structure == "full" else
-                   f"passes the sufficient '{structure}' condition")
-                + f" for eta={'max' if eta is None else eta}, decay={decay}",
-                "infeasible", dict(status=report.status, solver=report.solver,
-                                   structure=structure,
-                                   statuses=[a.status for a in attempts]))
+                       **(options if name == solver else {}), **extra)
         if report.status not in ("optimal", "optimal_inaccurate"):
-            continue
-        gains, Pcert = read_gains(model, plant)
-        CL = plant.close(gains)
-        cert = (certify_index(CL, Pcert, decay=decay) if eta is None
-                else check_certificate(CL, Pcert, eta, decay=decay))
-        last_cert, last_report = cert, report
-        if cert.verified and report.ok:
-            eta_solver = eta if eta is not None else (
-                best if best is not None else cert.eta)
-            X, Y = _variables(model, plant)
-            return _finish(plant, X, Y, gains, CL, cert, cert.eta,
-                           eta_solver, decay, form, structure, model.width,
-                           report, attempts)
-    # The last attempt that produced a gain says why it was refused; with
-    # none, the solver never produced an answer to check.
-    report = last_report if last_cert is not None else attempts[-1]
-    figures = dict(status=report.status, solver=report.solver,
-                   statuses=[a.status for a in attempts],
-                   **(last_cert.figures() if last_cert else {}))
-    if last_cert is None:
-        reason, what = "solver_failed", f"the solver failed ({report.message})"
-    elif not report.ok:
-        reason, what = "inaccurate", "the solver's status stayed inaccurate"
-    else:
-        reason = "not_verified"
-        what = "the gain fails the exact check: " + "; ".join(last_cert.failures)
-    raise SynthesisError(
-        f"passivesyn: no verified gain ({what}; statuses "
-        f"{[a.status for a in attempts]} after {len(attempts)} attempts, "
-        f"(margin, back-off) = {[(margin * m, b) for m, b in RETRIES]})",
-        reason, figures)
+            return report, None
+        level = report.value if target is None else target
+        if level is not None and level < -ETA_FLOOR * scale_of_data:
+            report.message = (f"eta = {level:.3g} lies below -ETA_FLOOR x "
+                              f"the data's scale ({-ETA_FLOOR * scale_of_data:.3g}"
+                              "): not a verifiable answer")
+            return report, None
+        try:
+            gains, Pc = read_gains(model, work)
+            X, Y = _variables(model, work)
+        except (np.linalg.LinAlgError, TypeError, ValueError):
+            return report, None  # no usable values (e.g. X singular)
+        if not (np.all(np.isfinite(gains)) and np.all(np.isfinite(Pc))):
+            return report, None
+        return report, dict(gains=gains, P=Pc, X=X, Y=Y, width=model.width)
+
+    def verify(c):
+        # Verified where it was solved: with T = diag(t) of powers of two,
+        # every product and sum of work.close() is the original's times
+        # t_j / t_i exactly (scaling by 2^k commutes with rounding, barring
+        # over/underflow), so Θ̃_k = diag(T, I) Θ_k diag(T, I) exactly: a
+        # congruence (same inertia, Sylvester), the same Schur complement in
+        # w (same certified η), and a similar second-moment operator (same
+        # ms_radius). In the original coordinates the eigenvalue test's
+        # rounding bound grows with ‖P‖ and can refuse a true certificate.
+        CL = work.close(c["gains"])
+        if eta is None or supremum:
+            cert = certify_index(CL, c["P"], decay=decay)
+            if eta is None or cert.verified:
+                return cert
+        return check_certificate(CL, c["P"], eta, decay=decay)
+
+    out = drive(attempt, verify, eta=eta, solver=solver, deadline=deadline,
+                label=f"passivesyn LMI ({structure})")
+
+    def finish():
+        c, cert = out.candidate, out.certificate
+        gains, X, Y = c["gains"], c["X"], c["Y"]
+        if t is not None:
+            # back to x = T x̃: K_k = K̃_k diag(E_k t)⁻¹, P_k = T⁻¹ P̃_k T⁻¹,
+            # X_k = T X̃_k T, Y_k = Ỹ_k T (all exact: powers of two)
+            d = np.einsum("kjx,x->kj", work.E, t)
+            d[d == 0] = 1.0
+            gains = gains / d[:, None, :]
+            X = X * t[None, :, None] * t[None, None, :]
+            Y = Y * t[None, None, :]
+            cert = replace(cert, P=c["P"] / t[None, :, None]
+                           / t[None, None, :])
+        return _finish(plant, X, Y, gains, plant.close(gains), cert,
+                       cert.eta, out.eta_solver, decay, form, structure,
+                       c["width"], out.report, out.attempts)
+
+    return out, finish
 
 
 def _variables(model, plant):
@@ -418,13 +680,17 @@ def _variables(model, plant):
     return X, Y
 
 
-def _riccati(plant, eta, decay, margin, options):
-    """The Riccati route (``structure='full'``), checked like the LMI's."""
+def _riccati_options(options):
     unknown = set(options) - set(RICCATI_OPTIONS)
     if unknown:
         raise TypeError(
             f"passivesyn() got solver option(s) {sorted(unknown)} not "
             f"accepted by solver='riccati' (known: {list(RICCATI_OPTIONS)})")
+
+
+def _riccati(plant, eta, decay, margin, options):
+    """The Riccati route (``structure='full'``), checked like the LMI's."""
+    _riccati_options(options)
     res = riccati_synthesis(plant, eta, decay=decay, margin=margin, **options)
     report = SolveReport("optimal", "RICCATI", 0.0, res.time, res.time,
                          res.sweeps, res.eta, options=dict(options))

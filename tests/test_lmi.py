@@ -272,3 +272,16 @@ def test_threads_never_share_a_problem():
         values, info = results[index]
         assert all(close(v, value) for v in values)
         assert (info["misses"], info["hits"]) == (1, 2)
+
+
+def test_clarabel_stall_at_its_default_accuracy_is_optimal():
+    """Clarabel stalls at gap 1.19e-9 on this analysis LMI (asked for
+    1e-9, 'AlmostSolved'); asked again at its own defaults (1e-8) it
+    says 'Solved'."""
+    sys, = loops([6])
+    model = lmi.analysis_model(sys, None, 1e-7, 1.0)
+    assert lmi.solve(model.problem).status == "optimal"
+    # the caller's own tolerances are taken at their word
+    strict = lmi.solve(model.problem, "CLARABEL", tol_gap_abs=1e-9,
+                       tol_gap_rel=1e-9, tol_feas=1e-9)
+    assert strict.status == "optimal_inaccurate"

@@ -542,12 +542,11 @@ def test_other_solvers_return_verified_gain_or_synthesis_error(solver,
                                                                options):
     if solver not in cp.installed_solvers():
         pytest.skip(f"{solver} not installed")
+    # both plants admit a gain (Clarabel certifies η = 0.89 and -2.68):
+    # each solver must return a verified one, not merely not crash
     for seed, N in [(0, 1), (1, 2)]:
         spec = random_spec(seed, 3, N, 0.1, 0.2, radius=0.9)
-        try:
-            K, CL, eta = passivesyn(spec.plant(), solver=solver, **options)
-        except SynthesisError:
-            continue
+        K, CL, eta = passivesyn(spec.plant(), solver=solver, **options)
         assert K.result.report.solver == solver
         assert_verified(spec, K, CL, eta)
 

@@ -1,0 +1,202 @@
+"""The one solve-and-verify loop: retries, back-off, fallback, verdict.
+
+An LMI answer is a candidate, never a result: :func:`drive` asks a caller's
+``attempt(scale, target, solver, time_left)`` to build and solve the model
+for a margin scale and a target ``η`` (None: maximised) and to read a
+candidate from it, asks ``verify(candidate)`` for the exact certificate,
+and decides the next attempt. The strictness, back-off and fallback rules,
+and the classification of a failure into one of the named reasons
+(``'infeasible'``, ``'solver_failed'``, ``'inaccurate'``,
+``'not_verified'``, ``'time_limit'``), live here and nowhere else;
+:func:`control_ncs.passivesyn` uses it, and an analysis retry loop (a
+certificate ``P`` for a given system) fits the same two callbacks.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import cvxpy as cp
+
+from .lmi import SolveReport, fallback_solver
+
+__all__: list[str] = []
+
+_log = logging.getLogger("control_ncs")
+
+#: Attempts made in turn while the answer is inaccurate or fails the exact
+#: checks: (margin multiplier, relative back-off of ``η`` below the first
+#: attempt's optimum). A maximum sits on the boundary of the feasible set,
+#: where interior-point answers are least accurate; a retry therefore solves
+#: the feasibility problem a little below it. Measured (loss-free plants
+#: with unstable A, tests/test_passivity.py): the maximisation ends
+#: 'optimal_inaccurate', the feasibility problem 1e-3 below is 'optimal',
+#: at a cost of ~9e-4 of η; trying 1e-5 and 1e-4 first rescued 1 of 3 such
+#: cases, so they are not tried. A retry reported infeasible proves nothing
+#: (its η comes from an inaccurate optimum): only the problem as posed, with
+#: the default or the fallback solver (``lmi.FALLBACK_SOLVER``), decides
+#: infeasibility, and only by the exact status 'infeasible' (an
+#: ``*_inaccurate`` status proves nothing).
+RETRIES = ((1.0, 0.0), (1.0, 1e-3), (1e2, 1e-2))
+
+
+@dataclass
+class Outcome:
+    """What :func:`drive` found.
+
+    Attributes
+    ----------
+    candidate : object or None
+        The verified candidate (None on failure).
+    certificate : object or None
+        Its certificate (or, on failure, the last refused one).
+    report : SolveReport or None
+        The solve that produced it (on failure, the one that says why).
+    eta_solver : float or None
+        The first solve's optimum (``η`` maximised), or the target.
+    attempts : list of SolveReport
+    reason : str or None
+        On failure: ``'infeasible'``, ``'solver_failed'``, ``'inaccurate'``,
+        ``'not_verified'`` or ``'time_limit'``.
+    message : str
+        On failure, what happened, for humans.
+    """
+
+    candidate: Any = None
+    certificate: Any = None
+    report: SolveReport | None = None
+    eta_solver: float | None = None
+    attempts: list = field(default_factory=list)
+    reason: str | None = None
+    message: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.reason is None
+
+    def figures(self) -> dict:
+        """The figures a :class:`~control_ncs.verify.SynthesisError` carries."""
+        report = self.report or (self.attempts[-1] if self.attempts else None)
+        out = dict(statuses=[a.status for a in self.attempts])
+        if report is not None:
+            out.update(status=report.status, solver=report.solver)
+        if self.certificate is not None:
+            out.update(self.certificate.figures())
+        return out
+
+
+def drive(attempt: Callable[[float, float | None, str | None, float | None],
+                            tuple[SolveReport, Any]],
+          verify: Callable[[Any], Any], *, eta: float | None,
+          solver: str | None, deadline: float | None = None,
+          retries: tuple = RETRIES, fallback: tuple = (1.0, 0.0),
+          label: str = "LMI") -> Outcome:
+    """Solve, read, verify and retry until a candidate passes the exact check.
+
+    Parameters
+    ----------
+    attempt : callable
+        ``attempt(scale, target, solver, time_left) -> (report, candidate)``:
+        build the model with the margin multiplied by ``scale`` and ``η``
+        fixed at ``target`` (None: maximised), solve it with ``solver``
+        (None: the default) within ``time_left`` seconds (None: no limit),
+        and read a candidate (None when the status gives no answer).
+    verify : callable
+        ``verify(candidate) -> certificate`` with ``.verified``,
+        ``.failures`` and ``.figures()``: the exact check.
+    eta : float or None
+        The requested ``η`` (None: maximised).
+    solver : str or None
+        The caller's solver; None lets the fallback solver be asked once.
+    deadline : float, optional
+        ``time.perf_counter()`` value after which no attempt starts.
+    retries : tuple of (float, float)
+        (margin multiplier, relative back-off of ``η``), in turn. The
+        multiplier is passed to ``attempt`` as is (an analysis may use
+        None for "margin maximised").
+    fallback : (float, float)
+        The attempt asked of ``lmi.FALLBACK_SOLVER`` (only when ``solver``
+        is None): by default the problem as posed.
+    label : str
+        Named in progress messages (logger ``'control_ncs'``, level INFO).
+
+    Returns
+    -------
+    Outcome
+    """
+    out = Outcome()
+    tried = set()
+    best = None
+    # a verified gain from an inaccurate solve: returned only when no
+    # accurate answer verifies (the gain is proved; its η may lie further
+    # below the supremum)
+    spare = None
+    plan = [(scale, backoff, solver) for scale, backoff in retries]
+    if fallback_solver(solver):
+        plan.append((*fallback, fallback_solver(solver)))
+    for scale, backoff, name in plan:
+        target = eta
+        if eta is None and backoff:
+            if best is None:
+                continue  # the first solve gave no optimum to back off from
+            target = best - backoff * max(1.0, abs(best))
+        if (scale, target, name) in tried:
+            continue  # a fixed η has nothing to back off from
+        tried.add((scale, target, name))
+        left = None if deadline is None else deadline - time.perf_counter()
+        if left is not None and left <= 0:
+            out.reason = "time_limit"
+            out.message = "the time limit was reached between attempts"
+            return out
+        original = scale == 1.0 and target == eta
+        _log.info("%s attempt %d: solver %s, margin x%g, eta %s", label,
+                  len(out.attempts) + 1, name or "default", scale,
+                  "max" if target is None else f"{target:.6g}")
+        report, candidate = attempt(scale, target, name, left)
+        out.attempts.append(report)
+        if original and best is None and eta is None:
+            best = report.value
+        if report.status == "time_limit":
+            out.reason, out.report = "time_limit", report
+            out.message = f"solver {report.solver} reached the time limit"
+            return out
+        if report.status == cp.INFEASIBLE and original:
+            out.reason, out.report = "infeasible", report
+            out.message = (f"the LMI is infeasible (solver {report.solver}, "
+                           f"status {report.status!r})")
+            return out
+        if candidate is None:
+            continue
+        cert = verify(candidate)
+        out.certificate, out.report = cert, report
+        if cert.verified and report.ok:
+            out.candidate = candidate
+            out.eta_solver = eta if eta is not None else (
+                best if best is not None else cert.eta)
+            return out
+        if cert.verified and (spare is None or cert.eta > spare[1].eta):
+            spare = (candidate, cert, report)
+    if spare is not None:
+        out.candidate, out.certificate, out.report = spare
+        out.eta_solver = eta if eta is not None else (
+            best if best is not None else out.certificate.eta)
+        return out
+    if out.certificate is None:
+        out.report = out.attempts[-1] if out.attempts else None
+        out.reason = "solver_failed"
+        out.message = ("the solver failed"
+                       + (f" ({out.report.message})" if out.report
+                          and out.report.message else ""))
+    elif not out.report.ok:
+        out.reason = "inaccurate"
+        out.message = "the solver's status stayed inaccurate"
+    else:
+        out.reason = "not_verified"
+        out.message = ("the gain fails the exact check: "
+                       + "; ".join(out.certificate.failures))
+    out.message += (f"; statuses {[a.status for a in out.attempts]} after "
+                    f"{len(out.attempts)} attempts")
+    return out
