@@ -28,7 +28,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 import control as ct
-from control.exception import ControlArgument
+from control.exception import ControlArgument, ControlDimension
 
 from .exceptions import SynthesisError
 from .jump import jss
@@ -66,9 +66,21 @@ _OBJECTIVES = ("eta", "rate")
 # -- boundary checks ----------------------------------------------------------
 
 def _plant(P: Any) -> NetworkedStateSpace:
+    """``P``, checked for what synthesis needs (as passivesyn does), so that
+    a sweep fails before its first task, not in a worker."""
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
+    n = P.nstates
+    if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)):
+        raise ControlArgument(
+            f"P: synthesis needs the state measured, y = x (C2 = I, {n}x{n}), "
+            f"got C2 of shape {P.C2.shape}")
+    m1, p1 = P.B1.shape[1], P.C1.shape[0]
+    if m1 != p1 or m1 == 0:
+        raise ControlDimension(
+            f"P: passivity needs w and z of equal, nonzero size (m1 = p1), "
+            f"got {m1} disturbance inputs and {p1} performance outputs")
     return P
 
 
@@ -447,10 +459,13 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     ValueError
         An empty grid, a loss outside ``[0, 1)``, a bad ``eta`` or
         ``decay``, a static gain that never closes the loop; any pre-solve
-        error of :func:`passivesyn` (e.g. ``y ≠ x``) as it raises it.
+        error of :func:`passivesyn` (e.g. ``D11 + D11ᵀ ⊁ 2ηI``) as it
+        raises it.
     ControlArgument
-        ``P`` not a NetworkedStateSpace, unknown ``controller`` or
-        ``actuator``, ``executor`` not an Executor.
+        ``P`` not a NetworkedStateSpace or without ``y = x``, unknown
+        ``controller`` or ``actuator``, ``executor`` not an Executor.
+    ControlDimension
+        ``dim w ≠ dim z``.
     KeyboardInterrupt
         Pending cells are cancelled, then it propagates.
 
@@ -999,8 +1014,11 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         canonical schedules than ``limit`` (the message says how many), a
         bad ``eta``, ``decay`` or ``top``; pre-solve errors of passivesyn.
     ControlArgument
-        ``P`` not a NetworkedStateSpace, unknown ``objective``,
-        ``controller`` or ``actuator``, ``executor`` not an Executor.
+        ``P`` not a NetworkedStateSpace or without ``y = x``, unknown
+        ``objective``, ``controller`` or ``actuator``, ``executor`` not an
+        Executor.
+    ControlDimension
+        ``dim w ≠ dim z``.
 
     Examples
     --------

@@ -233,6 +233,13 @@ class _InterruptedExecutor(Executor):
         return fut
 
 
+class _RefusingExecutor(Executor):
+    """Fails the test if any task reaches it."""
+
+    def submit(self, fn, /, *args, **kwargs):
+        raise AssertionError("a task was submitted")
+
+
 def test_ctrl_c_cancels_pending_work_and_propagates():
     ex = _InterruptedExecutor()
     with pytest.raises(KeyboardInterrupt):
@@ -340,6 +347,19 @@ def test_schedule_search_refuses_a_loss_of_one():
     with pytest.raises(ValueError, match="sensor_loss"):
         ncs.schedule_search(scalar_plant(), 2, sensor_loss=1.0,
                             progress=False)
+
+
+def test_sweeps_refuse_a_plant_without_full_state_measurement_up_front():
+    # y = x1 only: every schedule would be pruned or fail in a worker
+    P = ncs.nss([[1.2, 0.1], [0.0, 0.5]], [[1.0, 1.0], [0.0, 1.0]],
+                [[1.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [0.0, 0.0]],
+                nmeas=1, ncon=1)
+    with pytest.raises(ControlArgument, match="y = x"):
+        ncs.schedule_search(P, 2, executor=_RefusingExecutor(),
+                            progress=False)
+    with pytest.raises(ControlArgument, match="y = x"):
+        ncs.design_map(P, [0.0], [0.0], executor=_RefusingExecutor(),
+                       progress=False)
 
 
 # -- schedule_search: pruning ---------------------------------------------------
