@@ -29,6 +29,7 @@ SECTIONS = [
     ("bench_stability", "monte_carlo_section"),
     ("bench_simulate", "simulate_section"),
     ("bench_passivity", "passivity_section"),
+    ("bench_sweeps", "sweeps_section"),
 ]
 
 

@@ -25,6 +25,8 @@ from .responses import (simulate, SamplePaths, EnsembleResponse,
                         initial_response)
 from .plots import plot_ensemble, schedule_plot
 from .connect import jump_feedback, lift_lti
+from .sweeps import (design_map, DesignMap, schedule_search, ScheduleSearch,
+                     RankedSchedule)
 
 __all__ = [
     "Schedule", "schedule", "mode_probabilities",
@@ -42,6 +44,8 @@ __all__ = [
     "simulate", "SamplePaths", "EnsembleResponse", "forced_response",
     "step_response", "impulse_response", "initial_response", "plot_ensemble",
     "jump_feedback", "lift_lti", "schedule_plot",
+    "design_map", "DesignMap", "schedule_search", "ScheduleSearch",
+    "RankedSchedule",
 ]
 
 from importlib.metadata import PackageNotFoundError, version as _version

@@ -1,0 +1,1107 @@
+"""Design maps and schedule search: many verified syntheses at once.
+
+A designer's questions are maps, not points: for which loss probabilities
+does a passive design exist, and with what ``η`` and decay
+(:func:`design_map`)? Which communication schedule of period ``N`` gives the
+best loop (:func:`schedule_search`)? Both run :func:`control_ncs.passivesyn`
+once per cell or schedule, exactly as a user would (same checks, same
+verification), and never re-derive a verdict.
+
+Every sweep accepts ``executor=``: any :class:`concurrent.futures.Executor`
+(a thread or process pool, or a Dask cluster through
+``client.get_executor()``). One task is submitted per cell or schedule,
+results are placed by index, so a parallel run returns exactly what the
+sequential one does. Workers receive only picklable data (the plant and the
+options) and run a module-level function.
+"""
+
+from __future__ import annotations
+
+import importlib
+import itertools
+import math
+import threading
+import time
+from concurrent.futures import Executor, as_completed
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+import numpy as np
+import control as ct
+from control.exception import ControlArgument, ControlDimension
+
+from .exceptions import SynthesisError
+from .jump import jss
+from .plant import NetworkedStateSpace
+from .stability import ms_radius
+from .synthesis import passivesyn
+
+__all__ = ["design_map", "DesignMap", "schedule_search", "ScheduleSearch",
+           "RankedSchedule", "PRUNE_REASONS"]
+
+#: Schedules removed before any LMI, each with a proof by exact linear
+#: algebra (see :func:`schedule_search`).
+LOOP_OPEN = "loop_open"
+NOT_STABILISABLE = "not_stabilisable"
+NOT_DETECTABLE = "not_detectable"
+ESTIMATION_NOT_MSS = "estimation_not_mss"
+PRUNE_REASONS = (LOOP_OPEN, NOT_STABILISABLE, NOT_DETECTABLE,
+                 ESTIMATION_NOT_MSS)
+
+#: Relative tolerance of the PBH rank tests: a rank is called deficient
+#: only when the smallest singular value is below this times the matrix's
+#: norm, so that rounding can never prune a schedule that could close the
+#: loop (a wrongly kept schedule only costs one synthesis).
+PBH_RTOL = 1e-9
+
+#: Largest state dimension for which relabelling symmetries are searched
+#: (``n!`` permutations are tried, each checked exactly).
+RELABEL_MAX_STATES = 8
+
+_CONTROLLERS = ("static", "predictor")
+_ACTUATORS = ("zero", "hold")
+_OBJECTIVES = ("eta", "rate")
+
+
+# -- boundary checks ----------------------------------------------------------
+
+def _plant(P: Any) -> NetworkedStateSpace:
+    """``P``, checked for what synthesis needs (as passivesyn does), so that
+    a sweep fails before its first task, not in a worker."""
+    if not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
+                              f"got {type(P).__name__}")
+    n = P.nstates
+    if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)):
+        raise ControlArgument(
+            f"P: synthesis needs the state measured, y = x (C2 = I, {n}x{n}), "
+            f"got C2 of shape {P.C2.shape}")
+    m1, p1 = P.B1.shape[1], P.C1.shape[0]
+    if m1 != p1 or m1 == 0:
+        raise ControlDimension(
+            f"P: passivity needs w and z of equal, nonzero size (m1 = p1), "
+            f"got {m1} disturbance inputs and {p1} performance outputs")
+    return P
+
+
+def _choice(value: Any, name: str, allowed: Sequence[str]) -> str:
+    if not isinstance(value, str) or value not in allowed:
+        raise ControlArgument(f"{name}: expected one of {list(allowed)}, "
+                              f"got {value!r}")
+    return value
+
+
+def _real(value: Any, name: str) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name}: expected a real number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name}: expected a finite number, got {value!r}")
+    return value
+
+
+def _optional_eta(eta: Any) -> float | None:
+    return None if eta is None else _real(eta, "eta")
+
+
+def _optional_decay(decay: Any) -> float | None:
+    if decay is None:
+        return None
+    r = _real(decay, "decay")
+    if not 0.0 < r <= 1.0:
+        raise ValueError(f"decay: expected a bound r in (0, 1], got {decay!r}")
+    return r
+
+
+def _loss(value: Any, name: str) -> float:
+    try:
+        alpha = _real(value, name)
+    except ValueError:
+        raise ValueError(f"{name}: expected a loss probability in [0, 1), "
+                         f"got {value!r}") from None
+    if not 0.0 <= alpha < 1.0:
+        # α = 1: nothing ever arrives, no loop to design
+        raise ValueError(f"{name}: expected a loss probability in [0, 1), "
+                         f"got {value!r}")
+    return alpha
+
+
+def _loss_grid(values: Any, name: str) -> np.ndarray:
+    if isinstance(values, (str, bytes)):
+        raise ValueError(f"{name}: expected a 1-D grid of loss probabilities "
+                         f"in [0, 1), got {values!r}")
+    arr = np.asarray(values, dtype=object)
+    if arr.ndim == 0:
+        arr = arr.reshape(1)
+    if arr.ndim != 1:
+        raise ValueError(f"{name}: expected a 1-D grid of loss probabilities, "
+                         f"got an array of shape {arr.shape}")
+    if arr.size == 0:
+        raise ValueError(f"{name}: the grid is empty (give at least one loss "
+                         f"probability in [0, 1))")
+    return np.array([_loss(v, f"{name}[{i}]") for i, v in enumerate(arr)])
+
+
+def _executor(executor: Any) -> Executor | None:
+    if executor is not None and not isinstance(executor, Executor):
+        raise ControlArgument(
+            f"executor: expected None or a concurrent.futures.Executor (a "
+            f"ThreadPoolExecutor, ProcessPoolExecutor or a Dask "
+            f"client.get_executor()), got {type(executor).__name__}")
+    return executor
+
+
+def _flag(value: Any, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ControlArgument(f"{name}: expected True or False, got {value!r}")
+    return bool(value)
+
+
+def _positive_int(value: Any, name: str) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name}: expected an int >= 1, got {value!r}")
+    return int(value)
+
+
+# -- running tasks --------------------------------------------------------------
+
+def _progress_bar(total: int, enabled: bool, desc: str) -> Any:
+    if enabled:
+        try:
+            from tqdm import tqdm
+        except ImportError:  # the progress bar is optional
+            pass
+        else:
+            return tqdm(total=total, desc=desc, leave=False)
+    return None
+
+
+def _run(func: Callable, tasks: list, executor: Executor | None,
+         progress: bool, desc: str) -> list:
+    """``[func(*t) for t in tasks]``, sequentially or on ``executor``.
+
+    Results are placed by index, so the order of completion never shows.
+    On any exception (KeyboardInterrupt included) pending futures are
+    cancelled before it propagates.
+    """
+    results: list = [None] * len(tasks)
+    bar = _progress_bar(len(tasks), progress and len(tasks) > 1, desc)
+    try:
+        if executor is None:
+            for i, args in enumerate(tasks):
+                results[i] = func(*args)
+                if bar is not None:
+                    bar.update()
+            return results
+        futures = {}
+        try:
+            for i, args in enumerate(tasks):
+                futures[executor.submit(func, *args)] = i
+            for fut in as_completed(futures):
+                results[futures[fut]] = fut.result()
+                if bar is not None:
+                    bar.update()
+        except BaseException:
+            for fut in futures:
+                fut.cancel()
+            raise
+        return results
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def _synthesise(P: NetworkedStateSpace, eta: float | None,
+                decay: float | None, controller: str, actuator: str
+                ) -> tuple[float, float, bool, str]:
+    """One cell: ``(eta, ms_radius, feasible, reason)`` from passivesyn.
+
+    Module level, so that a process pool or a Dask worker can unpickle it.
+    It runs in a thread of its own: the compiled LMIs are cached per thread
+    (``lmi.py``), and a solve through a freshly compiled problem and one
+    through a cached compilation differ in the last bits (measured: 4e-11
+    relative in η). A new thread starts with an empty cache, so every cell
+    is computed the same way whichever worker runs it and whatever it ran
+    before: the results do not depend on the executor.
+    """
+    box: dict = {}
+
+    def target() -> None:
+        try:
+            box["value"] = _synthesise_here(P, eta, decay, controller,
+                                            actuator)
+        except BaseException as err:  # re-raised in the caller's thread
+            box["error"] = err
+
+    worker = threading.Thread(target=target, name="control_ncs-sweep",
+                              daemon=True)
+    worker.start()
+    worker.join()
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
+
+
+def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
+                     decay: float | None, controller: str, actuator: str
+                     ) -> tuple[float, float, bool, str]:
+    try:
+        K, _, eta_c = passivesyn(P, eta, decay=decay, controller=controller,
+                                 actuator=actuator)
+    except SynthesisError as err:
+        return math.nan, math.nan, False, err.reason
+    # the certificate's ms_radius is the exact one of the returned loop
+    return float(eta_c), float(K.result.ms_radius), True, "certified"
+
+
+# -- design maps ----------------------------------------------------------------
+
+@dataclass
+class DesignMap:
+    """Certified passive designs over a grid of network parameters.
+
+    Cell ``[i, j]`` is :func:`control_ncs.passivesyn` for the plant with
+    ``axes[0]`` at ``values[0][i]`` and ``axes[1]`` at ``values[1][j]``.
+    The axes are stored by name and values (not as fixed attributes), so
+    that other axis kinds, such as the burst length of Markov losses (a
+    later issue), can be added without changing this class.
+
+    Attributes
+    ----------
+    axes : tuple of str
+        Names of the two axes, e.g. ``('sensor_loss', 'actuator_loss')``.
+    values : tuple of ndarray
+        Grid values along each axis.
+    eta : ndarray, shape (len(values[0]), len(values[1]))
+        Certified dissipation ``η`` (NaN where no gain is certified).
+    ms_radius : ndarray, same shape
+        Exact per-step mean-square rate of the certified closed loop (NaN
+        where none).
+    feasible : ndarray of bool, same shape
+        True where passivesyn returned a verified gain.
+    reason : ndarray of object, same shape
+        ``'certified'``, or the :class:`SynthesisError` ``reason``.
+    eta_requested, decay : float or None
+        The synthesis options (``eta=None``: η maximised).
+    controller, actuator : str
+    elapsed : float
+        Wall-clock time of the sweep in seconds.
+
+    Examples
+    --------
+    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...         nmeas=1, ncon=1)
+    >>> dm = design_map(P, [0.0, 0.5], [0.0], decay=0.95, progress=False)
+    >>> dm.feasible.tolist()
+    [[True], [True]]
+    """
+
+    axes: tuple
+    values: tuple
+    eta: np.ndarray
+    ms_radius: np.ndarray
+    feasible: np.ndarray
+    reason: np.ndarray
+    eta_requested: float | None = None
+    decay: float | None = None
+    controller: str = "static"
+    actuator: str = "zero"
+    elapsed: float = 0.0
+
+    @property
+    def shape(self) -> tuple:
+        return self.eta.shape
+
+    def __repr__(self) -> str:
+        return (f"<DesignMap {self.axes[0]} × {self.axes[1]}: "
+                f"{self.shape[0]}×{self.shape[1]} cells, "
+                f"{int(self.feasible.sum())} certified, "
+                f"controller={self.controller!r}>")
+
+    def summary(self) -> str:
+        """A few lines for humans: the grid, the counts, the best cell."""
+        lines = [repr(self),
+                 f"  {self.axes[0]}: {np.round(self.values[0], 6).tolist()}",
+                 f"  {self.axes[1]}: {np.round(self.values[1], 6).tolist()}",
+                 f"  eta={'max' if self.eta_requested is None else self.eta_requested}"
+                 f", decay={self.decay}, elapsed {self.elapsed:.3g} s"]
+        reasons, counts = np.unique(self.reason.astype(str), return_counts=True)
+        lines.append("  verdicts: " + ", ".join(
+            f"{r} {c}" for r, c in zip(reasons, counts)))
+        if self.feasible.any():
+            i, j = np.unravel_index(np.nanargmax(self.eta), self.shape)
+            lines.append(f"  best eta = {self.eta[i, j]:.6g} at "
+                         f"{self.axes[0]} = {self.values[0][i]:g}, "
+                         f"{self.axes[1]} = {self.values[1][j]:g} "
+                         f"(ms_radius {self.ms_radius[i, j]:.6g})")
+        return "\n".join(lines)
+
+    def to_pandas(self) -> Any:
+        """One row per cell: the two axes, eta, ms_radius, feasible, reason.
+
+        Raises
+        ------
+        ImportError
+            pandas is not installed.
+        """
+        pd = _pandas()
+        I, J = (g.ravel() for g in np.meshgrid(
+            np.arange(self.shape[0]), np.arange(self.shape[1]), indexing="ij"))
+        return pd.DataFrame({
+            self.axes[0]: self.values[0][I], self.axes[1]: self.values[1][J],
+            "eta": self.eta[I, J], "ms_radius": self.ms_radius[I, J],
+            "feasible": self.feasible[I, J], "reason": self.reason[I, J]})
+
+    def plot(self, quantity: str = "eta", *, ax: Any = None,
+             title: str | None = None) -> ct.ControlPlot:
+        """Heat map of ``eta`` or ``ms_radius`` with the feasibility boundary.
+
+        Parameters
+        ----------
+        quantity : {'eta', 'ms_radius'}
+        ax : matplotlib.axes.Axes, optional
+        title : str, optional
+
+        Returns
+        -------
+        control.ControlPlot
+            ``lines[0, 0]`` holds the image and, when the grid has two or
+            more points on each axis, the boundary contour.
+        """
+        import matplotlib.pyplot as plt
+        from matplotlib.axes import Axes
+        _choice(quantity, "quantity", ("eta", "ms_radius"))
+        if ax is None:
+            _, ax = plt.subplots(figsize=(5.5, 4.5))
+        elif not isinstance(ax, Axes):
+            raise ControlArgument(f"ax: expected a matplotlib Axes, got "
+                                  f"{type(ax).__name__}")
+        data = np.ma.masked_invalid(getattr(self, quantity))
+        x, y = self.values[1], self.values[0]
+        mesh = ax.pcolormesh(_edges(x), _edges(y), data, shading="flat",
+                             cmap="viridis")
+        drawn: list = [mesh]
+        ax.figure.colorbar(mesh, ax=ax, label=quantity)
+        if min(self.shape) >= 2 and self.feasible.any() \
+                and not self.feasible.all():
+            drawn.append(ax.contour(x, y, self.feasible.astype(float),
+                                    levels=[0.5], colors="red",
+                                    linewidths=1.5))
+        ax.set_xlabel(self.axes[1])
+        ax.set_ylabel(self.axes[0])
+        ax.set_title(title or (f"{quantity} of the certified design "
+                               f"(blank: none; red: feasibility boundary)"))
+        lines = np.empty((1, 1), dtype=object)
+        lines[0, 0] = drawn
+        return ct.ControlPlot(lines, np.array([[ax]], dtype=object), ax.figure,
+                              legend=np.full((1, 1), None, dtype=object))
+
+
+def _edges(v: np.ndarray) -> np.ndarray:
+    """Cell edges around grid points (midpoints; a lone point gets ±0.5)."""
+    if v.size == 1:
+        return np.array([v[0] - 0.5, v[0] + 0.5])
+    mid = (v[1:] + v[:-1]) / 2
+    return np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]])
+
+
+def _pandas() -> Any:
+    try:
+        return importlib.import_module("pandas")
+    except ImportError:
+        raise ImportError("to_pandas() needs pandas: pip install pandas") \
+            from None
+
+
+def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
+               actuator_loss: Any = (0.0,), *, eta: float | None = None,
+               decay: float | None = None, controller: str = "static",
+               actuator: str = "zero", executor: Executor | None = None,
+               progress: bool = True) -> DesignMap:
+    """Verified passive synthesis over a grid of loss probabilities.
+
+    Cell ``[i, j]`` is ``passivesyn(P.with_network(sensor_loss=a1[i],
+    actuator_loss=a2[j]), eta, decay=..., controller=..., actuator=...)``:
+    the same synthesis and exact verification as a single call; a cell
+    without a certified gain records the :class:`SynthesisError` reason.
+
+    Only Bernoulli loss grids exist for now; Markov (burst) axes come with
+    the Markov losses of a later issue, and :class:`DesignMap` stores its
+    axes by name so that they can be added.
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+        Plant with its schedules; its own loss probabilities are replaced.
+    sensor_loss, actuator_loss : sequence of float in [0, 1)
+        Grids of ``α1`` and ``α2`` (a scalar is a grid of one point).
+    eta : float, optional
+        Dissipation to achieve in every cell; None maximises it.
+    decay : float in (0, 1], optional
+        Mean-square decay bound ``r`` (``ms_radius < r²``).
+    controller : {'static', 'predictor'}
+    actuator : {'zero', 'hold'}
+    executor : concurrent.futures.Executor, optional
+        Runs one task per cell (thread or process pool, or a Dask
+        ``client.get_executor()``); None runs sequentially in this thread.
+        The result is identical either way.
+    progress : bool
+        Show a tqdm progress bar (when tqdm is installed).
+
+    Returns
+    -------
+    DesignMap
+
+    Raises
+    ------
+    ValueError
+        An empty grid, a loss outside ``[0, 1)``, a bad ``eta`` or
+        ``decay``, a static gain that never closes the loop; any pre-solve
+        error of :func:`passivesyn` (e.g. ``D11 + D11ᵀ ⊁ 2ηI``) as it
+        raises it.
+    ControlArgument
+        ``P`` not a NetworkedStateSpace or without ``y = x``, unknown
+        ``controller`` or ``actuator``, ``executor`` not an Executor.
+    ControlDimension
+        ``dim w ≠ dim z``.
+    KeyboardInterrupt
+        Pending cells are cancelled, then it propagates.
+
+    Examples
+    --------
+    ``x⁺ = 1.2x + w + u``, ``z = x + w``: the certified η falls as the
+    actuator loses more messages.
+
+    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...         nmeas=1, ncon=1)
+    >>> dm = design_map(P, [0.0], [0.0, 0.3], decay=0.95, progress=False)
+    >>> bool(dm.eta[0, 0] > dm.eta[0, 1])
+    True
+    """
+    P = _plant(P)
+    a1 = _loss_grid(sensor_loss, "sensor_loss")
+    a2 = _loss_grid(actuator_loss, "actuator_loss")
+    eta = _optional_eta(eta)
+    decay = _optional_decay(decay)
+    controller = _choice(controller, "controller", _CONTROLLERS)
+    actuator = _choice(actuator, "actuator", _ACTUATORS)
+    executor = _executor(executor)
+    progress = _flag(progress, "progress")
+    if controller == "static" and not _loop_closes(
+            P.sensor_schedule.pattern.any(axis=1),
+            P.actuator_schedule.pattern.any(axis=1)):
+        raise ValueError(
+            "P: a memoryless (static) gain never closes this loop: no phase "
+            "schedules a sensor and an actuator together (MATH §4). Use "
+            "controller='predictor'.")
+    start = time.perf_counter()
+    tasks = [(P.with_network(sensor_loss=x, actuator_loss=y), eta, decay,
+              controller, actuator) for x in a1 for y in a2]
+    out = _run(_synthesise, tasks, executor, progress, "design_map")
+    shape = (a1.size, a2.size)
+    reason = np.empty(shape, dtype=object)
+    reason.ravel()[:] = [r[3] for r in out]
+    return DesignMap(
+        axes=("sensor_loss", "actuator_loss"), values=(a1, a2),
+        eta=np.array([r[0] for r in out]).reshape(shape),
+        ms_radius=np.array([r[1] for r in out]).reshape(shape),
+        feasible=np.array([r[2] for r in out], dtype=bool).reshape(shape),
+        reason=reason, eta_requested=eta, decay=decay, controller=controller,
+        actuator=actuator, elapsed=time.perf_counter() - start)
+
+
+# -- schedules up to symmetry ---------------------------------------------------
+
+def _loop_closes(sensing: np.ndarray, acting: np.ndarray) -> bool:
+    return bool((sensing & acting).any())
+
+
+def _alphabet(p2: int, m2: int, shared: bool) -> list:
+    """The letters ``(sensor, actuator)`` of one phase, in lexicographic
+    order (so the order of letters is the order of their indices)."""
+    return [(i, j) for i in range(p2 + 1) for j in range(m2 + 1)
+            if not (shared and i and j)]
+
+
+def _necklaces(N: int, k: int):
+    """Lexicographically smallest rotations of the words of length ``N``
+    over ``0..k-1``, in lexicographic order (Fredricksen-Kessler-Maiorana;
+    constant amortised time per necklace)."""
+    a = [0] * (N + 1)
+
+    def gen(t: int, p: int):
+        if t > N:
+            if N % p == 0:
+                yield tuple(a[1:])
+            return
+        a[t] = a[t - p]
+        yield from gen(t + 1, p)
+        for j in range(a[t - p] + 1, k):
+            a[t] = j
+            yield from gen(t + 1, t)
+
+    yield from gen(1, 1)
+
+
+def _min_rotation(word: tuple) -> tuple:
+    return min(word[r:] + word[:r] for r in range(len(word)))
+
+
+def _relabellings(P: NetworkedStateSpace) -> list:
+    """Pairs ``(p, s)`` of sensor and actuator permutations under which the
+    plant is exactly invariant.
+
+    Sensors are states (``y = x``), so a sensor relabelling is a change of
+    state coordinates ``x̃ = Π x`` (``Π = I[p]``); with ``ũ = Σ u`` and a
+    relabelling ``Ω`` of ``w`` and ``z`` together (it keeps the supply rate
+    ``2 wᵀz − 2η wᵀw``), the plant is unchanged when ``Π A Πᵀ = A``,
+    ``Π B1 Ωᵀ = B1``, ``Π B2 Σᵀ = B2``, ``Ω C1 Πᵀ = C1``, ``Ω D11 Ωᵀ = D11``
+    and ``Ω D12 Σᵀ = D12`` hold in exact arithmetic; then a schedule and its
+    relabelled image pose the same synthesis problem. Identity only when
+    ``y ≠ x`` or ``n > RELABEL_MAX_STATES``.
+    """
+    n, m2, m1 = P.nstates, P.ncon, P.B1.shape[1]
+    ident = (tuple(range(n)), tuple(range(m2)))
+    if (P.nmeas != n or not np.array_equal(P.C2, np.eye(n))
+            or n > RELABEL_MAX_STATES or P.C1.shape[0] != m1):
+        return [ident]
+    A, B1, B2 = np.asarray(P.A), np.asarray(P.B1), np.asarray(P.B2)
+    C1, D11, D12 = np.asarray(P.C1), np.asarray(P.D11), np.asarray(P.D12)
+    group = set()
+    for p in itertools.permutations(range(n)):
+        if not np.array_equal(A[np.ix_(p, p)], A):
+            continue
+        for w in itertools.permutations(range(m1)):
+            if not (np.array_equal(B1[np.ix_(p, w)], B1)
+                    and np.array_equal(C1[np.ix_(w, p)], C1)
+                    and np.array_equal(D11[np.ix_(w, w)], D11)):
+                continue
+            for s in itertools.permutations(range(m2)):
+                if (np.array_equal(B2[np.ix_(p, s)], B2)
+                        and np.array_equal(D12[np.ix_(w, s)], D12)):
+                    group.add((p, s))
+    return sorted(group)
+
+
+def _letter_maps(group: list, letters: list) -> list:
+    """Each relabelling as a permutation of letter indices."""
+    index = {a: i for i, a in enumerate(letters)}
+    maps = []
+    for p, s in group:
+        maps.append(tuple(index[(p[i - 1] + 1 if i else 0,
+                                 s[j - 1] + 1 if j else 0)]
+                          for i, j in letters))
+    return maps
+
+
+def _orbit_count(N: int, maps: list) -> int:
+    """Number of schedules up to rotation and relabelling (Burnside): a
+    word is fixed by (rotation by r, relabelling h) iff on each of the
+    gcd(N, r) position cycles of length L = N/gcd its letter x satisfies
+    h^L(x) = x."""
+    total = 0
+    for h in maps:
+        for r in range(N):
+            g = math.gcd(N, r)
+            L = N // g
+            fixed = 0
+            for x in range(len(h)):
+                y = x
+                for _ in range(L):
+                    y = h[y]
+                fixed += y == x
+            total += fixed ** g
+    return total // (N * len(maps))
+
+
+def _canonical_schedules(N: int, maps: list, k: int):
+    """One representative per orbit: the smallest word of its orbit."""
+    others = [h for h in maps if h != tuple(range(k))]
+    for word in _necklaces(N, k):
+        if all(_min_rotation(tuple(h[x] for x in word)) >= word
+               for h in others):
+            yield word
+
+
+def _pbh_fails(Phi: np.ndarray, M: np.ndarray, *, dual: bool) -> bool:
+    """True when some eigenvalue ``|λ| ≥ 1`` of ``Phi`` fails the PBH test
+    with ``M`` (``[Φ − λI, M]`` for stabilisability, ``[Φ − λI; M]`` for
+    detectability), rank deficiency taken with ``PBH_RTOL``."""
+    n = Phi.shape[0]
+    for lam in np.linalg.eigvals(Phi):
+        if abs(lam) < 1.0:
+            continue
+        T = Phi - lam * np.eye(n)
+        W = np.vstack([T, M]) if dual else np.hstack([T, M])
+        sv = np.linalg.svd(W, compute_uv=False)
+        if sv.size < n or sv[n - 1] <= PBH_RTOL * max(1.0, sv[0]):
+            return True
+    return False
+
+
+def _prune(P: NetworkedStateSpace, s1: np.ndarray, s2: np.ndarray,
+           controller: str, actuator: str, sensor_loss: float,
+           decay: float | None) -> str | None:
+    """The first exact reason why no gain can exist, or None.
+
+    ``s1``, ``s2``: 0/1 patterns ``(N, p2)`` and ``(N, m2)``.
+    """
+    A, B2 = np.asarray(P.A), np.asarray(P.B2)
+    n, N = A.shape[0], s1.shape[0]
+    sensing: np.ndarray = np.any(s1, axis=1)
+    acting: np.ndarray = np.any(s2, axis=1)
+    if controller == "static" and not _loop_closes(sensing, acting):
+        return LOOP_OPEN
+    # inputs that can act at phase k: a static gain only where a sensor
+    # reports too; with 'hold' a held value acts at every phase (a
+    # relaxation: the test stays necessary)
+    act = s2 & (sensing[:, None] if controller == "static" else True)
+    Bk = [B2 * (act.any(axis=0) if actuator == "hold" else act[k])
+          for k in range(N)]
+    # lifted pair over one period: Φ = A^N, Γ = [A^(N-1-k) B_k]
+    powers = [np.eye(n)]
+    for _ in range(N):
+        powers.append(A @ powers[-1])
+    Phi = powers[N]
+    Gamma = np.hstack([powers[N - 1 - k] @ Bk[k] for k in range(N)])
+    if _pbh_fails(Phi, Gamma, dual=False):
+        return NOT_STABILISABLE
+    # what the gain hears: the static gain only where an actuator listens
+    C2 = np.asarray(P.C2)
+    Ck = [(C2 * s1[k][:, None]) * (acting[k] if controller == "static"
+                                   else 1.0) for k in range(N)]
+    Obs = np.vstack([Ck[k] @ powers[k] for k in range(N)])
+    if _pbh_fails(Phi, Obs, dual=True):
+        return NOT_DETECTABLE
+    if controller == "predictor":
+        # MATH §8b: e⁺ = (I − θ1 Σ1,k+1) A e, a loop no gain can touch; the
+        # closed loop's rate is at least its exact rate
+        lost, heard = [], []
+        for k in range(N):
+            S = np.diag(s1[(k + 1) % N].astype(float))
+            lost.append(A)
+            heard.append((np.eye(n) - S) @ A)
+        modes = np.stack([np.stack(lost), np.stack(heard)], axis=1)
+        probs = np.tile([sensor_loss, 1.0 - sensor_loss], (N, 1))
+        err = jss(modes, np.zeros((n, 1)), np.zeros((1, n)), np.zeros((1, 1)),
+                  probs)
+        bound = 1.0 if decay is None else min(1.0, decay ** 2)
+        if ms_radius(err) >= bound:
+            return ESTIMATION_NOT_MSS
+    return None
+
+
+@dataclass(frozen=True)
+class RankedSchedule:
+    """One schedule of a :class:`ScheduleSearch` ranking.
+
+    Attributes
+    ----------
+    sensor_schedule, actuator_schedule : tuple of int
+        Index vectors (paper §2: node at each phase, 1-based, 0 = nobody).
+    eta : float
+        Certified dissipation.
+    ms_radius : float
+        Exact per-step mean-square rate of the certified loop.
+
+    Examples
+    --------
+    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...         nmeas=1, ncon=1)
+    >>> best = schedule_search(P, 2, decay=0.98, progress=False).ranking[0]
+    >>> best.sensor_schedule, best.actuator_schedule
+    ((1, 1), (1, 1))
+    """
+
+    sensor_schedule: tuple
+    actuator_schedule: tuple
+    eta: float
+    ms_radius: float
+
+
+@dataclass
+class ScheduleSearch:
+    """Every schedule of a period up to symmetry, pruned or designed.
+
+    Row ``i`` of each array is one canonical schedule (the smallest word of
+    its orbit under cyclic shifts and valid relabellings).
+
+    Attributes
+    ----------
+    period : int
+    sensor_schedules, actuator_schedules : ndarray of int, shape (count, N)
+        Index vectors (1-based node, 0 = nobody).
+    eta, ms_radius : ndarray, shape (count,)
+        Certified ``η`` and exact per-step mean-square rate (NaN where none).
+    feasible : ndarray of bool
+    reason : ndarray of object
+        ``'certified'``, a pruning reason (:data:`PRUNE_REASONS`) or the
+        :class:`SynthesisError` reason.
+    pruned : ndarray of bool
+        Removed by an exact test before any LMI.
+    total : int
+        Number of schedules before symmetry, ``((p2+1)(m2+1))^N`` (fewer
+        with a shared channel).
+    relabellings : int
+        Size of the relabelling group used (1: none).
+    objective : {'eta', 'rate'}
+    top : int
+        Length of :attr:`ranking`.
+    shared_channel : bool
+    controller, actuator : str
+    sensor_loss, actuator_loss : float
+    eta_requested, decay : float or None
+        The options of the search.
+    elapsed : float
+        Wall-clock time in seconds.
+    order : ndarray of int
+        Indices of the certified schedules, best first.
+
+    Examples
+    --------
+    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...         nmeas=1, ncon=1)
+    >>> res = schedule_search(P, 2, decay=0.98, progress=False)
+    >>> res.explored, res.pruned_counts, len(res.ranking)
+    (10, {'loop_open': 6}, 4)
+    """
+
+    period: int
+    sensor_schedules: np.ndarray
+    actuator_schedules: np.ndarray
+    eta: np.ndarray
+    ms_radius: np.ndarray
+    feasible: np.ndarray
+    reason: np.ndarray
+    pruned: np.ndarray
+    total: int
+    relabellings: int
+    objective: str = "eta"
+    top: int = 10
+    shared_channel: bool = False
+    controller: str = "static"
+    actuator: str = "zero"
+    sensor_loss: float = 0.0
+    actuator_loss: float = 0.0
+    eta_requested: float | None = None
+    decay: float | None = None
+    elapsed: float = 0.0
+    order: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+
+    @property
+    def explored(self) -> int:
+        """Number of canonical schedules (pruned ones included)."""
+        return int(self.eta.size)
+
+    @property
+    def evaluated(self) -> int:
+        """Number of schedules given to passivesyn."""
+        return int((~self.pruned).sum())
+
+    @property
+    def pruned_counts(self) -> dict:
+        """``{reason: count}`` of the schedules pruned before any LMI."""
+        return {r: int(np.sum(self.reason[self.pruned] == r))
+                for r in PRUNE_REASONS if np.any(self.reason[self.pruned] == r)}
+
+    @property
+    def ranking(self) -> list:
+        """The ``top`` best certified schedules, best first."""
+        return [RankedSchedule(tuple(self.sensor_schedules[i].tolist()),
+                               tuple(self.actuator_schedules[i].tolist()),
+                               float(self.eta[i]), float(self.ms_radius[i]))
+                for i in self.order[:self.top]]
+
+    def __repr__(self) -> str:
+        return (f"<ScheduleSearch N={self.period}: {self.explored} schedules "
+                f"explored of {self.total}, {int(self.pruned.sum())} pruned, "
+                f"{int(self.feasible.sum())} certified>")
+
+    def summary(self) -> str:
+        """The counts, the pruning reasons and the ranking, for humans."""
+        lines = [repr(self),
+                 f"  controller={self.controller!r}, actuator="
+                 f"{self.actuator!r}, shared_channel={self.shared_channel}, "
+                 f"α1={self.sensor_loss:g}, α2={self.actuator_loss:g}, "
+                 f"objective={self.objective!r}, decay={self.decay}",
+                 f"  symmetry: cyclic shifts × {self.relabellings} "
+                 f"relabelling(s); elapsed {self.elapsed:.3g} s",
+                 f"  pruned: {self.pruned_counts or 'none'}"]
+        failed = self.reason[~self.pruned & ~self.feasible]
+        if failed.size:
+            r, c = np.unique(failed.astype(str), return_counts=True)
+            lines.append("  no certified gain: " + ", ".join(
+                f"{a} {b}" for a, b in zip(r, c)))
+        for rank, s in enumerate(self.ranking, 1):
+            lines.append(f"  {rank:2d}. sensors {list(s.sensor_schedule)} "
+                         f"actuators {list(s.actuator_schedule)}: "
+                         f"eta = {s.eta:.6g}, ms_radius = {s.ms_radius:.6g}")
+        return "\n".join(lines)
+
+    def to_pandas(self) -> Any:
+        """One row per canonical schedule, ranked ones first.
+
+        Raises
+        ------
+        ImportError
+            pandas is not installed.
+        """
+        pd = _pandas()
+        rest = [i for i in range(self.explored) if i not in set(self.order)]
+        idx = list(self.order) + rest
+        rank = np.full(self.explored, 0)
+        rank[self.order] = np.arange(1, self.order.size + 1)
+        return pd.DataFrame({
+            "rank": rank[idx],
+            "sensor_schedule": [tuple(self.sensor_schedules[i].tolist())
+                                for i in idx],
+            "actuator_schedule": [tuple(self.actuator_schedules[i].tolist())
+                                  for i in idx],
+            "eta": self.eta[idx], "ms_radius": self.ms_radius[idx],
+            "feasible": self.feasible[idx], "pruned": self.pruned[idx],
+            "reason": self.reason[idx]})
+
+    def plot(self, count: int | None = None, *, title: str | None = None
+             ) -> ct.ControlPlot:
+        """The best schedules as timelines, one row of axes each.
+
+        Parameters
+        ----------
+        count : int, optional
+            Number of schedules to draw (default: the ranking, at most 6).
+        title : str, optional
+            Figure title.
+
+        Returns
+        -------
+        control.ControlPlot
+            ``axes`` has shape (count, 1); ``lines[i, 0]`` lists the cells
+            drawn for schedule ``i`` (one ``broken_barh`` per node).
+
+        Raises
+        ------
+        ValueError
+            Nothing was certified, or ``count`` is not an int >= 1.
+        """
+        import matplotlib.pyplot as plt
+        ranked = self.ranking
+        if not ranked:
+            raise ValueError("plot: no schedule was certified; nothing to draw")
+        count = min(len(ranked), 6) if count is None else min(
+            len(ranked), _positive_int(count, "count"))
+        p2 = max(1, int(self.sensor_schedules.max(initial=0)))
+        m2 = max(1, int(self.actuator_schedules.max(initial=0)))
+        rows = p2 + m2
+        fig, axs = plt.subplots(count, 1, squeeze=False, sharex=True,
+                                figsize=(7, 0.5 + count * (0.3 * rows + 0.5)))
+        N = self.period
+        lines = np.empty((count, 1), dtype=object)
+        for r, s in enumerate(ranked[:count]):
+            ax = axs[r, 0]
+            drawn = []
+            labels: list[str] = []
+            for i in range(1, p2 + 1):
+                on = [k for k in range(N) if s.sensor_schedule[k] == i]
+                drawn.append(ax.broken_barh([(k, 0.9) for k in on],
+                                            (len(labels) - 0.4, 0.8),
+                                            color="tab:blue"))
+                labels.append(f"sensor {i}")
+            for j in range(1, m2 + 1):
+                on = [k for k in range(N) if s.actuator_schedule[k] == j]
+                drawn.append(ax.broken_barh([(k, 0.9) for k in on],
+                                            (len(labels) - 0.4, 0.8),
+                                            color="tab:orange"))
+                labels.append(f"actuator {j}")
+            ax.set_yticks(np.arange(len(labels)), labels)
+            ax.set_ylim(-0.6, len(labels) - 0.4)
+            ax.invert_yaxis()
+            ax.set_xlim(0, N)
+            ax.set_title(f"#{r + 1}: η = {s.eta:.4g}, ms_radius = "
+                         f"{s.ms_radius:.4g}", fontsize="small")
+            lines[r, 0] = drawn
+        axs[-1, 0].set_xlabel("phase k")
+        fig.suptitle(title or f"Best schedules of period {N}"
+                     + (" (shared channel)" if self.shared_channel else ""))
+        fig.tight_layout()
+        return ct.ControlPlot(lines, axs, fig,
+                              legend=np.full((count, 1), None, dtype=object))
+
+
+def schedule_search(P: NetworkedStateSpace, period: int, *,
+                    shared_channel: bool = False,
+                    sensor_loss: float | None = None,
+                    actuator_loss: float | None = None,
+                    objective: str = "eta", eta: float | None = None,
+                    decay: float | None = None, controller: str = "static",
+                    actuator: str = "zero", executor: Executor | None = None,
+                    top: int = 10, limit: int | None = 5000,
+                    progress: bool = True) -> ScheduleSearch:
+    """Rank every sensor/actuator schedule of one period by verified design.
+
+    Enumerates the index schedules ``s1 ∈ {0..p2}^N``, ``s2 ∈ {0..m2}^N``
+    (one sensor and one actuator message per phase, MATH §3) up to
+    symmetry, removes those for which no gain can exist by cheap exact
+    tests, designs the rest with :func:`passivesyn` and ranks the certified
+    ones.
+
+    **Symmetry.** A cyclic shift of the pair ``(s1, s2)`` is a phase shift
+    of a periodic system: the set of certified ``η`` is the same. Relabelling
+    sensors and actuators is a symmetry only when the plant is invariant
+    under it; since ``y = x``, a sensor relabelling is a state permutation
+    ``Π`` and is used exactly when, for an actuator permutation ``Σ`` and a
+    permutation ``Ω`` of ``w`` and ``z`` together (it keeps the supply rate),
+    ``Π A Πᵀ = A``, ``Π B1 Ωᵀ = B1``, ``Π B2 Σᵀ = B2``, ``Ω C1 Πᵀ = C1``,
+    ``Ω D11 Ωᵀ = D11``, ``Ω D12 Σᵀ = D12`` hold in exact arithmetic
+    (searched up to ``RELABEL_MAX_STATES`` states, ``n!`` permutations). One representative is kept per orbit:
+    its lexicographically smallest word.
+
+    **Pruning** (exact, before any LMI; the reason is kept per schedule):
+    ``'loop_open'``: a static gain with no phase where a sensor and an
+    actuator are both scheduled (every shared-channel schedule: only the
+    predictor closes such loops); ``'not_stabilisable'``: the loss-free
+    lifted pair ``(A^N, [A^(N-1-k) B2 Σ2,k])`` fails the PBH test on an
+    eigenvalue ``|λ| ≥ 1`` (static gain: only phases where a sensor also
+    reports act; ``actuator='hold'``: every actuator ever scheduled acts
+    at every phase, a relaxation); ``'not_detectable'``: the dual test with
+    what the gain hears (``Σ1,k``, for a static gain only where an actuator
+    listens); ``'estimation_not_mss'`` (predictor): the estimation-error
+    loop ``e⁺ = (I − θ1 Σ1,k+1) A e`` of MATH §8b, which no gain changes,
+    has an exact :func:`ms_radius` ``≥ 1`` (``≥ r²`` with ``decay=r``).
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+        The plant (needs ``y = x`` and ``dim w = dim z``); its own schedules
+        are replaced by each candidate.
+    period : int
+        The period ``N`` of the schedules.
+    shared_channel : bool
+        Only one message per phase (``s1[k] ≠ 0 ⇒ s2[k] = 0``).
+    sensor_loss, actuator_loss : float in [0, 1), optional
+        Loss probabilities (default: those of ``P``).
+    objective : {'eta', 'rate'}
+        Rank by certified ``η`` (largest first) or by the exact per-step
+        mean-square rate of the certified loop (smallest first). Both are
+        figures of the one loop passivesyn returns: with ``eta=None`` the
+        rate sits near the decay bound, so rank by ``'rate'`` with a fixed
+        ``eta``.
+    eta : float, optional
+        Dissipation asked of every schedule; None maximises it.
+    decay : float in (0, 1], optional
+        Mean-square decay bound ``r`` (``ms_radius < r²``).
+    controller : {'static', 'predictor'}
+    actuator : {'zero', 'hold'}
+    executor : concurrent.futures.Executor, optional
+        One task per schedule that survives pruning; None: sequential.
+    top : int
+        Length of the ranking.
+    limit : int or None
+        Refuse (ValueError) when there are more canonical schedules than
+        this; None: no limit.
+    progress : bool
+        Show a tqdm progress bar (when tqdm is installed).
+
+    Returns
+    -------
+    ScheduleSearch
+
+    Raises
+    ------
+    ValueError
+        ``period`` not an int >= 1, a loss outside ``[0, 1)``, more
+        canonical schedules than ``limit`` (the message says how many), a
+        bad ``eta``, ``decay`` or ``top``; pre-solve errors of passivesyn.
+    ControlArgument
+        ``P`` not a NetworkedStateSpace or without ``y = x``, unknown
+        ``objective``, ``controller`` or ``actuator``, ``executor`` not an
+        Executor.
+    ControlDimension
+        ``dim w ≠ dim z``.
+
+    Examples
+    --------
+    A scalar plant, period 2, the predictor over a shared channel:
+
+    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...         nmeas=1, ncon=1)
+    >>> res = schedule_search(P, 2, shared_channel=True, controller='predictor',
+    ...                       decay=0.98, progress=False)
+    >>> res.explored, res.pruned_counts
+    (6, {'not_stabilisable': 3, 'not_detectable': 2})
+    >>> res.ranking[0].sensor_schedule, res.ranking[0].actuator_schedule
+    ((0, 1), (1, 0))
+    """
+    P = _plant(P)
+    N = _positive_int(period, "period")
+    shared = _flag(shared_channel, "shared_channel")
+    a1 = P.sensor_loss if sensor_loss is None else sensor_loss
+    a2 = P.actuator_loss if actuator_loss is None else actuator_loss
+    a1, a2 = _loss(a1, "sensor_loss"), _loss(a2, "actuator_loss")
+    objective = _choice(objective, "objective", _OBJECTIVES)
+    eta = _optional_eta(eta)
+    decay = _optional_decay(decay)
+    controller = _choice(controller, "controller", _CONTROLLERS)
+    actuator = _choice(actuator, "actuator", _ACTUATORS)
+    executor = _executor(executor)
+    top = _positive_int(top, "top")
+    if limit is not None:
+        limit = _positive_int(limit, "limit")
+    progress = _flag(progress, "progress")
+    start = time.perf_counter()
+
+    p2, m2 = P.nmeas, P.ncon
+    letters = _alphabet(p2, m2, shared)
+    total = len(letters) ** N
+    group = _relabellings(P)
+    maps = _letter_maps(group, letters)
+    count = _orbit_count(N, maps)
+    if limit is not None and count > limit:
+        raise ValueError(
+            f"period: {N} gives {count} schedules up to symmetry ({total} "
+            f"before it) for {p2} sensor(s) and {m2} actuator(s), more than "
+            f"limit={limit}; raise limit= (or pass limit=None) to search "
+            f"them all")
+    words = list(_canonical_schedules(N, maps, len(letters)))
+    s1 = np.array([[letters[x][0] for x in w] for w in words], dtype=int)
+    s2 = np.array([[letters[x][1] for x in w] for w in words], dtype=int)
+    s1 = s1.reshape(len(words), N)
+    s2 = s2.reshape(len(words), N)
+
+    def pattern(idx: np.ndarray, nodes: int) -> np.ndarray:
+        return (idx[:, None] == np.arange(1, nodes + 1)[None, :])
+
+    reason = np.empty(len(words), dtype=object)
+    pruned = np.zeros(len(words), dtype=bool)
+    for i in range(len(words)):
+        why = _prune(P, pattern(s1[i], p2), pattern(s2[i], m2), controller,
+                     actuator, a1, decay)
+        if why is not None:
+            reason[i], pruned[i] = why, True
+    todo = np.flatnonzero(~pruned)
+    tasks = [(P.with_network(sensor_schedule=s1[i].tolist(),
+                             actuator_schedule=s2[i].tolist(),
+                             sensor_loss=a1, actuator_loss=a2,
+                             shared_channel=shared),
+              eta, decay, controller, actuator) for i in todo]
+    out = _run(_synthesise, tasks, executor, progress, "schedule_search")
+    eta_a = np.full(len(words), math.nan)
+    rate = np.full(len(words), math.nan)
+    feasible = np.zeros(len(words), dtype=bool)
+    for t, (e, r, ok, why) in zip(todo, out):
+        eta_a[t], rate[t], feasible[t], reason[t] = e, r, ok, why
+    good = np.flatnonzero(feasible)
+    # ties are broken by the other figure, then by the canonical order
+    if objective == "eta":
+        keys = (good, rate[good], -eta_a[good])
+    else:
+        keys = (good, -eta_a[good], rate[good])
+    order = good[np.lexsort(keys)]
+    return ScheduleSearch(
+        period=N, sensor_schedules=s1, actuator_schedules=s2, eta=eta_a,
+        ms_radius=rate, feasible=feasible, reason=reason, pruned=pruned,
+        total=total, relabellings=len(group), objective=objective, top=top,
+        shared_channel=shared, controller=controller, actuator=actuator,
+        sensor_loss=a1, actuator_loss=a2, eta_requested=eta, decay=decay,
+        elapsed=time.perf_counter() - start, order=order)
