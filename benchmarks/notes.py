@@ -83,9 +83,9 @@ and `certify_index` checks it exactly. If it does not certify, the level is
 lowered, a missed resonance is located by the unit-circle eigenvalues of
 the symplectic pencil, and as a last resort the LMI is solved
 (`method='auto'`); `method='lmi'` keeps the old route. Lossy and periodic
-systems are still certified by the LMI; `riccati.riccati_index` can do them
-without cvxpy but converges slowly near the supremum (development runs:
-1–8 s at n ≤ 6, 2e-6 to 1.4e-5 below the KYP value), so it is not wired in.
+systems are still certified by the LMI. A Riccati iteration for them ran
+without cvxpy but converged slowly near the supremum (development runs:
+1–8 s at n ≤ 6, 2e-6 to 1.4e-5 below the KYP value); it was removed.
 
 ### 7.5 simulate against the per-trial loops
 

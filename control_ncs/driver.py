@@ -80,7 +80,7 @@ class Outcome:
     def figures(self) -> dict:
         """The figures a :class:`~control_ncs.verify.SynthesisError` carries."""
         report = self.report or (self.attempts[-1] if self.attempts else None)
-        out = dict(statuses=[a.status for a in self.attempts])
+        out: dict[str, Any] = dict(statuses=[a.status for a in self.attempts])
         if report is not None:
             out.update(status=report.status, solver=report.solver)
         if self.certificate is not None:
@@ -190,7 +190,7 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
         out.message = ("the solver failed"
                        + (f" ({out.report.message})" if out.report
                           and out.report.message else ""))
-    elif not out.report.ok:
+    elif out.report is not None and not out.report.ok:
         out.reason = "inaccurate"
         out.message = "the solver's status stayed inaccurate"
     else:

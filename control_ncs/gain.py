@@ -87,7 +87,7 @@ class PeriodicGain:
                 and self.controller == other.controller
                 and self.actuator == other.actuator)
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # value equality, mutable arrays
 
     def __reduce__(self):
         return (PeriodicGain, (np.array(self.gains), self.controller,

@@ -227,7 +227,7 @@ def solve(problem: cp.Problem, solver: str | None = None, *,
     """
     name = check_solver(solver)
     check_options(name, options)
-    opts = {}
+    opts: dict[str, Any] = {}
     if name == cp.CLARABEL:
         # warm_start=False: with True, cvxpy reuses the Clarabel solver of
         # the previous solve of this (cached) problem and keeps every
@@ -276,8 +276,8 @@ def solve(problem: cp.Problem, solver: str | None = None, *,
 
 def data_scale(*mats: np.ndarray) -> float:
     """A scale for the margins: the largest spectral norm among the data."""
-    norms = [np.linalg.norm(M.reshape(-1, M.shape[-1]), 2) for M in mats
-             if M.size]
+    norms = [float(np.linalg.norm(M.reshape(-1, M.shape[-1]), 2))
+             for M in mats if M.size]
     return max([1.0] + norms)
 
 
@@ -314,10 +314,12 @@ class _Cache(threading.local):
         self.hits = 0
         self.misses = 0
         # compile options of the cached problems, read by solve()
-        self.compile_options = weakref.WeakKeyDictionary()
+        self.compile_options: weakref.WeakKeyDictionary[cp.Problem, dict] = \
+            weakref.WeakKeyDictionary()
         # problem -> its template, so that solve() can record whose data
         # were solved
-        self.templates = weakref.WeakKeyDictionary()
+        self.templates: weakref.WeakKeyDictionary[cp.Problem, _Template] = \
+            weakref.WeakKeyDictionary()
 
 
 _cache = _Cache()
@@ -497,7 +499,7 @@ def analysis_model(sys: JumpStateSpace, eta: float | None,
         raise ValueError("analysis_model: margin=None needs a given eta")
     key = ("analysis", N, n, m, Cbar.shape[-2], eta is None, margin is None)
     template = _template(key, lambda: _analysis_template(*key[1:]))
-    values = {"decay2": float(decay) ** 2}
+    values: dict[Any, Any] = {"decay2": float(decay) ** 2}
     if eta is not None:
         values["eta"] = float(eta)
     if margin is not None:
@@ -621,28 +623,26 @@ def synthesis_model(plant: JumpPlant, eta: float | None, decay: float,
            tuple(phases))
     template = _template(key, lambda: _synthesis_template(
         N, nx, nu, nw, nz, phases, eta is None, structure))
-    Czbar = np.einsum("km,kmij->kij", p, plant.Cz)
-    Dubar = np.einsum("km,kmij->kij", p, plant.Du)
-    Dwbar = np.einsum("km,kmij->kij", p, plant.Dw)
+    _, _, _, Czbar, Dubar, Dwbar = plant.mean()
     eps = margin * data_scale(plant.A, plant.Bu, plant.Bw, plant.Cz,
                               plant.Du, plant.Dw)
-    values = {"margin": eps, "decay2": float(decay) ** 2}
+    values: dict[Any, Any] = {"margin": eps, "decay2": float(decay) ** 2}
     if eta is not None:
         values["eta"] = float(eta)
-    for k, (known, active, _) in enumerate(phases):
-        active = list(active)
-        has_y = bool(known) and bool(active)
+    for k, (known_k, active_k, _) in enumerate(phases):
+        cols = list(active_k)
+        has_y = bool(known_k) and bool(cols)
         values[("Cz", k)] = Czbar[k]
         values[("Dsym", k)] = Dwbar[k] + Dwbar[k].T
         if has_y:
-            values[("Du", k)] = Dubar[k][:, active]
+            values[("Du", k)] = Dubar[k][:, cols]
         # √p_ki times the data, as one parameter: √p × A × X is not DPP
         for a, i in enumerate(live[k]):
             root = np.sqrt(p[k, i])
             values[("A", k, a)] = root * plant.A[k, i]
             values[("Bw", k, a)] = root * plant.Bw[k, i]
             if has_y:
-                values[("Bu", k, a)] = root * plant.Bu[k, i][:, active]
+                values[("Bu", k, a)] = root * plant.Bu[k, i][:, cols]
     return SynthesisModel(
         template, values,
         template.parts["eta"] if eta is None else float(eta), eps,
@@ -684,7 +684,7 @@ def _synthesis_template(N, nx, nu, nw, nz, phases, maximise_eta, structure):
         blocks.append((known, active, Zs))
     width = 0
     cons = []
-    for k, (known, active, M) in enumerate(phases):
+    for k, (_known, active, M) in enumerate(phases):
         Xn, Zk, Xk, Yv = X[(k + 1) % N], Z[k], X[k], Y[k]
         Sk = _selector(blocks[k][0], nx)
         # extended form: -Gᵀ X⁻¹ G ≼ X - G - Gᵀ replaces -X (de Oliveira et al.)

@@ -429,6 +429,7 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         first = first or (out, struct)
         if out.reason == "time_limit":
             break
+    assert first is not None  # the loop over `order` ran at least once
     out, struct = first
     if (solver is None and eta is None and out.reason not in
             ("infeasible", "time_limit")):

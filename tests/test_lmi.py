@@ -221,7 +221,7 @@ def test_touching_a_solved_model_after_another_was_solved_is_refused():
     lmi.solve(model_a.problem)
     model_b = lmi.synthesis_model(b, None, 1.0, 1e-7, "full", "merged")
     lmi.solve(model_b.problem)
-    model_a.problem        # reloads a's data; the variables held b's answer
+    _ = model_a.problem    # reloads a's data; the variables held b's answer
     with pytest.raises(RuntimeError, match="not solved with its data"):
         lmi.read_gains(model_a, a)
     lmi.solve(model_a.problem)

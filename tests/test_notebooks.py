@@ -1,7 +1,7 @@
-"""The teaching notebooks are the five stories of issue 6, committed without outputs.
+"""The teaching notebooks, committed without outputs.
 
 Executing them is nbmake's job (``pytest --nbmake notebooks/``); these tests
-check what is committed: exactly the five notebooks, valid nbformat, and no
+check what is committed: exactly the listed notebooks, valid nbformat, and no
 outputs or execution counts left in any code cell.
 """
 
@@ -18,6 +18,7 @@ EXPECTED = [
     "03_passive_synthesis.ipynb",
     "04_shared_channel_predictor.ipynb",
     "05_why_passivity.ipynb",
+    "06_choosing_a_schedule.ipynb",
 ]
 
 
@@ -25,7 +26,7 @@ def _read(name):
     return nbformat.read(str(NOTEBOOKS / name), as_version=4)
 
 
-def test_notebooks_folder_holds_exactly_the_five_stories():
+def test_notebooks_folder_holds_exactly_the_listed_stories():
     found = sorted(p.name for p in NOTEBOOKS.glob("*.ipynb"))
     assert found == EXPECTED
 
