@@ -24,7 +24,7 @@ from .responses import (simulate, SamplePaths, EnsembleResponse,
                         forced_response, step_response, impulse_response,
                         initial_response)
 from .plots import plot_ensemble, schedule_plot
-from .connect import jump_feedback, lift_lti
+from .connect import jump_feedback, lift_lti, interconnect
 
 __all__ = [
     "Schedule", "schedule", "mode_probabilities",
@@ -41,7 +41,7 @@ __all__ = [
     "passivesyn", "SynthesisResult",
     "simulate", "SamplePaths", "EnsembleResponse", "forced_response",
     "step_response", "impulse_response", "initial_response", "plot_ensemble",
-    "jump_feedback", "lift_lti", "schedule_plot",
+    "jump_feedback", "lift_lti", "interconnect", "schedule_plot",
 ]
 
 from importlib.metadata import PackageNotFoundError, version as _version

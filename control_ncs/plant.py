@@ -256,16 +256,29 @@ class NetworkedStateSpace(ct.StateSpace):
         # control.StateSpace holds lambdas and cannot be pickled.
         return (_restore_nss, (self._init_args(),))
 
-    def __eq__(self, other: object) -> bool:
+    def equals(self, other: object) -> bool:
+        """Whether ``other`` is the same networked plant, value by value.
+
+        Parameters
+        ----------
+        other : object
+            Anything; only a :class:`NetworkedStateSpace` can be equal.
+
+        Returns
+        -------
+        bool
+            Same matrices, partition, network and signal names.
+        """
         if type(other) is not type(self):
-            return NotImplemented
+            return False
         a, b = self._init_args(), other._init_args()
         return all(np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray)
                    else a[k] == b[k] for k in a)
 
-    # unhashable: the matrices are numpy arrays. None is Python's documented
-    # way to say so; typeshed types object.__hash__ as a method only.
-    __hash__ = None  # type: ignore[assignment]
+    # ``==`` and ``hash`` by identity, as every python-control system (see
+    # JumpStateSpace): ct.interconnect and dicts key systems by object.
+    __eq__ = object.__eq__
+    __hash__ = object.__hash__
 
     def __repr__(self) -> str:
         return (f"<NetworkedStateSpace {self.name}: {self.nstates} states, "
