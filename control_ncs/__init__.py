@@ -12,7 +12,7 @@ from .gain import PeriodicGain
 from .strategies import build, feedback
 from .stability import ms_radius, is_mss, second_moment_operator
 from .meancov import moments, MomentsResponse
-from .exceptions import CertificationError, SynthesisError
+from .exceptions import CertificationError, SynthesisError, ScheduleWarning
 from .verify import (Certificate, check_certificate, certified_index,
                      certify_index, certify_ofp_index, dissipation_matrices)
 from .passivity import (ispassive, get_input_ff_index, get_output_fb_index,
@@ -32,7 +32,7 @@ __all__ = [
     "NetworkedStateSpace", "nss", "PeriodicGain", "build", "feedback",
     "ms_radius", "is_mss", "second_moment_operator",
     "moments", "MomentsResponse",
-    "Certificate", "CertificationError", "SynthesisError",
+    "Certificate", "CertificationError", "SynthesisError", "ScheduleWarning",
     "check_certificate", "certified_index", "certify_index",
     "certify_ofp_index", "dissipation_matrices",
     "ispassive", "get_input_ff_index", "get_output_fb_index",

@@ -6,6 +6,8 @@ not, and the package's objects print, warn and accept inputs as
 python-control's do.
 """
 
+import pickle
+
 import numpy as np
 import pytest
 import control as ct
@@ -338,3 +340,37 @@ def test_phase_is_the_base_rate_mean_of_that_phase():
 def test_phase_of_a_one_phase_loop_is_its_mean():
     CL = lossy_loop()
     np.testing.assert_array_equal(CL.phase(0).A, CL.A)
+
+
+# -- 6. inputs like python-control's ------------------------------------------
+def test_schedule_that_never_lets_a_sensor_send_warns_naming_it():
+    with pytest.warns(cn.ScheduleWarning, match=r"sensor 2 \(y\[1\]\) never "
+                      r"sends") as record:
+        plant(sensor_schedule=[0, 1])
+    # stacklevel names the caller's line, not a line inside control_ncs
+    assert record[0].filename == __file__
+
+
+def test_schedule_that_never_lets_an_actuator_send_warns_naming_it():
+    P = ct.ss([[0.5]], [[1.0, 1.0, 1.0]], [[1.0], [1.0]], np.zeros((2, 3)),
+              True, inputs=["w", "u1", "u2"], outputs=["z", "y"])
+    with pytest.warns(cn.ScheduleWarning, match=r"actuator 2 \(u2\)"):
+        cn.nss(P, nmeas=1, ncon=2, actuator_schedule=[0, 1])
+
+
+def test_schedule_where_every_node_sends_does_not_warn():
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        P = plant(sensor_schedule=[1, 2, 0])
+        P2 = pickle.loads(pickle.dumps(P))
+    assert P2.period == 3
+
+
+def test_unpickling_does_not_warn_again():
+    import warnings
+    with pytest.warns(cn.ScheduleWarning):
+        P = plant(sensor_schedule=[0, 1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pickle.loads(pickle.dumps(P))
