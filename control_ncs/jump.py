@@ -95,6 +95,35 @@ class Modes:
         return tuple(np.einsum("km,kmij->kij", p, M)
                      for M in (self.A, self.B, self.C, self.D))
 
+    def __repr__(self) -> str:
+        N, M, n, m = self.B.shape
+        return (f"<Modes: period {N}, {M} modes per phase, {n} states, "
+                f"{m} inputs, {self.C.shape[2]} outputs>")
+
+    def summary(self) -> str:
+        """A few lines for humans: sizes and the probabilities per phase.
+
+        Returns
+        -------
+        str
+            At most 10 phases and 8 modes shown.
+
+        Examples
+        --------
+        >>> m = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7]).modes
+        >>> print(m.summary())
+        Modes: period 1, 2 modes per phase, 1 states, 1 inputs, 1 outputs
+          phase 0: p = 0.3, 0.7
+        """
+        lines = [repr(self)[1:-1]]
+        for k in range(min(self.period, 10)):
+            p = ", ".join(f"{x:.4g}" for x in self.probabilities[k, :8])
+            more = ", ..." if self.count > 8 else ""
+            lines.append(f"  phase {k}: p = {p}{more}")
+        if self.period > 10:
+            lines.append(f"  ... ({self.period - 10} more phases)")
+        return "\n".join(lines)
+
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Modes) and all(
             np.array_equal(getattr(self, f), getattr(other, f))
@@ -1123,7 +1152,9 @@ class JumpPlant:
         Returns
         -------
         JumpStateSpace
-            Coinciding modes merged.
+            Coinciding modes merged; named ``'<plant> (closed loop)'`` after
+            ``info['plant']``, the plant's name, when the builder recorded
+            it (as :func:`control_ncs.build` does).
         """
         K = np.asarray(gains, float)
         F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
@@ -1133,9 +1164,12 @@ class JumpPlant:
         loop = (A, self.Bw, C, self.Dw)
         groups, nominal = _merge_groups(loop, self.probabilities, self.nominal)
         (A, B, C, D), p = _apply_groups(loop, self.probabilities, groups)
+        plant = self.info.get("plant")
         return JumpStateSpace(A, B, C, D, p, self.dt, nominal=nominal,
                               inputs=self.inputs, outputs=self.outputs,
                               states=self.states,
+                              name=None if plant is None
+                              else f"{plant} (closed loop)",
                               info=dict(self.info, gains=K, **info))
 
     def merged(self) -> "JumpPlant":

@@ -374,3 +374,10 @@ def test_unpickling_does_not_warn_again():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         pickle.loads(pickle.dumps(P))
+
+
+# -- 5. results like python-control's and SciPy's -----------------------------
+def test_closed_loop_is_named_after_its_plant():
+    assert lossy_loop().name == "reactor (closed loop)"
+    assert cn.build(plant()).close(np.array([[[-0.8, -0.3]]])).name == \
+        "reactor (closed loop)"
