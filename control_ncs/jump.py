@@ -1256,9 +1256,13 @@ class JumpPlant:
 
 def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
     """``sys`` as a :class:`JumpStateSpace`; a deterministic discrete-time
-    :class:`control.StateSpace` becomes a one-mode jump system."""
+    :class:`control.StateSpace` (or :class:`control.TransferFunction`,
+    converted with :func:`control.ss`, as python-control does) becomes a
+    one-mode jump system."""
     if isinstance(sys, JumpStateSpace):
         return sys
+    if isinstance(sys, ct.TransferFunction):
+        sys = ct.ss(sys)
     if isinstance(sys, ct.StateSpace):
         dt = discrete_dt(sys.dt, f"{name}.dt")
         return JumpStateSpace(sys.A[None], sys.B[None], sys.C[None],
@@ -1269,4 +1273,5 @@ def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
     from control.exception import ControlArgument
     raise ControlArgument(f"{name}: expected a JumpStateSpace (see jss() or "
                           f"control_ncs.feedback()) or a discrete-time "
-                          f"control.StateSpace, got {type(sys).__name__}")
+                          f"control.StateSpace or TransferFunction, got "
+                          f"{type(sys).__name__}")

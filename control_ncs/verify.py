@@ -210,8 +210,6 @@ def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
 # -- public checks --------------------------------------------------------------
 def _system(sys: Any, name: str = "sys") -> JumpStateSpace:
     """``sys`` as a square jump system (a TransferFunction via control.ss)."""
-    if isinstance(sys, ct.TransferFunction):
-        sys = ct.ss(sys)
     sys = as_jump(sys, name)
     m, p = sys.modes.B.shape[-1], sys.modes.C.shape[-2]
     if m != p:

@@ -381,3 +381,117 @@ def test_closed_loop_is_named_after_its_plant():
     assert lossy_loop().name == "reactor (closed loop)"
     assert cn.build(plant()).close(np.array([[[-0.8, -0.3]]])).name == \
         "reactor (closed loop)"
+
+
+def _results():
+    """One of every public result, at sizes where whole arrays are long."""
+    CL = scheduled_loop()
+    G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    r = cn.step_response(CL, 200, input=0, trials=300, keep_paths=50, seed=0)
+    return dict(
+        certificate=cn.check_certificate(G, [[1.0]], 0.3),
+        passivity=cn.passivity_certificate(G),
+        refuted=cn.passivity_certificate(G, 0.4),
+        lmi_route=cn.passivity_certificate(CL, 0.0),
+        moments=cn.moments(CL, 200, inputs=np.ones((2, 200))),
+        paths=cn.simulate(CL, 200, trials=300, seed=0),
+        ensemble=r,
+        schedule=cn.schedule(np.arange(60) % 3, 2),
+        modes=CL.modes,
+        jump=CL,
+        plant=plant(sensor_schedule=[1, 2, 0]),
+        jump_plant=cn.build(plant()),
+    )
+
+
+def test_repr_of_every_public_result_fits_in_a_screen():
+    for name, obj in _results().items():
+        text = repr(obj)
+        assert len(text) <= 2000 and text.count("\n") < 25, name
+        assert type(obj).__name__ in text, name
+
+
+def test_every_result_has_a_short_summary():
+    for name, obj in _results().items():
+        if not hasattr(obj, "summary"):
+            continue
+        text = obj.summary()
+        assert isinstance(text, str) and text.count("\n") < 25, name
+        assert len(text) <= 2000, name
+
+
+def test_verdicts_share_verdict_status_and_message():
+    res = _results()
+    for name, verdict, status in (("certificate", True, "certified"),
+                                  ("passivity", True, "certified"),
+                                  ("refuted", False, "infeasible")):
+        obj = res[name]
+        assert obj.verdict is verdict and obj.status == status, name
+        assert isinstance(obj.message, str) and obj.message, name
+    assert "proven" in res["refuted"].message
+
+
+def test_certificate_that_fails_says_why_in_its_message():
+    G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    cert = cn.check_certificate(G, [[1.0]], 0.4)
+    assert not cert.verdict and cert.status == "not_verified"
+    assert "λmax(Θ_k)" in cert.message and "not verified" in repr(cert)
+
+
+def test_cvxpy_inaccuracy_warning_does_not_leak_from_passivity(monkeypatch):
+    import warnings
+    from control_ncs import passivity
+    real = passivity.solve
+
+    def warning_solve(problem, solver=None, **options):
+        # cvxpy's own warning whenever its status is 'optimal_inaccurate'
+        warnings.warn("Solution may be inaccurate. Try another solver, "
+                      "adjusting the solver settings, or solve with "
+                      "verbose=True for more information.", UserWarning)
+        return real(problem, solver, **options)
+
+    monkeypatch.setattr(passivity, "solve", warning_solve)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = cn.passivity_certificate(lossy_loop()[:, :], 0.0)
+    assert result.method == "lmi" and result.status in (
+        "certified", "infeasible", "inaccurate", "not_verified",
+        "solver_failed", "feedthrough", "not_mss")
+
+
+def test_ensemble_plot_title_says_mean():
+    import matplotlib.pyplot as plt
+    r = cn.step_response(lossy_loop(), 10, input=0, trials=20, seed=0)
+    assert "mean" in r.title
+    cplt = cn.plot_ensemble(r)
+    assert "mean" in cplt.figure._suptitle.get_text()
+    plt.close("all")
+
+
+def test_moments_plot_title_says_mean():
+    data = cn.moments(lossy_loop(), 5, initial_state=[1.0, 0.0]).to_response()
+    assert "mean" in data.title
+
+
+def test_transfer_function_is_accepted_where_a_system_is():
+    H = ct.tf([1.0, 0.0], [1.0, -0.5], True)
+    assert cn.ms_radius(H) == pytest.approx(0.25)
+    r = cn.moments(H, 4, inputs=np.ones((1, 4)))
+    want = ct.forced_response(ct.ss(H), np.arange(4), np.ones(4)).outputs
+    np.testing.assert_allclose(r.outputs_mean[0], want, atol=1e-12)
+    paths = cn.simulate(H, 4, np.ones((1, 4)), trials=2, seed=0)
+    np.testing.assert_allclose(paths.outputs[0, 0], want, atol=1e-12)
+
+
+@pytest.mark.xfail(strict=True, reason="synthesis.py and gain.py belong to "
+                   "the integrator: SynthesisResult needs a short __repr__ "
+                   "and verdict/status/message like PassivityResult; remove "
+                   "this mark when they have them")
+def test_synthesis_result_prints_like_the_other_results():
+    K, CL, eta = cn.passivesyn(plant(sensor_schedule=[1, 2]))
+    assert CL.name == "reactor (closed loop)"
+    result = K.result
+    text = repr(result)
+    assert len(text) <= 2000 and text.count("\n") < 25
+    assert result.verdict is True and result.status == "certified"
+    assert isinstance(result.message, str) and result.message
