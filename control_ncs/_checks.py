@@ -20,7 +20,7 @@ def caller_stacklevel() -> int:
     import os
     import sys
     package = os.path.dirname(os.path.abspath(__file__))
-    frame = sys._getframe(1)  # the function that calls warnings.warn
+    frame: Any = sys._getframe(1)  # the function that calls warnings.warn
     level = 1
     while frame is not None and os.path.dirname(
             os.path.abspath(frame.f_code.co_filename)) == package:

@@ -369,7 +369,7 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
             f"over the joint modes with jss() (products of the "
             f"probabilities if independent)")
     J = jumps[0]
-    others = []
+    others: list[ct.StateSpace | None] = []
     for s in syslist:
         if s is J:
             others.append(None)
@@ -404,11 +404,11 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
         for k in range(J.period):
             done.append([first if (k, i) == (0, 0) else mode(k, i)
                          for i in range(J.nmodes)])
-    mats = [np.array([[getattr(S, X) for S in row] for row in done],
-                     dtype=float) for X in "ABCD"]
+    A, B, C, D = (np.array([[getattr(S, X) for S in row] for row in done],
+                           dtype=float) for X in "ABCD")
     dt = J.dt_step if first.dt is True else first.dt
     info = dict(J.info, interconnect=[s.name for s in others if s is not None])
-    return JumpStateSpace(*mats, J.modes.probabilities, dt,
+    return JumpStateSpace(A, B, C, D, J.modes.probabilities, dt,
                           nominal=J.nominal_mode, name=name,
                           inputs=list(first.input_labels),
                           outputs=list(first.output_labels),

@@ -60,12 +60,20 @@ class ScheduleWarning(UserWarning):
     reads ``0`` as "nobody", so with four sensors sensor 4 never sends.
     Silence it with :func:`warnings.filterwarnings` on this class.
 
+    Parameters
+    ----------
+    message : str
+        Names the schedule and the nodes that never send.
+
     Examples
     --------
     >>> import warnings
     >>> issubclass(ScheduleWarning, UserWarning)
     True
     """
+
+    def __init__(self, message: str) -> None:
+        super().__init__(message)
 
 
 class CertificationError(RuntimeError):

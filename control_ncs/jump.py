@@ -707,16 +707,19 @@ class JumpStateSpace(ct.StateSpace):
         done = [[op(self._mode_system(k, i)) for i in range(M)]
                 for k in range(N)]
         first = done[0][0]
-        mats = [np.array([[getattr(S, X) for S in row] for row in done],
-                         dtype=float) for X in "ABCD"]
+        A, B, C, D = (np.array([[getattr(S, X) for S in row] for row in done],
+                               dtype=float) for X in "ABCD")
         labels = dict(inputs=list(first.input_labels),
                       outputs=list(first.output_labels),
                       states=list(first.state_labels))
         labels.update(names or {})
         dt = self.dt_step if first.dt is True else first.dt
-        return JumpStateSpace(*mats, self.modes.probabilities, dt,
+        return JumpStateSpace(A, B, C, D, self.modes.probabilities, dt,
                               nominal=self.nominal_mode, name=name,
-                              info=dict(self.info, algebra=what), **labels)
+                              info=dict(self.info, algebra=what),
+                              inputs=labels["inputs"],
+                              outputs=labels["outputs"],
+                              states=labels["states"])
 
     def __neg__(self) -> "JumpStateSpace":
         return self._modewise(lambda S: -S, "-sys")

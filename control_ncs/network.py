@@ -293,7 +293,7 @@ def warn_silent_nodes(S: Schedule, what: str, labels: Sequence[str]) -> None:
     silent = np.flatnonzero(~S.pattern.any(axis=0))
     if silent.size == 0:
         return
-    named = ", ".join(f"{what} {i + 1} ({labels[i]})" for i in silent)
+    named = ", ".join(f"{what} {i + 1} ({labels[int(i)]})" for i in silent)
     warnings.warn(
         f"{S.name}: {named} never sends: no phase of the schedule "
         f"(period {S.period}) lets it. In an index vector, 0 means nobody "

@@ -22,7 +22,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import control as ct
 from control.exception import ControlDimension
 
 from ._checks import decay_bound, finite_real, real_array

@@ -447,7 +447,8 @@ def test_cvxpy_inaccuracy_warning_does_not_leak_from_passivity(monkeypatch):
         # cvxpy's own warning whenever its status is 'optimal_inaccurate'
         warnings.warn("Solution may be inaccurate. Try another solver, "
                       "adjusting the solver settings, or solve with "
-                      "verbose=True for more information.", UserWarning)
+                      "verbose=True for more information.", UserWarning,
+                      stacklevel=2)
         return real(problem, solver, **options)
 
     monkeypatch.setattr(passivity, "solve", warning_solve)
