@@ -294,11 +294,14 @@ def warn_silent_nodes(S: Schedule, what: str, labels: Sequence[str]) -> None:
     if silent.size == 0:
         return
     named = ", ".join(f"{what} {i + 1} ({labels[int(i)]})" for i in silent)
+    verb, it = ("never sends", "it") if silent.size == 1 else \
+        ("never send", "them")
+    example = ", ".join(str(i) for i in range(S.nodes))
     warnings.warn(
-        f"{S.name}: {named} never sends: no phase of the schedule "
-        f"(period {S.period}) lets it. In an index vector, 0 means nobody "
-        f"and nodes are numbered 1..{S.nodes}, so [0, 1, 2, 3] never "
-        f"schedules node 4; write 1-based indices, or pass a 0/1 matrix",
+        f"{S.name}: {named} {verb}: no phase of the schedule (period "
+        f"{S.period}) lets {it}. In an index vector 0 means nobody and "
+        f"{what}s are numbered 1..{S.nodes} (so [{example}] never schedules "
+        f"{what} {S.nodes}); write 1-based indices, or pass a 0/1 matrix",
         ScheduleWarning, stacklevel=caller_stacklevel())
 
 
