@@ -704,9 +704,16 @@ class JumpStateSpace(ct.StateSpace):
                   names: dict | None = None) -> "JumpStateSpace":
         """The jump system whose mode (k, i) is ``op`` of mode (k, i)."""
         N, M = self.period, self.nmodes
-        done = [[op(self._mode_system(k, i)) for i in range(M)]
-                for k in range(N)]
-        first = done[0][0]
+        try:
+            first = op(self._mode_system(0, 0))
+        except ValueError as err:
+            # python-control's message names neither side's sizes
+            raise ControlDimension(
+                f"{what}: {err} (the jump system has "
+                f"{len(self.jump_inputs)} inputs and "
+                f"{len(self.jump_outputs)} outputs per step)") from err
+        done = [[first if k == i == 0 else op(self._mode_system(k, i))
+                 for i in range(M)] for k in range(N)]
         A, B, C, D = (np.array([[getattr(S, X) for S in row] for row in done],
                                dtype=float) for X in "ABCD")
         labels = dict(inputs=list(first.input_labels),
@@ -838,6 +845,9 @@ class JumpStateSpace(ct.StateSpace):
         G = self._operand(other, "feedback(sys, other)")
         if G is NotImplemented:
             return self._refuse("feedback(sys, other)")
+        m, p = len(self.jump_inputs), len(self.jump_outputs)
+        if np.ndim(G) == 0 and not isinstance(G, ct.StateSpace) and m == p:
+            G = G * np.eye(m)  # a scalar gain on every channel, as jump_feedback
         if isinstance(G, ct.StateSpace):
             gstates = [f"{G.name}.{x}" for x in G.state_labels]
         else:

@@ -496,3 +496,17 @@ def test_synthesis_result_prints_like_the_other_results():
     assert len(text) <= 2000 and text.count("\n") < 25
     assert result.verdict is True and result.status == "certified"
     assert isinstance(result.message, str) and result.message
+
+
+def test_unity_feedback_of_a_square_loop_is_jump_feedback():
+    CL = lossy_loop()
+    assert_same_jump_system(ct.feedback(CL, 1), jump_feedback(CL, 1))
+    assert_same_jump_system(ct.feedback(CL, 0.5, sign=1),
+                            jump_feedback(CL, 0.5, sign=1))
+
+
+def test_mismatched_operand_names_the_sizes():
+    from control.exception import ControlDimension
+    G3 = ct.ss([], [], [], np.ones((3, 3)), DT)
+    with pytest.raises(ControlDimension, match="2 inputs and 2 outputs"):
+        lossy_loop() * G3
