@@ -1274,6 +1274,15 @@ def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
     one-mode jump system."""
     if isinstance(sys, JumpStateSpace):
         return sys
+    from control.exception import ControlArgument
+    from .plant import NetworkedStateSpace  # plant.py builds on jump.py
+    if isinstance(sys, NetworkedStateSpace):
+        # its StateSpace face is the plant without its network: analysing it
+        # as a deterministic system would silently drop every loss
+        raise ControlArgument(
+            f"{name}: got a NetworkedStateSpace, a plant with its network but "
+            f"no loop; close it first with control_ncs.feedback(P, K), or "
+            f"pass ct.ss(P) to analyse the plant without its network")
     if isinstance(sys, ct.TransferFunction):
         sys = ct.ss(sys)
     if isinstance(sys, ct.StateSpace):
@@ -1283,7 +1292,6 @@ def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
                               inputs=list(sys.input_labels),
                               outputs=list(sys.output_labels),
                               states=list(sys.state_labels), name=sys.name)
-    from control.exception import ControlArgument
     raise ControlArgument(f"{name}: expected a JumpStateSpace (see jss() or "
                           f"control_ncs.feedback()) or a discrete-time "
                           f"control.StateSpace or TransferFunction, got "

@@ -510,3 +510,11 @@ def test_mismatched_operand_names_the_sizes():
     G3 = ct.ss([], [], [], np.ones((3, 3)), DT)
     with pytest.raises(ControlDimension, match="2 inputs and 2 outputs"):
         lossy_loop() * G3
+
+
+def test_networked_plant_is_not_analysed_as_a_deterministic_loop():
+    P = plant()
+    for analyse in (cn.ms_radius, lambda S: cn.moments(S, 3),
+                    lambda S: cn.simulate(S, 3, trials=2, seed=0)):
+        with pytest.raises(ControlArgument, match="close it first"):
+            analyse(P)
