@@ -292,7 +292,9 @@ class JumpStateSpace(ct.StateSpace):
     Calls python-control does not dispatch to this object (a
     ``TransferFunction`` on the left, ``control.feedback(G, sys)``,
     ``control.append(G, sys)``, ``control.interconnect``) read the face and
-    return the mean system; :func:`control_ncs.interconnect` is the exact
+    return an ordinary system built from the mean (the exact mean of the
+    interconnection only if no algebraic loop multiplies two mode-dependent
+    matrices); :func:`control_ncs.interconnect` is the exact
     interconnection by signal names. ``==`` and ``hash`` are by identity,
     as for python-control's systems; :meth:`equals` compares values.
 
