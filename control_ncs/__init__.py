@@ -1,54 +1,43 @@
 """control_ncs: networked control systems for python-control.
 
 A plant talks to its controller over a shared, lossy, scheduled network;
-the closed loop is a periodic jump linear system. See ``../README.md`` and
-the mathematics in ``docs/`` (MATH §-references in docstrings).
+the closed loop is a periodic jump linear system. The package models it
+(:func:`nss`, :func:`feedback`, :func:`jss`), analyses it exactly
+(:func:`ms_radius`, :func:`moments`, :func:`ispassive`, :func:`simulate`) and
+designs verified passive controllers (:func:`passivesyn`). See the README and
+the theory pages in ``docs/``.
+
+The public names are those of the modules below, each owning one idea; the
+package's ``__all__`` is the union of theirs. Engine modules (``lmi``,
+``riccati``, ``kyp``, ``driver``, ``montecarlo``) and the independent
+reference simulator (``protocol``) export nothing here.
 """
 
-from .network import Schedule, schedule, mode_probabilities
-from .jump import JumpStateSpace, JumpPlant, Modes, jss, lift
-from .plant import NetworkedStateSpace, nss
-from .gain import PeriodicGain
-from .strategies import build, feedback
-from .stability import ms_radius, is_mss, second_moment_operator
-from .meancov import moments, MomentsResponse
-from .exceptions import CertificationError, SynthesisError
-from .verify import (Certificate, check_certificate, certified_index,
-                     certify_index, certify_ofp_index, dissipation_matrices)
-from .passivity import (ispassive, get_input_ff_index, get_output_fb_index,
-                        mean_input_ff_index,
-                        frequency_ff_index, passivity_certificate,
-                        PassivityResult)
-from .synthesis import passivesyn, SynthesisResult
-from .responses import (simulate, SamplePaths, EnsembleResponse,
-                        forced_response, step_response, impulse_response,
-                        initial_response)
-from .plots import plot_ensemble, schedule_plot
-from .connect import jump_feedback, lift_lti
-from .sweeps import (design_map, DesignMap, schedule_search, ScheduleSearch,
-                     RankedSchedule)
-
-__all__ = [
-    "Schedule", "schedule", "mode_probabilities",
-    "JumpStateSpace", "JumpPlant", "Modes", "jss", "lift",
-    "NetworkedStateSpace", "nss", "PeriodicGain", "build", "feedback",
-    "ms_radius", "is_mss", "second_moment_operator",
-    "moments", "MomentsResponse",
-    "Certificate", "CertificationError", "SynthesisError",
-    "check_certificate", "certified_index", "certify_index",
-    "certify_ofp_index", "dissipation_matrices",
-    "ispassive", "get_input_ff_index", "get_output_fb_index",
-    "mean_input_ff_index",
-    "frequency_ff_index", "passivity_certificate", "PassivityResult",
-    "passivesyn", "SynthesisResult",
-    "simulate", "SamplePaths", "EnsembleResponse", "forced_response",
-    "step_response", "impulse_response", "initial_response", "plot_ensemble",
-    "jump_feedback", "lift_lti", "schedule_plot",
-    "design_map", "DesignMap", "schedule_search", "ScheduleSearch",
-    "RankedSchedule",
-]
-
 from importlib.metadata import PackageNotFoundError, version as _version
+
+from . import (connect, exceptions, gain, jump, meancov, network, passivity,
+               plant, plots, responses, stability, strategies, sweeps,
+               synthesis, verify)
+from .connect import *  # noqa: F403
+from .exceptions import *  # noqa: F403
+from .gain import *  # noqa: F403
+from .jump import *  # noqa: F403
+from .meancov import *  # noqa: F403
+from .network import *  # noqa: F403
+from .passivity import *  # noqa: F403
+from .plant import *  # noqa: F403
+from .plots import *  # noqa: F403
+from .responses import *  # noqa: F403
+from .stability import *  # noqa: F403
+from .strategies import *  # noqa: F403
+from .sweeps import *  # noqa: F403
+from .synthesis import *  # noqa: F403
+from .verify import *  # noqa: F403
+
+__all__ = [name for module in (
+    network, jump, plant, gain, strategies, stability, meancov, exceptions,
+    verify, passivity, synthesis, responses, plots, connect, sweeps)
+    for name in module.__all__]
 
 try:
     __version__ = _version("control_ncs")

@@ -10,6 +10,25 @@ from control.exception import ControlArgument, ControlDimension
 __all__: list[str] = []
 
 
+def caller_stacklevel() -> int:
+    """``stacklevel`` for :func:`warnings.warn` that names the user's line.
+
+    Counts the frames of this package above the function that warns, so
+    that the warning points at the first caller outside ``control_ncs``
+    however deep inside the package it was raised.
+    """
+    import os
+    import sys
+    package = os.path.dirname(os.path.abspath(__file__))
+    frame: Any = sys._getframe(1)  # the function that calls warnings.warn
+    level = 1
+    while frame is not None and os.path.dirname(
+            os.path.abspath(frame.f_code.co_filename)) == package:
+        frame = frame.f_back
+        level += 1
+    return level
+
+
 #: Largest magnitude accepted for an entry of a matrix: squares of larger
 #: numbers overflow float64 (about 1.3e154), which would surface later as an
 #: OverflowError or LinAlgError deep inside a Kronecker product or a solver.

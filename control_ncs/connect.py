@@ -30,19 +30,24 @@ about the mean:
   the mean* of a loop with a deterministic LTI system. Mean-square
   stability (:func:`control_ncs.ms_radius` < 1, MATH §5) is stronger: the
   mean can converge while ``E‖ξ‖²`` diverges, never the other way round.
-* ``control.feedback(sys, G)``, ``series``, ``parallel`` with a deterministic
-  LTI ``G`` of the same ``dt`` (for ``N > 1``, with ``lift_lti(G, N)``):
-  a plain ``StateSpace``, the mean of the interconnected jump system.
-  ``series`` and ``parallel`` are always exact. ``feedback`` is exact when
-  ``G`` has no direct feedthrough (``D_G = 0``: the input the jump system
-  receives at time ``t`` then depends on the past only, hence not on the
-  mode drawn at ``t``), and also when ``D`` and one of ``B``, ``C`` of the
-  jump system are the same in every mode -- as in every static-gain loop of
-  :func:`control_ncs.feedback` (``B = B1``, ``D = D11``). Otherwise the
-  algebraic loop through ``D_G`` multiplies two mode-dependent matrices and
-  ``feedback`` of the means is only an approximation of the mean;
-  :func:`jump_feedback` is exact in every case, and is the interconnection
-  to simulate and to analyse.
+* ``control.feedback(sys, G)``, ``series``, ``parallel``, ``append``, the
+  operators ``sys * G``, ``G * sys``, ``sys + G``, ``sys - G``, ``-sys``
+  and indexing ``sys[i, j]`` with a deterministic LTI ``G`` (StateSpace,
+  TransferFunction, scalar or array) of the same base step ``dt``: python-
+  control dispatches them to the jump system's methods, which return a
+  ``JumpStateSpace`` built mode by mode (each mode is python-control's
+  operation on that mode; the probabilities are kept). This is exact for
+  any ``N`` (``G`` runs at the base rate, indices refer to the per-step
+  signals) and equals :func:`jump_feedback`; an algebraic loop through
+  ``G``'s feedthrough is closed inside each mode. Two jump systems together
+  are refused: their modes are independent only if you say so.
+  Where python-control does not dispatch to the jump system -- a
+  ``TransferFunction`` on the left (``H * sys``, ``H + sys``),
+  ``control.feedback(G, sys)`` and ``control.append(G, sys)`` with ``G``
+  first, and ``control.interconnect`` -- it reads the StateSpace face and
+  returns an ordinary system of the **mean**. Put the jump system first,
+  convert ``H`` with ``control.ss``, or use :func:`interconnect`, which
+  mirrors ``control.interconnect`` mode by mode.
 * ``control.ispassive(sys)``: passivity of the mean system, i.e. for
   deterministic inputs only. It is **not** stochastic passivity (MATH §6),
   which covers inputs that depend on the past -- as they do in any feedback
@@ -54,7 +59,8 @@ about the mean:
 from __future__ import annotations
 
 import numbers
-from typing import Any
+import warnings
+from typing import Any, Sequence
 
 import numpy as np
 import control as ct
@@ -64,7 +70,7 @@ from ._checks import discrete_dt, no_extra_kwargs, real_array
 from .jump import JumpStateSpace, lifted_names, as_jump, lift
 from .plant import NetworkedStateSpace
 
-__all__ = ["jump_feedback", "lift_lti"]
+__all__ = ["jump_feedback", "lift_lti", "interconnect"]
 
 
 def _deterministic(other: Any, rows: int, cols: int) -> ct.StateSpace:
@@ -121,12 +127,14 @@ def jump_feedback(sys: Any, other: Any = 1, sign: float = -1, *,
     ``other``, with the same probabilities. ``other`` is time-invariant, so
     any period ``N`` works. The state is ``[ξ; x_other]``.
 
-    Its StateSpace face is the exact mean of the loop (MATH §7). It equals
-    ``control.feedback(sys, other, sign)`` (for ``N > 1``:
-    ``control.feedback(sys, lift_lti(other, N), sign)``) when ``other`` is
-    strictly proper, or when ``D`` and one of ``B``, ``C`` of ``sys`` do not
-    depend on the mode (every static-gain loop of
-    :func:`control_ncs.feedback`); see the module notes.
+    ``control.feedback(sys, other, sign)`` returns the same jump system
+    (python-control dispatches to :meth:`JumpStateSpace.feedback`). Its
+    StateSpace face is the exact mean of the loop (MATH §7). It equals the
+    feedback of the means, ``control.feedback(sys.mean(), other, sign)``
+    (for ``N > 1``: with ``lift_lti(other, N)``) when ``other`` is strictly
+    proper, or when ``D`` and one of ``B``, ``C`` of ``sys`` do not depend
+    on the mode (every static-gain loop of :func:`control_ncs.feedback`);
+    see the module notes.
 
     Parameters
     ----------
@@ -170,8 +178,10 @@ def jump_feedback(sys: Any, other: Any = 1, sign: float = -1, *,
     >>> loop = jump_feedback(sys, G)
     >>> loop.nmodes, loop.nstates
     (2, 2)
-    >>> bool(np.allclose(loop.A, ct.feedback(sys, G).A))
+    >>> bool(np.allclose(loop.A, ct.feedback(sys.mean(), G).A))
     True
+    >>> type(ct.feedback(sys, G)).__name__          # python-control's call
+    'JumpStateSpace'
     """
     no_extra_kwargs("jump_feedback", kwargs)
     J = as_jump(sys, "sys")
@@ -223,8 +233,10 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
     ``[y[jN]; …; y[jN+N-1]]`` (time-major, as the face of a
     :class:`~control_ncs.jump.JumpStateSpace` with period ``N``) with
     sampling time ``N·dt``; signals are named ``'u[0][k]'``. Use it to
-    interconnect python-control systems with the lifted face, e.g.
-    ``control.feedback(loop, lift_lti(G, loop.period))``.
+    interconnect python-control systems with the lifted mean face, e.g.
+    ``control.feedback(loop.mean(), lift_lti(G, loop.period))`` (for the
+    jump system itself, interconnect ``G`` at the base rate:
+    ``control.feedback(loop, G)``).
 
     Parameters
     ----------
@@ -271,3 +283,133 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
                          inputs=lifted_names(G.input_labels, N),
                          outputs=lifted_names(G.output_labels, N),
                          states=list(G.state_labels), name=f"{G.name}$lifted")
+
+
+def interconnect(syslist: Sequence[Any], connections: Any = None,
+                 inplist: Any = None, outlist: Any = None,
+                 **kwargs: Any) -> JumpStateSpace:
+    """Interconnect a jump system with deterministic LTI systems, by names.
+
+    Mirrors :func:`control.interconnect` (same arguments, same signal-name
+    conventions, e.g. ``'CL.z[0]'`` or ``'z[0]'`` with
+    ``connections=None``), but keeps the randomness: for every phase ``k``
+    and mode ``i``, python-control interconnects mode ``(k, i)`` of the
+    jump system (a :class:`control.StateSpace` at the base step with the
+    jump system's name and per-step signal names ``jump_inputs``,
+    ``jump_outputs``) with the other systems; the result keeps the modes,
+    their probabilities and the loss-free mode. This is exact (MATH §7,
+    §10): the other systems are deterministic and have no modes, and an
+    algebraic loop is closed inside each mode, as in :func:`jump_feedback`.
+
+    ``control.interconnect`` itself accepts a JumpStateSpace too, but sees
+    only its StateSpace face: it returns the interconnection of the mean
+    system, which is the mean of this function's result when no algebraic
+    loop runs through two mode-dependent matrices.
+
+    Parameters
+    ----------
+    syslist : sequence
+        Exactly one :class:`~control_ncs.jump.JumpStateSpace` and any number
+        of deterministic discrete-time :class:`control.StateSpace` or
+        :class:`control.TransferFunction` systems with the same base step
+        ``dt`` (or an unspecified one), time-invariant at that rate for any
+        period ``N``.
+    connections, inplist, outlist : optional
+        As in :func:`control.interconnect`.
+    **kwargs
+        ``name`` of the result, and any keyword of
+        :func:`control.interconnect` (``inputs``, ``outputs``, ``states``,
+        ``check_unused``, ``add_unused``, ...); python-control raises
+        ``TypeError`` for an unknown one.
+
+    Returns
+    -------
+    JumpStateSpace
+        Signals as python-control names them for the interconnection;
+        ``info`` adds an ``'interconnect'`` entry (the other systems' names).
+
+    Raises
+    ------
+    ControlArgument
+        If ``syslist`` holds no jump system, two of them (their modes are
+        independent only if you say so: build one jump system over the joint
+        modes with :func:`control_ncs.jss`), a networked plant, or a
+        nonlinear system.
+    ValueError
+        If a system is continuous-time or its sampling period differs.
+
+    Examples
+    --------
+    A lossy loop whose input is shaped by a first-order disturbance model:
+
+    >>> from control_ncs.connect import interconnect
+    >>> CL = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7],
+    ...          name="CL", inputs="w", outputs="z")
+    >>> W = ct.ss([[0.8]], [[1.0]], [[0.2]], [[0.0]], True, name="W",
+    ...           inputs="d", outputs="w")
+    >>> sys = interconnect([W, CL], inplist="d", outlist="z", inputs="d",
+    ...                    outputs="z", name="shaped")
+    >>> sys.nmodes, sys.nstates, sys.input_labels, sys.output_labels
+    (2, 2, ['d'], ['z'])
+    """
+    if isinstance(syslist, (ct.InputOutputSystem, str)) or not isinstance(
+            syslist, (list, tuple)):
+        raise ControlArgument(f"syslist: expected a list of systems, got "
+                              f"{type(syslist).__name__}")
+    jumps = [s for s in syslist if isinstance(s, JumpStateSpace)]
+    if not jumps:
+        raise ControlArgument("syslist: no JumpStateSpace; for deterministic "
+                              "systems only, use control.interconnect")
+    if len(jumps) > 1:
+        raise ControlArgument(
+            f"syslist: {len(jumps)} jump systems "
+            f"({', '.join(j.name for j in jumps)}). Their modes are "
+            f"independent only if you say so, and the interconnection needs "
+            f"the joint law of the mode sequences: build one jump system "
+            f"over the joint modes with jss() (products of the "
+            f"probabilities if independent)")
+    J = jumps[0]
+    others: list[ct.StateSpace | None] = []
+    for s in syslist:
+        if s is J:
+            others.append(None)
+            continue
+        if isinstance(s, NetworkedStateSpace):
+            raise ControlArgument(
+                f"syslist: {s.name} is a NetworkedStateSpace, a plant without "
+                f"its network loop; close it first (control_ncs.feedback)")
+        if isinstance(s, ct.TransferFunction):
+            s = ct.ss(s)
+        if not isinstance(s, ct.StateSpace):
+            raise ControlArgument(
+                f"syslist: expected deterministic LTI systems (StateSpace, "
+                f"TransferFunction) besides the jump system, got "
+                f"{type(s).__name__}")
+        if ct.isctime(s, strict=True):
+            raise ValueError(f"syslist: {s.name} is continuous-time; discretize "
+                             f"it with {s.name}.sample({J.dt_step})")
+        _common_dt(J.dt_step, s.dt)
+        others.append(s)
+    name = kwargs.pop("name", None)
+
+    def mode(k: int, i: int) -> ct.StateSpace:
+        mode_sys = J._mode_system(k, i)
+        return ct.interconnect([mode_sys if s is None else s for s in others],
+                               connections, inplist, outlist, **kwargs)
+
+    first = mode(0, 0)  # python-control's warnings (unused signals) once
+    done = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for k in range(J.period):
+            done.append([first if (k, i) == (0, 0) else mode(k, i)
+                         for i in range(J.nmodes)])
+    A, B, C, D = (np.array([[getattr(S, X) for S in row] for row in done],
+                           dtype=float) for X in "ABCD")
+    dt = J.dt_step if first.dt is True else first.dt
+    info = dict(J.info, interconnect=[s.name for s in others if s is not None])
+    return JumpStateSpace(A, B, C, D, J.modes.probabilities, dt,
+                          nominal=J.nominal_mode, name=name,
+                          inputs=list(first.input_labels),
+                          outputs=list(first.output_labels),
+                          states=list(first.state_labels), info=info)

@@ -98,7 +98,7 @@ def run_demo(outdir: str = "demo-output", *, trials: int = 200, seed: int = 0,
     from .strategies import feedback
     from .synthesis import passivesyn
     from .plots import schedule_plot
-    from .verify import SynthesisError
+    from .exceptions import SynthesisError
 
     say = print if verbose else (lambda *a, **k: None)
     os.makedirs(outdir, exist_ok=True)

@@ -78,7 +78,7 @@ class Outcome:
         return self.reason is None
 
     def figures(self) -> dict:
-        """The figures a :class:`~control_ncs.verify.SynthesisError` carries."""
+        """The figures a :class:`~control_ncs.exceptions.SynthesisError` carries."""
         report = self.report or (self.attempts[-1] if self.attempts else None)
         out: dict[str, Any] = dict(statuses=[a.status for a in self.attempts])
         if report is not None:

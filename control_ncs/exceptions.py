@@ -11,9 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["CertificationError", "SynthesisError", "REASONS", "CERTIFIED",
-           "NOT_MSS", "FEEDTHROUGH", "INFEASIBLE", "SOLVER_FAILED",
-           "INACCURATE", "NOT_VERIFIED"]
+__all__ = ["CertificationError", "SynthesisError", "ScheduleWarning"]
 
 #: A certificate passed the exact checks (a verdict, never an error reason).
 CERTIFIED = "certified"
@@ -35,6 +33,45 @@ NOT_VERIFIED = "not_verified"
 #: Every reason an error may carry.
 REASONS = (NOT_MSS, FEEDTHROUGH, INFEASIBLE, SOLVER_FAILED, INACCURATE,
            NOT_VERIFIED)
+
+#: One sentence per verdict, the ``message`` of a result with that ``status``.
+MESSAGES = {
+    CERTIFIED: "certified: a certificate passed the exact checks",
+    NOT_MSS: "not mean-square stable: no certificate, no index exists",
+    FEEDTHROUGH: "a necessary feedthrough condition fails: no certificate "
+                 "exists at this level",
+    INFEASIBLE: "proven: no certificate exists at this level",
+    SOLVER_FAILED: "the solver failed or was inconclusive: nothing is "
+                   "proven either way",
+    INACCURATE: "the solver's answer stayed inaccurate and no certificate "
+                "passed the exact checks: nothing is proven either way",
+    NOT_VERIFIED: "the answer found fails the exact checks: nothing is "
+                  "proven either way",
+}
+
+
+class ScheduleWarning(UserWarning):
+    """A schedule never lets some sensor or actuator send.
+
+    Raised as a warning (``warnings.warn``), not an error: a node that never
+    sends may be intended, but an index vector such as ``[0, 1, 2, 3]``
+    reads ``0`` as "nobody", so with four sensors sensor 4 never sends.
+    Silence it with :func:`warnings.filterwarnings` on this class.
+
+    Parameters
+    ----------
+    message : str
+        Names the schedule and the nodes that never send.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> issubclass(ScheduleWarning, UserWarning)
+    True
+    """
+
+    def __init__(self, message: str) -> None:
+        super().__init__(message)
 
 
 class CertificationError(RuntimeError):

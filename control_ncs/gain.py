@@ -8,7 +8,7 @@ import numpy as np
 
 from ._checks import choice, real_array
 
-__all__ = ["PeriodicGain", "CONTROLLERS", "ACTUATORS"]
+__all__ = ["PeriodicGain"]
 
 #: Controller kinds: the paper's memoryless gain on the received measurement,
 #: and the model-based predictor of MATH §8b.

@@ -95,6 +95,35 @@ class Modes:
         return tuple(np.einsum("km,kmij->kij", p, M)
                      for M in (self.A, self.B, self.C, self.D))
 
+    def __repr__(self) -> str:
+        N, M, n, m = self.B.shape
+        return (f"<Modes: period {N}, {M} modes per phase, {n} states, "
+                f"{m} inputs, {self.C.shape[2]} outputs>")
+
+    def summary(self) -> str:
+        """A few lines for humans: sizes and the probabilities per phase.
+
+        Returns
+        -------
+        str
+            At most 10 phases and 8 modes shown.
+
+        Examples
+        --------
+        >>> m = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7]).modes
+        >>> print(m.summary())
+        Modes: period 1, 2 modes per phase, 1 states, 1 inputs, 1 outputs
+          phase 0: p = 0.3, 0.7
+        """
+        lines = [repr(self)[1:-1]]
+        for k in range(min(self.period, 10)):
+            p = ", ".join(f"{x:.4g}" for x in self.probabilities[k, :8])
+            more = ", ..." if self.count > 8 else ""
+            lines.append(f"  phase {k}: p = {p}{more}")
+        if self.period > 10:
+            lines.append(f"  ... ({self.period - 10} more phases)")
+        return "\n".join(lines)
+
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Modes) and all(
             np.array_equal(getattr(self, f), getattr(other, f))
@@ -243,19 +272,31 @@ class JumpStateSpace(ct.StateSpace):
     stacked time-major (all channels of phase 0 first) and named
     ``'<signal>[k]'`` for phase ``k`` (e.g. ``'w[0][1]'``: channel ``w[0]``
     at phase 1). Hence ``control.step_response`` and ``control.bode_plot``
-    of this object are exact statements about ``E z``. Products and
-    interconnections return the plain mean :class:`control.StateSpace`.
-    With a deterministic LTI system ``G``, the mean of the interconnection
-    is the interconnection of the means whenever the mode-dependent
-    matrices enter it linearly: always for series and parallel
-    connections, and for a feedback loop when ``G`` has no direct
-    feedthrough (the input at time ``t`` then depends on the past only),
-    or when ``D`` and one of ``B``, ``C`` are the same in every mode (as in
-    every loop of :func:`control_ncs.feedback`). Otherwise the algebraic
-    loop through ``G``'s feedthrough multiplies two mode-dependent
-    matrices and the feedback of the means only approximates the mean;
-    :func:`control_ncs.jump_feedback` is exact in every case and keeps a
-    jump system.
+    of this object are exact statements about ``E z``; for ``N > 1`` they
+    are statements per period (a step of the lifted input ``w[j][k]`` is a
+    pulse train at phase ``k``), and ``control.forced_response`` needs time
+    points spaced by ``N·dt``. For ``E z`` and its spread at the base rate,
+    for any ``N``, use :func:`control_ncs.forced_response`,
+    :func:`control_ncs.step_response` and :func:`control_ncs.moments`; for
+    a readable frequency plot of one phase, :meth:`phase`.
+
+    python-control's algebra keeps the randomness: ``control.feedback``,
+    ``series``, ``parallel``, ``append``, the operators ``*``, ``+``,
+    ``-`` and indexing, with a deterministic LTI system ``G`` (StateSpace,
+    TransferFunction, scalar or array, at the base step), return a
+    ``JumpStateSpace`` built mode by mode (python-control's operation on
+    each mode, probabilities kept): exact, and equal to
+    :func:`control_ncs.jump_feedback` for feedback. Indices refer to the
+    per-step signals for any ``N``. Two jump systems together raise
+    ``ControlArgument`` (their modes are independent only if you say so).
+    Calls python-control does not dispatch to this object (a
+    ``TransferFunction`` on the left, ``control.feedback(G, sys)``,
+    ``control.append(G, sys)``, ``control.interconnect``) read the face and
+    return an ordinary system built from the mean (the exact mean of the
+    interconnection only if no algebraic loop multiplies two mode-dependent
+    matrices); :func:`control_ncs.interconnect` is the exact
+    interconnection by signal names. ``==`` and ``hash`` are by identity,
+    as for python-control's systems; :meth:`equals` compares values.
 
     Build one with :func:`jss` or :func:`control_ncs.feedback`. Its arrays
     (the modes and the mean face) are read-only, so the face stays the mean
@@ -527,6 +568,300 @@ class JumpStateSpace(ct.StateSpace):
                               outputs=self.jump_outputs, states=self.jump_states,
                               info=self.info)
 
+    def phase(self, k: int) -> ct.StateSpace:
+        """The mean system of phase ``k`` at the base rate, as a plain StateSpace.
+
+        For frequency plots of one phase when ``N > 1``: the lifted face
+        (``N·dt``, stacked signals) is exact but its Bode plot has
+        ``N·p × N·m`` panels. This is the phase-``k`` mean
+        ``(Σ p A, Σ p B, Σ p C, Σ p D)`` frozen in time, with step ``dt``
+        and the per-step signal names: the loop as it would be if every
+        step were phase ``k``. For ``N = 1`` it is :meth:`mean` itself; for
+        ``N > 1`` it is a view of one phase, not a statement about ``E z``
+        of the periodic loop (the face and the package's base-rate
+        responses, :func:`control_ncs.step_response` and
+        :func:`control_ncs.forced_response`, are).
+
+        Parameters
+        ----------
+        k : int
+            Time step or phase; taken modulo the period.
+
+        Returns
+        -------
+        control.StateSpace
+            Named ``'<name>$phase<k>'``.
+
+        Examples
+        --------
+        >>> sys = jss([[[[0.5]]], [[[0.9]]]], [[1.0]], [[1.0]], [[0.0]],
+        ...           [[1.0], [1.0]], dt=0.1)
+        >>> sys.dt, sys.ninputs                   # the lifted face
+        (0.2, 2)
+        >>> one = sys.phase(1)
+        >>> one.A.tolist(), one.dt, one.input_labels
+        ([[0.9]], 0.1, ['w[0]'])
+        """
+        k = int(k) % self.period
+        return ct.StateSpace(*self.mean_phase(k), self.dt_step,
+                             inputs=self.jump_inputs, outputs=self.jump_outputs,
+                             states=self.jump_states,
+                             name=f"{self.name}$phase{k}")
+
+    def update_names(self, **kwargs: Any) -> None:
+        """Rename the system or its per-step signals (as python-control).
+
+        Parameters
+        ----------
+        **kwargs
+            ``name``, and ``inputs``, ``outputs``, ``states`` naming the
+            per-step signals ``w``, ``z``, ``ξ`` (the lifted face's names
+            follow); anything else raises ``TypeError``.
+        """
+        allowed = {"name", "inputs", "outputs", "states"}
+        extra = set(kwargs) - allowed
+        if extra:
+            raise TypeError(f"update_names: unknown keyword(s) "
+                            f"{sorted(extra)}; expected {sorted(allowed)}")
+        n = self.modes.A.shape[-1]
+        counts = dict(inputs=len(self.jump_inputs),
+                      outputs=len(self.jump_outputs), states=n)
+        prefix = dict(inputs="w", outputs="z", states="x")
+        face: dict = {}
+        for key in ("inputs", "outputs", "states"):
+            if key in kwargs:
+                names = _names(kwargs[key], counts[key], prefix[key], key)
+                setattr(self, f"jump_{key}", names)
+                face[key] = (names if key == "states"
+                             else lifted_names(names, self.period))
+        if "name" in kwargs:
+            face["name"] = kwargs["name"]
+        super().update_names(**face)
+
+    # -- python-control algebra, mode by mode (MATH §7, §10) ----------------
+    # python-control's operators, feedback, append and indexing dispatch to
+    # these methods (ct.series and ct.parallel call the operators; Python
+    # calls a subclass's reflected operator first, so ``G * CL`` reaches
+    # __rmul__). With a deterministic LTI ``G`` each mode of the result is
+    # python-control's operation on that mode, at the base rate, with the
+    # same probabilities: exact, because ``G`` has no modes and the mode at
+    # time t is the same draw on both sides (an algebraic loop is closed
+    # inside the mode, as in control_ncs.jump_feedback).
+    def _mode_system(self, k: int, i: int) -> ct.StateSpace:
+        """Mode ``i`` of phase ``k`` as a StateSpace at the base rate."""
+        return ct.StateSpace(*self.mode(k, i), self.dt_step,
+                             inputs=self.jump_inputs,
+                             outputs=self.jump_outputs,
+                             states=self.jump_states, name=self.name)
+
+    def _operand(self, other: Any, what: str) -> Any:
+        """``other`` checked to be deterministic LTI data at the base rate."""
+        from control.exception import ControlArgument
+        if isinstance(other, JumpStateSpace):
+            raise ControlArgument(
+                f"{what}: both operands are jump systems. Their modes are "
+                f"independent only if you say so, and python-control's "
+                f"algebra cannot: the interconnection needs the joint law of "
+                f"the two mode sequences. Build one jump system over the "
+                f"joint modes with jss() (products of the probabilities if "
+                f"independent), or use the mean systems .mean() knowingly "
+                f"(exact for E z only without an algebraic loop)")
+        from .plant import NetworkedStateSpace  # plant.py builds on jump.py
+        if isinstance(other, NetworkedStateSpace):
+            raise ControlArgument(
+                f"{what}: other is a NetworkedStateSpace, a plant without its "
+                f"network loop; close it first (control_ncs.feedback)")
+        if isinstance(other, ct.TransferFunction):
+            other = ct.ss(other)
+        if isinstance(other, ct.StateSpace):
+            if ct.isctime(other, strict=True):
+                raise ValueError(f"{what}: other is continuous-time; a jump "
+                                 f"system is discrete-time (dt = "
+                                 f"{self.dt_step}); discretize it with "
+                                 f"other.sample(dt)")
+            if other.dt is not True and self.dt_step is not True \
+                    and not np.isclose(other.dt, self.dt_step, rtol=1e-12,
+                                       atol=0):
+                hint = (f" (N = {self.period}: the modes act per step, so "
+                        f"other must run at the base rate dt, not N·dt)"
+                        if np.isclose(other.dt, self.dt_step * self.period)
+                        else "")
+                raise ValueError(f"{what}: sampling periods differ: the jump "
+                                 f"system steps with dt = {self.dt_step}, "
+                                 f"other has dt = {other.dt}{hint}")
+            return other
+        if isinstance(other, ct.InputOutputSystem):
+            raise ControlArgument(
+                f"{what}: expected a deterministic LTI system (StateSpace, "
+                f"TransferFunction), a scalar or an array, got "
+                f"{type(other).__name__}")
+        if isinstance(other, (list, tuple)):
+            other = np.array(other, dtype=float)
+        if isinstance(other, (int, float, np.number, np.ndarray)) \
+                and not isinstance(other, (bool, np.bool_, complex)):
+            return other
+        return NotImplemented
+
+    def _modewise(self, op: Any, what: str, *, name: str | None = None,
+                  names: dict | None = None) -> "JumpStateSpace":
+        """The jump system whose mode (k, i) is ``op`` of mode (k, i)."""
+        N, M = self.period, self.nmodes
+        try:
+            first = op(self._mode_system(0, 0))
+        except ValueError as err:
+            # python-control's message names neither side's sizes
+            raise ControlDimension(
+                f"{what}: {err} (the jump system has "
+                f"{len(self.jump_inputs)} inputs and "
+                f"{len(self.jump_outputs)} outputs per step)") from err
+        done = [[first if k == i == 0 else op(self._mode_system(k, i))
+                 for i in range(M)] for k in range(N)]
+        A, B, C, D = (np.array([[getattr(S, X) for S in row] for row in done],
+                               dtype=float) for X in "ABCD")
+        labels = dict(inputs=list(first.input_labels),
+                      outputs=list(first.output_labels),
+                      states=list(first.state_labels))
+        labels.update(names or {})
+        dt = self.dt_step if first.dt is True else first.dt
+        return JumpStateSpace(A, B, C, D, self.modes.probabilities, dt,
+                              nominal=self.nominal_mode, name=name,
+                              info=dict(self.info, algebra=what),
+                              inputs=labels["inputs"],
+                              outputs=labels["outputs"],
+                              states=labels["states"])
+
+    def __neg__(self) -> "JumpStateSpace":
+        return self._modewise(lambda S: -S, "-sys")
+
+    def __add__(self, other: Any) -> Any:
+        G = self._operand(other, "sys + other")
+        if G is NotImplemented:
+            return G
+        return self._modewise(lambda S: S + G, "sys + other")
+
+    def __radd__(self, other: Any) -> Any:
+        G = self._operand(other, "other + sys")
+        if G is NotImplemented:
+            return G
+        return self._modewise(lambda S: G + S, "other + sys")
+
+    def __sub__(self, other: Any) -> Any:
+        G = self._operand(other, "sys - other")
+        if G is NotImplemented:
+            return G
+        return self._modewise(lambda S: S - G, "sys - other")
+
+    def __rsub__(self, other: Any) -> Any:
+        G = self._operand(other, "other - sys")
+        if G is NotImplemented:
+            return G
+        return self._modewise(lambda S: G - S, "other - sys")
+
+    def __mul__(self, other: Any) -> Any:
+        G = self._operand(other, "sys * other")
+        if G is NotImplemented:
+            return G
+        return self._modewise(lambda S: S * G, "sys * other")
+
+    def __rmul__(self, other: Any) -> Any:
+        G = self._operand(other, "other * sys")
+        if G is NotImplemented:
+            return G
+        return self._modewise(lambda S: G * S, "other * sys")
+
+    def __truediv__(self, other: Any) -> Any:
+        G = self._operand(other, "sys / other")
+        if G is NotImplemented:
+            return G
+        return self._modewise(lambda S: S / G, "sys / other")
+
+    def __rtruediv__(self, other: Any) -> Any:
+        return self._refuse("other / sys")
+
+    def __pow__(self, other: Any) -> Any:
+        if type(other) is int and other == 1:
+            return self._modewise(lambda S: S, "sys ** 1")
+        if type(other) is int and other == -1:
+            # the inverse of the map at each step is the inverse of its mode
+            return self._modewise(lambda S: S ** -1, "sys ** -1")
+        return self._refuse(f"sys ** {other!r}")
+
+    def _refuse(self, what: str) -> Any:
+        from control.exception import ControlArgument
+        raise ControlArgument(
+            f"{what}: not defined for a jump system: it would put two copies "
+            f"of the same random system in series, whose modes are neither "
+            f"the same draw nor independent; build the interconnection with "
+            f"control_ncs.interconnect or jss()")
+
+    def __getitem__(self, key: Any) -> "JumpStateSpace":
+        # indices and names refer to the per-step signals z (rows) and w
+        # (columns) for any N, not to the lifted face's stacked ones
+        first = self._mode_system(0, 0)[key]
+        return self._modewise(lambda S: S[key], f"sys[{key!r}]",
+                              name=first.name)
+
+    def append(self, other: Any) -> "JumpStateSpace":
+        """Append a deterministic LTI system, mode by mode (python-control's).
+
+        Parameters
+        ----------
+        other : StateSpace, TransferFunction, scalar or array
+            Deterministic, with the same base step ``dt``.
+
+        Returns
+        -------
+        JumpStateSpace
+            Inputs and outputs of ``self`` then of ``other``; same modes.
+        """
+        G = self._operand(other, "append(sys, other)")
+        if G is NotImplemented:
+            return self._refuse("append(sys, other)")
+        return self._modewise(lambda S: S.append(G), "append(sys, other)")
+
+    def feedback(self, other: Any = 1, sign: float = -1, **kwargs: Any
+                 ) -> "JumpStateSpace":
+        """Feedback with a deterministic LTI system, mode by mode.
+
+        :func:`control.feedback` calls this method. Each mode of the result
+        is python-control's feedback of that mode with ``other`` (an
+        algebraic loop through ``other``'s feedthrough is closed inside the
+        mode, exactly); the result equals
+        :func:`control_ncs.jump_feedback`.
+
+        Parameters
+        ----------
+        other : StateSpace, TransferFunction, scalar or array, optional
+            Deterministic feedback path with the same base step ``dt``.
+        sign : float, optional
+            Feedback sign (default -1).
+        **kwargs
+            ``name``, ``inputs``, ``outputs``, ``states`` for the result.
+
+        Returns
+        -------
+        JumpStateSpace
+            Same inputs and outputs as ``self``; the state is
+            ``[ξ; x_other]``.
+        """
+        G = self._operand(other, "feedback(sys, other)")
+        if G is NotImplemented:
+            return self._refuse("feedback(sys, other)")
+        m, p = len(self.jump_inputs), len(self.jump_outputs)
+        if np.ndim(G) == 0 and not isinstance(G, ct.StateSpace) and m == p:
+            G = G * np.eye(m)  # a scalar gain on every channel, as jump_feedback
+        if isinstance(G, ct.StateSpace):
+            gstates = [f"{G.name}.{x}" for x in G.state_labels]
+        else:
+            gstates = []
+        loop = self._modewise(
+            lambda S: S.feedback(G, sign), "feedback(sys, other)",
+            names=dict(inputs=self.jump_inputs, outputs=self.jump_outputs,
+                       states=self.jump_states + gstates))
+        if kwargs:
+            loop.update_names(**kwargs)
+        return loop
+
     # -- python protocol -----------------------------------------------------
     def __reduce__(self) -> tuple:
         # control.StateSpace holds lambdas and cannot be pickled; rebuild
@@ -536,16 +871,41 @@ class JumpStateSpace(ct.StateSpace):
                                self.nominal_mode, self.name, self.jump_inputs,
                                self.jump_outputs, self.jump_states, self.info))
 
-    def __eq__(self, other: object) -> bool:
-        # Equal systems: same modes, step, signal names and loss-free mode.
+    def equals(self, other: object) -> bool:
+        """Whether ``other`` is the same jump system, value by value.
+
+        Same modes and probabilities, step, signal names and loss-free mode
+        (the name and ``info`` are not compared).
+
+        Parameters
+        ----------
+        other : object
+            Anything; only a :class:`JumpStateSpace` can be equal.
+
+        Returns
+        -------
+        bool
+
+        Examples
+        --------
+        >>> import copy
+        >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+        >>> twin = copy.deepcopy(sys)
+        >>> sys.equals(twin), sys == twin
+        (True, False)
+        """
         return (type(other) is type(self) and self.modes == other.modes
                 and self.dt_step == other.dt_step
                 and self.jump_inputs == other.jump_inputs
                 and self.jump_outputs == other.jump_outputs
                 and _same_nominal(self.nominal_mode, other.nominal_mode))
 
-    # unhashable, as Modes
-    __hash__ = None  # type: ignore[assignment]
+    # ``==`` and ``hash`` are by identity, as for every python-control
+    # system: ct.interconnect and dicts key systems by object, and a value
+    # ``==`` with an identity hash would break dict semantics (equal objects
+    # must hash equal). Compare values with :meth:`equals`.
+    __eq__ = object.__eq__
+    __hash__ = object.__hash__
 
     def __repr__(self) -> str:
         n = self.modes.A.shape[-1]
@@ -807,7 +1167,9 @@ class JumpPlant:
         Returns
         -------
         JumpStateSpace
-            Coinciding modes merged.
+            Coinciding modes merged; named ``'<plant> (closed loop)'`` after
+            ``info['plant']``, the plant's name, when the builder recorded
+            it (as :func:`control_ncs.build` does).
         """
         K = np.asarray(gains, float)
         F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
@@ -817,9 +1179,12 @@ class JumpPlant:
         loop = (A, self.Bw, C, self.Dw)
         groups, nominal = _merge_groups(loop, self.probabilities, self.nominal)
         (A, B, C, D), p = _apply_groups(loop, self.probabilities, groups)
+        plant = self.info.get("plant")
         return JumpStateSpace(A, B, C, D, p, self.dt, nominal=nominal,
                               inputs=self.inputs, outputs=self.outputs,
                               states=self.states,
+                              name=None if plant is None
+                              else f"{plant} (closed loop)",
                               info=dict(self.info, gains=K, **info))
 
     def merged(self) -> "JumpPlant":
@@ -906,9 +1271,22 @@ class JumpPlant:
 
 def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
     """``sys`` as a :class:`JumpStateSpace`; a deterministic discrete-time
-    :class:`control.StateSpace` becomes a one-mode jump system."""
+    :class:`control.StateSpace` (or :class:`control.TransferFunction`,
+    converted with :func:`control.ss`, as python-control does) becomes a
+    one-mode jump system."""
     if isinstance(sys, JumpStateSpace):
         return sys
+    from control.exception import ControlArgument
+    from .plant import NetworkedStateSpace  # plant.py builds on jump.py
+    if isinstance(sys, NetworkedStateSpace):
+        # its StateSpace face is the plant without its network: analysing it
+        # as a deterministic system would silently drop every loss
+        raise ControlArgument(
+            f"{name}: got a NetworkedStateSpace, a plant with its network but "
+            f"no loop; close it first with control_ncs.feedback(P, K), or "
+            f"pass ct.ss(P) to analyse the plant without its network")
+    if isinstance(sys, ct.TransferFunction):
+        sys = ct.ss(sys)
     if isinstance(sys, ct.StateSpace):
         dt = discrete_dt(sys.dt, f"{name}.dt")
         return JumpStateSpace(sys.A[None], sys.B[None], sys.C[None],
@@ -916,7 +1294,7 @@ def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
                               inputs=list(sys.input_labels),
                               outputs=list(sys.output_labels),
                               states=list(sys.state_labels), name=sys.name)
-    from control.exception import ControlArgument
     raise ControlArgument(f"{name}: expected a JumpStateSpace (see jss() or "
                           f"control_ncs.feedback()) or a discrete-time "
-                          f"control.StateSpace, got {type(sys).__name__}")
+                          f"control.StateSpace or TransferFunction, got "
+                          f"{type(sys).__name__}")

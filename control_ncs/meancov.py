@@ -176,6 +176,38 @@ class MomentsResponse:
     states_second_moment: np.ndarray
     sys: Any = None
 
+    def __repr__(self) -> str:
+        name = getattr(self.sys, "name", "?")
+        return (f"<MomentsResponse of {name}: exact mean and covariance, "
+                f"{self.states_mean.shape[0]} states, "
+                f"{self.outputs_mean.shape[0]} outputs, {self.time.size} "
+                f"time points>")
+
+    def summary(self) -> str:
+        """A few lines for humans: the exact moments at the last time point.
+
+        Returns
+        -------
+        str
+            Per output (at most 10): ``E z`` and its standard deviation.
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
+        ...           name="loop", outputs="z")
+        >>> print(moments(sys, 3, initial_state=1.0).summary())
+        MomentsResponse of loop: exact mean and covariance, 1 states, 1 outputs, 3 time points
+          at t = 2: z: mean 0.16, std 0.784
+        """
+        lines = [repr(self)[1:-1]]
+        labels = getattr(self.sys, "jump_outputs", None) or [
+            f"z[{i}]" for i in range(self.outputs_mean.shape[0])]
+        m, sd = self.outputs_mean[:, -1], self.outputs_std[:, -1]
+        for i, name in enumerate(labels[:10]):
+            lines.append(f"  at t = {self.time[-1]:g}: {name}: mean "
+                         f"{m[i]:.3g}, std {sd[i]:.3g}")
+        return "\n".join(lines)
+
     @property
     def outputs_std(self) -> np.ndarray:
         """Standard deviation of each output, shape (p, T).

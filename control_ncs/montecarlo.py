@@ -67,7 +67,7 @@ from ._checks import positive_int
 from .jump import JumpStateSpace, as_jump
 from .meancov import covariance, initial_mean, input_signal, time_grid
 
-__all__ = ["tqdm_check"]
+__all__: list[str] = []
 
 #: Streams keyed by the run's entropy (fixed: changing them changes results).
 _MODES, _NOISE, _INITIAL = 0, 1, 2

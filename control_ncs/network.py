@@ -9,11 +9,13 @@ eq. 14. Nothing here knows about plants or controllers.
 from __future__ import annotations
 
 import math
-from typing import Any
+import warnings
+from typing import Any, Sequence
 
 import numpy as np
 
-from ._checks import real_or_nan
+from ._checks import caller_stacklevel, real_or_nan
+from .exceptions import ScheduleWarning
 
 __all__ = ["Schedule", "schedule", "mode_probabilities"]
 
@@ -159,7 +161,42 @@ class Schedule:
         return hash(self.pattern.tobytes())
 
     def __repr__(self) -> str:
-        return f"Schedule({self.pattern.astype(int).tolist()!r})"
+        if self.pattern.size <= 64:
+            return f"Schedule({self.pattern.astype(int).tolist()!r})"
+        return (f"<Schedule {self.name}: period {self.period}, {self.nodes} "
+                f"nodes, {int(self.pattern.sum())} send slots>")
+
+    def summary(self) -> str:
+        """A few lines for humans: who may send at each phase.
+
+        Returns
+        -------
+        str
+            One line per phase (at most 20; longer periods are elided), then
+            the nodes that never send, if any.
+
+        Examples
+        --------
+        >>> print(schedule([2, 1, 0], 2, "sensor_schedule").summary())
+        Schedule sensor_schedule: period 3, 2 nodes (1-based)
+          phase 0: 2
+          phase 1: 1
+          phase 2: nobody
+        """
+        lines = [f"Schedule {self.name}: period {self.period}, {self.nodes} "
+                 f"nodes (1-based)"]
+        shown = range(self.period) if self.period <= 20 else \
+            list(range(10)) + list(range(self.period - 9, self.period))
+        for k in shown:
+            if k == self.period - 9 and self.period > 20:
+                lines.append("  ...")
+            who = self.senders(k) + 1
+            lines.append(f"  phase {k}: "
+                         f"{', '.join(map(str, who)) if who.size else 'nobody'}")
+        silent = np.flatnonzero(~self.pattern.any(axis=0)) + 1
+        if silent.size:
+            lines.append(f"  never send: {', '.join(map(str, silent))}")
+        return "\n".join(lines)
 
     def __reduce__(self) -> tuple:
         return (Schedule, (self.pattern.astype(int), self.name))
@@ -239,6 +276,33 @@ def schedule(spec: Any, nodes: int, name: str = "schedule") -> Schedule:
         return Schedule(arr, name)
     raise ValueError(f"{name}: expected None, an index vector or a 0/1 matrix, "
                      f"got an array of {arr.ndim} dimensions")
+
+
+def warn_silent_nodes(S: Schedule, what: str, labels: Sequence[str]) -> None:
+    """Warn (:class:`~control_ncs.exceptions.ScheduleWarning`) about nodes
+    that no phase of ``S`` lets send, naming them.
+
+    Parameters
+    ----------
+    S : Schedule
+    what : str
+        ``'sensor'`` or ``'actuator'``.
+    labels : sequence of str
+        Signal of each node (``y[i]`` or ``u[i]``), for the message.
+    """
+    silent = np.flatnonzero(~S.pattern.any(axis=0))
+    if silent.size == 0:
+        return
+    named = ", ".join(f"{what} {i + 1} ({labels[int(i)]})" for i in silent)
+    verb, it = ("never sends", "it") if silent.size == 1 else \
+        ("never send", "them")
+    example = ", ".join(str(i) for i in range(S.nodes))
+    warnings.warn(
+        f"{S.name}: {named} {verb}: no phase of the schedule (period "
+        f"{S.period}) lets {it}. In an index vector 0 means nobody and "
+        f"{what}s are numbered 1..{S.nodes} (so [{example}] never schedules "
+        f"{what} {S.nodes}); write 1-based indices, or pass a 0/1 matrix",
+        ScheduleWarning, stacklevel=caller_stacklevel())
 
 
 def common_period(*schedules: Schedule) -> int:

@@ -33,6 +33,7 @@ Two routes produce a certificate, both checked exactly by
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -45,7 +46,7 @@ from . import kyp
 from ._checks import (choice, decay_bound, finite_real, no_extra_kwargs,
                       positive_int, positive_real, real_array)
 from .exceptions import (CERTIFIED, FEEDTHROUGH, INACCURATE, INFEASIBLE,
-                         NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
+                         MESSAGES, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
                          CertificationError)
 from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
                   analysis_model,
@@ -177,6 +178,69 @@ class PassivityResult:
     method: str = "lmi"
     eta_upper: float = np.nan
     ofp_index: float = 0.0
+
+    @property
+    def verdict(self) -> bool:
+        """``passive``, under the name every result of the package uses."""
+        return self.passive
+
+    @property
+    def status(self) -> str:
+        """``reason``: ``'certified'`` or why not (:mod:`control_ncs.exceptions`)."""
+        return self.reason
+
+    @property
+    def message(self) -> str:
+        """One sentence: the verdict and what it rests on."""
+        text = MESSAGES.get(self.reason, self.reason)
+        if self.passive:
+            level = f"eta = {self.eta:.6g}"
+            if self.ofp_index:
+                level += f", ofp_index = {self.ofp_index:.6g}"
+            return f"{text} ({level}, {self.method} route)"
+        if self.report is not None and self.report.message:
+            text += f" ({self.report.message})"
+        return text
+
+    def __repr__(self) -> str:
+        verdict = "passive" if self.passive else "not certified"
+        solver = ("" if self.report is None
+                  else f", solver {self.report.solver}: {self.report.status}")
+        return (f"<PassivityResult: {verdict} ({self.reason}), eta = "
+                f"{self.eta:.6g}, ofp_index = {self.ofp_index:.6g}, method "
+                f"{self.method}{solver}>")
+
+    def summary(self) -> str:
+        """A few lines for humans: verdict, levels, route and the proof.
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+        >>> print(passivity_certificate(G, 0.4).summary())  # doctest: +ELLIPSIS
+        PassivityResult: not certified (infeasible)
+          proven: no certificate exists at this level (λmin(G + Gᴴ)/2 = ...)
+          eta = 0.4, ofp_index = 0, method riccati, eta_upper = 0.333333
+          solver scipy.linalg.solve_discrete_are: infeasible, ... s
+        """
+        lines = [f"PassivityResult: "
+                 f"{'passive' if self.passive else 'not certified'} "
+                 f"({self.reason})", f"  {self.message}",
+                 f"  eta = {self.eta:.6g}, ofp_index = {self.ofp_index:.6g}, "
+                 f"method {self.method}"
+                 + ("" if np.isnan(self.eta_upper)
+                    else f", eta_upper = {self.eta_upper:.6g}")]
+        if self.report is not None:
+            r = self.report
+            lines.append(f"  solver {r.solver}: {r.status}, "
+                         f"{r.total_time:.3f} s")
+        if self.certificate is not None:
+            lines += ["  " + line for line in
+                      self.certificate.summary().splitlines()]
+        return "\n".join(lines)
 
 
 def _feedthrough_refutes(sys, ifp_index, ofp_index=0.0) -> bool:
@@ -526,6 +590,21 @@ def _zero_dynamics_refute(sys, ifp_index, decay) -> SolveReport | None:
         "output-feedback level ρ can be certified")
 
 
+def _solve(problem: Any, solver: str | None, **options: Any) -> SolveReport:
+    """:func:`control_ncs.lmi.solve` without cvxpy's accuracy warning.
+
+    cvxpy warns "Solution may be inaccurate" whenever its status is
+    ``'optimal_inaccurate'``. That status is in the report, and the result
+    says what it led to (an exactly verified certificate, or the reason
+    ``'inaccurate'``): the warning would only reach users (notebook 4) as
+    noise. ``catch_warnings`` restores the filters on exit.
+    """
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Solution may be inaccurate",
+                                category=UserWarning)
+        return solve(problem, solver, **options)
+
+
 def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
                      solver_options) -> PassivityResult:
     """The LMI route of :func:`passivity_certificate` (any jump system).
@@ -572,8 +651,8 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
             # zᵀz needs every mode's output matrices (MATH §6)
             model = supply_model(sys, eta, level_rho, level, decay)
         # the caller's options are for the solver the caller chose
-        report = solve(model.problem, name,
-                       **(solver_options if name == solver else {}))
+        report = _solve(model.problem, name,
+                        **(solver_options if name == solver else {}))
         attempts.append((level, eta if free != "rho" else level_rho,
                          report.solver, report.status))
         if len(attempts) == 1:

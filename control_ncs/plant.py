@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -9,7 +10,8 @@ import control as ct
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, matrix, no_extra_kwargs
-from .network import (common_period, loss_probability,
+from .exceptions import ScheduleWarning
+from .network import (common_period, loss_probability, warn_silent_nodes,
                       mode_probabilities, schedule)
 
 __all__ = ["NetworkedStateSpace", "nss"]
@@ -106,13 +108,34 @@ class NetworkedStateSpace(ct.StateSpace):
         self.nmeas = _count(nmeas, "nmeas", noutputs, "outputs")
         p1 = noutputs - self.nmeas
         m1 = ninputs - self.ncon
+        split = (f"with {ninputs} inputs [w; u] and {noutputs} outputs "
+                 f"[z; y], ncon = {self.ncon} and nmeas = {self.nmeas} give "
+                 f"dim w = {m1} and dim z = {p1} (u and y are the last "
+                 f"ncon inputs and nmeas outputs)")
+        for arg, dim, what in (("ncon", m1, "disturbance input w"),
+                               ("nmeas", p1, "performance output z")):
+            if dim == 0:
+                raise ControlDimension(
+                    f"{arg}: {split}; the closed loop needs at least one "
+                    f"{what} (add a zero column or row if there is none)")
         if np.any(D[p1:, :] != 0):
-            raise ValueError("D: the measured outputs y must not depend on the "
-                             "inputs (D21 = 0 and D22 = 0 are required, MATH §2)")
+            raise ValueError(f"D: the measured outputs y must not depend on "
+                             f"the inputs (D21 = 0 and D22 = 0 are required, "
+                             f"MATH §2); {split}: check nmeas and ncon")
         self.sensor_schedule = schedule(sensor_schedule, self.nmeas,
                                         "sensor_schedule")
         self.actuator_schedule = schedule(actuator_schedule, self.ncon,
                                           "actuator_schedule")
+        labels = (list(outputs)[p1:] if outputs is not None
+                  and not isinstance(outputs, str)
+                  and len(list(outputs)) == noutputs
+                  else [f"y[{i}]" for i in range(self.nmeas)])
+        warn_silent_nodes(self.sensor_schedule, "sensor", labels)
+        labels = (list(inputs)[m1:] if inputs is not None
+                  and not isinstance(inputs, str)
+                  and len(list(inputs)) == ninputs
+                  else [f"u[{i}]" for i in range(self.ncon)])
+        warn_silent_nodes(self.actuator_schedule, "actuator", labels)
         period = common_period(self.sensor_schedule, self.actuator_schedule)
         self.sensor_schedule = self.sensor_schedule.repeat(period)
         self.actuator_schedule = self.actuator_schedule.repeat(period)
@@ -256,16 +279,29 @@ class NetworkedStateSpace(ct.StateSpace):
         # control.StateSpace holds lambdas and cannot be pickled.
         return (_restore_nss, (self._init_args(),))
 
-    def __eq__(self, other: object) -> bool:
+    def equals(self, other: object) -> bool:
+        """Whether ``other`` is the same networked plant, value by value.
+
+        Parameters
+        ----------
+        other : object
+            Anything; only a :class:`NetworkedStateSpace` can be equal.
+
+        Returns
+        -------
+        bool
+            Same matrices, partition, network and signal names.
+        """
         if type(other) is not type(self):
-            return NotImplemented
+            return False
         a, b = self._init_args(), other._init_args()
         return all(np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray)
                    else a[k] == b[k] for k in a)
 
-    # unhashable: the matrices are numpy arrays. None is Python's documented
-    # way to say so; typeshed types object.__hash__ as a method only.
-    __hash__ = None  # type: ignore[assignment]
+    # ``==`` and ``hash`` by identity, as every python-control system (see
+    # JumpStateSpace): ct.interconnect and dicts key systems by object.
+    __eq__ = object.__eq__
+    __hash__ = object.__hash__
 
     def __repr__(self) -> str:
         return (f"<NetworkedStateSpace {self.name}: {self.nstates} states, "
@@ -290,7 +326,10 @@ class NetworkedStateSpace(ct.StateSpace):
 
 
 def _restore_nss(args: dict) -> NetworkedStateSpace:
-    return NetworkedStateSpace(**args)
+    # the schedule was warned about when the plant was built
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ScheduleWarning)
+        return NetworkedStateSpace(**args)
 
 
 def _count(value: Any, name: str, total: int, what: str) -> int:

@@ -33,8 +33,7 @@ from .montecarlo import (CHUNK_FLOATS, Run, Storage, ensemble_statistics,
 from .stability import ms_radius
 
 __all__ = ["simulate", "SamplePaths", "EnsembleResponse", "forced_response",
-           "step_response", "impulse_response", "initial_response",
-           "default_steps"]
+           "step_response", "impulse_response", "initial_response"]
 
 #: Default horizon: steps until the mean-square transient has decayed by this
 #: factor (an RMS factor of 1 %), within [_MIN_STEPS, _MAX_STEPS].
@@ -86,6 +85,36 @@ class SamplePaths(ct.TimeResponseData):
         3
         """
         return self.ntraces
+
+    def __repr__(self) -> str:
+        return (f"<SamplePaths of {self.sysname}: {self.ntraces} trials, "
+                f"{self.noutputs} outputs, {self.nstates} states, "
+                f"{self.t.size} time points>")
+
+    def summary(self) -> str:
+        """A few lines for humans: sizes and the sample statistics at the end.
+
+        Returns
+        -------
+        str
+            Per output (at most 10): sample mean and standard deviation at
+            the last time point.
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
+        ...           name="loop", outputs="z")
+        >>> print(simulate(sys, 4, initial_state=1.0, trials=50,
+        ...                seed=0).summary())
+        Sample paths of loop: 50 trials, 1 outputs, 1 states, 4 time points
+          at t = 3: z: sample mean 0.16, sample std 1.12
+        """
+        y = self.y[:, :, -1]
+        lines = [repr(self)[1:-1].replace("SamplePaths", "Sample paths", 1)]
+        for i, name in enumerate(list(self.output_labels)[:10]):
+            lines.append(f"  at t = {self.t[-1]:g}: {name}: sample mean "
+                         f"{y[i].mean():.3g}, sample std {y[i].std():.3g}")
+        return "\n".join(lines)
 
     def plot(self, *args: Any, paths: int | None = 20,
              **kwargs: Any) -> ct.ControlPlot:
@@ -281,6 +310,44 @@ class EnsembleResponse:
         ['z']
         """
         return list(self.paths.output_labels)
+
+    def __repr__(self) -> str:
+        q = ", ".join(f"{x:g}" for x in self.quantiles)
+        return (f"<EnsembleResponse ({self.kind}) of {self.paths.sysname}: "
+                f"{self.trials} trials, {self.sample_mean.shape[0]} outputs, "
+                f"{self.time.size} time points, quantiles ({q}), "
+                f"{self.paths.ntraces} paths kept>")
+
+    def summary(self) -> str:
+        """A few lines for humans: exact and sample statistics at the end.
+
+        Returns
+        -------
+        str
+            Per output (at most 10), at the last time point: the exact mean
+            and standard deviation, the sample mean with its standard
+            error, and the sample standard deviation.
+
+        Examples
+        --------
+        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
+        ...           name="loop", outputs="z")
+        >>> r = initial_response(sys, 3, 1.0, trials=400, seed=0)
+        >>> print(r.summary())
+        EnsembleResponse (initial) of loop: 400 trials, 1 outputs, 3 time points
+          at t = 2: z: exact mean 0.16 (std 0.784); sample mean 0.16 ± 0.0392 (std 0.785)
+        """
+        lines = [f"EnsembleResponse ({self.kind}) of {self.paths.sysname}: "
+                 f"{self.trials} trials, {self.sample_mean.shape[0]} outputs, "
+                 f"{self.time.size} time points"]
+        em, es = self.exact_mean[:, -1], self.exact_std[:, -1]
+        sm, ss = self.sample_mean[:, -1], self.sample_std[:, -1]
+        se = self.standard_error[:, -1]
+        for i, name in enumerate(self.output_labels[:10]):
+            lines.append(f"  at t = {self.time[-1]:g}: {name}: exact mean "
+                         f"{em[i]:.3g} (std {es[i]:.3g}); sample mean "
+                         f"{sm[i]:.3g} ± {se[i]:.3g} (std {ss[i]:.3g})")
+        return "\n".join(lines)
 
     def to_response(self) -> ct.TimeResponseData:
         """The statistics as a multi-trace :class:`control.TimeResponseData`.
@@ -505,7 +572,7 @@ def _ensemble(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
     keep = positive_int(keep_paths, "keep_paths", allow_none=True)
     keep = run.trials if keep is None else min(keep, run.trials)
     s, T = run.sys, run.time.size
-    title = f"{what} of {s.name} ({run.trials} trials)"
+    title = f"{what} of {s.name}: mean and spread ({run.trials} trials)"
     if chunk is None:       # the chunk's storage is working memory here
         per_trial = (T + 1) * Storage.rows(run)
         run.chunk = min(run.chunk, max(1, CHUNK_FLOATS // per_trial))

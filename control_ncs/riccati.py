@@ -50,7 +50,7 @@ Verdicts at a fixed ``η``
   (:func:`control_ncs.verify.check_certificate`).
 * **diverged**: ``R_k`` loses positive definiteness. Since every iterate
   lies below any solution of the LMI with margin, this proves that the LMI
-  with margin ``ε`` is infeasible: :class:`~control_ncs.verify.SynthesisError`
+  with margin ``ε`` is infeasible: :class:`~control_ncs.exceptions.SynthesisError`
   with reason ``'infeasible'``.
 * **blow-up**: ``P`` exceeds ``1e12`` times the scale of the data. Any
   certificate would be at least as large, beyond what the exact check can
@@ -86,7 +86,7 @@ from control.exception import ControlArgument
 
 from ._checks import decay_bound, positive_int, positive_real
 from .jump import JumpPlant
-from .verify import SynthesisError
+from .exceptions import SynthesisError
 
 __all__ = ["RiccatiResult", "riccati_synthesis",
            "RICCATI_MARGIN"]

@@ -114,7 +114,7 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     prob = P.mode_probabilities()
     p = np.tile([prob[m] for m in MODES], (N, 1))
     info = dict(controller=controller, actuator=actuator, sensor_loss=a1,
-                actuator_loss=a2, plant_period=P.period)
+                actuator_loss=a2, plant_period=P.period, plant=P.name)
     return JumpPlant(stacked["A"], stacked["Bu"], stacked["Bw"], stacked["Cz"],
                      stacked["Du"], stacked["Dw"], E, p, P.dt,
                      nominal=np.full(N, 3), inputs=P.disturbance_labels,

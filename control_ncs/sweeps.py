@@ -37,7 +37,7 @@ from .stability import ms_radius
 from .synthesis import passivesyn
 
 __all__ = ["design_map", "DesignMap", "schedule_search", "ScheduleSearch",
-           "RankedSchedule", "PRUNE_REASONS"]
+           "RankedSchedule"]
 
 #: Schedules removed before any LMI, each with a proof by exact linear
 #: algebra (see :func:`schedule_search`).

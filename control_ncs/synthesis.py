@@ -28,10 +28,11 @@ from .lmi import (DEFAULT_MARGIN, SolveReport, check_options, check_solver,
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
 from .strategies import build, loop_closes
-from .verify import (Certificate, SynthesisError, certify_index,
+from .exceptions import SynthesisError
+from .verify import (Certificate, certify_index,
                      check_certificate)
 
-__all__ = ["passivesyn", "SynthesisResult", "SynthesisError"]
+__all__ = ["passivesyn", "SynthesisResult"]
 
 #: With ``solver=None`` and no solver options, a loop whose structure
 #: resolves to ``'full'`` with more states than this is designed by the

@@ -22,18 +22,16 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import control as ct
 from control.exception import ControlDimension
 
 from ._checks import decay_bound, finite_real, real_array
-from .exceptions import CertificationError, SynthesisError
+from .exceptions import CERTIFIED, NOT_VERIFIED
 from .jump import JumpStateSpace, as_jump
 from .stability import ms_radius
 
-__all__ = ["Certificate", "CertificationError", "SynthesisError",
-           "dissipation_matrices", "certified_index", "check_certificate",
-           "certify_index", "dissipation_blocks", "ifp_supremum",
-           "feedthrough_bound", "certify_ofp_index"]
+__all__ = ["Certificate", "dissipation_matrices", "certified_index",
+           "check_certificate", "certify_index", "certify_ofp_index",
+           "dissipation_blocks", "ifp_supremum", "feedthrough_bound"]
 
 #: Relative back-offs of ``η`` below the supremum a certificate proves, tried
 #: in turn by :func:`certify_index`. The supremum comes from a Schur
@@ -209,8 +207,6 @@ def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
 # -- public checks --------------------------------------------------------------
 def _system(sys: Any, name: str = "sys") -> JumpStateSpace:
     """``sys`` as a square jump system (a TransferFunction via control.ss)."""
-    if isinstance(sys, ct.TransferFunction):
-        sys = ct.ss(sys)
     sys = as_jump(sys, name)
     m, p = sys.modes.B.shape[-1], sys.modes.C.shape[-2]
     if m != p:
@@ -412,6 +408,59 @@ class Certificate:
     eta_sup: float
     failures: list[str] = field(default_factory=list)
     ofp_index: float = 0.0
+
+    @property
+    def verdict(self) -> bool:
+        """``verified``, under the name every result of the package uses."""
+        return self.verified
+
+    @property
+    def status(self) -> str:
+        """``'certified'`` or ``'not_verified'`` (:mod:`control_ncs.exceptions`)."""
+        return CERTIFIED if self.verified else NOT_VERIFIED
+
+    @property
+    def message(self) -> str:
+        """One sentence: what was proven, or the first failure."""
+        if self.verified:
+            return (f"verified: P proves stochastic passivity at eta = "
+                    f"{self.eta:.6g} (every eta < {self.eta_sup:.6g})")
+        return "not verified: " + "; ".join(self.failures)
+
+    def __repr__(self) -> str:
+        N, n = self.P.shape[0], self.P.shape[-1]
+        what = "verified" if self.verified else "not verified"
+        return (f"<Certificate: {what}, eta = {self.eta:.6g}, eta_sup = "
+                f"{self.eta_sup:.6g}, ms_radius = {self.ms_radius:.6g}, "
+                f"N = {N}, n = {n}>")
+
+    def summary(self) -> str:
+        """A few lines for humans: the figures that prove (or refute) it.
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+        >>> print(check_certificate(G, [[1.0]], 0.3).summary())
+        Certificate of stochastic passivity (MATH §6): verified
+          eta = 0.3 (sup proved by P: 0.333333), ofp_index = 0, decay = 1
+          max_k λmax(Θ_k) = -4.526e-02 < 0, min_k λmin(P_k) = 1.000e+00 > 0
+          ms_radius = 0.25 < 1
+        """
+        lines = [f"Certificate of stochastic passivity (MATH §6): "
+                 f"{'verified' if self.verified else 'NOT verified'}",
+                 f"  eta = {self.eta:.6g} (sup proved by P: "
+                 f"{self.eta_sup:.6g}), ofp_index = {self.ofp_index:.6g}, "
+                 f"decay = {self.decay:.6g}",
+                 f"  max_k λmax(Θ_k) = {np.max(self.theta_max):.3e} < 0, "
+                 f"min_k λmin(P_k) = {np.min(self.P_min):.3e} > 0",
+                 f"  ms_radius = {self.ms_radius:.6g} < "
+                 f"{min(1.0, self.decay ** 2):.6g}"]
+        lines += [f"  failed: {f}" for f in self.failures[:5]]
+        return "\n".join(lines)
 
     def figures(self) -> dict[str, Any]:
         """The measured numbers as a plain dict (for messages and reports).

@@ -145,8 +145,8 @@ def test_read_only_systems_still_copy_pickle_and_interconnect():
     import copy
     import pickle
     CL = feedback(plant(sensor_loss=0.1), [[-0.5, 0.0]])
-    assert pickle.loads(pickle.dumps(CL)) == CL
-    assert copy.deepcopy(CL) == CL
+    assert pickle.loads(pickle.dumps(CL)).equals(CL)
+    assert copy.deepcopy(CL).equals(CL)
     G = ct.feedback(CL, ct.ss([], [], [], [[0.0]], True))
     assert np.allclose(G.A, CL.A)
 

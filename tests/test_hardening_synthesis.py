@@ -10,7 +10,8 @@ import cvxpy as cp
 
 import control_ncs as ncs
 from control_ncs import driver, lmi, synthesis
-from control_ncs.verify import SynthesisError, check_certificate
+from control_ncs.exceptions import SynthesisError
+from control_ncs.verify import check_certificate
 
 REASONS = ("infeasible", "solver_failed", "inaccurate", "not_verified",
            "time_limit")

@@ -6,6 +6,7 @@ import pickle
 import numpy as np
 import control as ct
 import pytest
+from control.exception import ControlDimension
 
 from control_ncs import NetworkedStateSpace, nss
 
@@ -58,13 +59,35 @@ def test_from_statespace_keeps_names_and_sampling_time():
     assert P.dt == 0.5 and P.sensor_loss == 0.2
 
 
-def test_from_transfer_function_converts_to_state_space():
-    # u → y = 1/(z - 0.5): no w, no z (m1 = p1 = 0)
+def test_transfer_function_is_converted_then_checked():
+    # u → y = 1/(z - 0.5) converts (ct.ss) but leaves no w and no z
     G = ct.tf([1], [1, -0.5], True)
-    P = nss(G, nmeas=1, ncon=1)
+    with pytest.raises(ControlDimension, match="dim w = 0 and dim z = 0"):
+        nss(G, nmeas=1, ncon=1)
+
+
+def test_from_state_space_of_a_transfer_function():
+    G = ct.ss(ct.tf([1], [1, -0.5], True))
+    P = nss(ct.append(ct.ss([], [], [], [[1.0]], True), G), nmeas=1, ncon=1)
     assert isinstance(P, NetworkedStateSpace)
-    assert P.B1.shape == (1, 0) and P.C1.shape == (0, 1)
-    assert np.allclose(ct.evalfr(P, 0.3), ct.evalfr(G, 0.3))
+    assert P.B1.shape == (1, 1) and P.C1.shape == (1, 1)
+    assert np.allclose(ct.evalfr(P, 0.3)[1, 1], ct.evalfr(G, 0.3))
+
+
+@pytest.mark.parametrize("nmeas, ncon, arg", [(1, 2, "ncon"), (2, 1, "nmeas")])
+def test_counts_leaving_no_w_or_no_z_are_refused_naming_the_dimensions(
+        nmeas, ncon, arg):
+    A, B, C, D = [[0.5]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0]] * 2
+    with pytest.raises(ControlDimension, match=rf"{arg}: .*dim w = "
+                       rf"{2 - ncon} and dim z = {2 - nmeas}"):
+        nss(A, B, C, D, nmeas=nmeas, ncon=ncon)
+
+
+def test_feedthrough_into_y_names_the_dimensions_of_w_and_z():
+    # nmeas and ncon swapped in a plant with 2 outputs: y = z would see w
+    with pytest.raises(ValueError, match="dim w = 2 and dim z = 1"):
+        nss([[0.5]], [[1.0, 1.0, 1.0]], [[1.0], [1.0]],
+            [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], nmeas=1, ncon=1)
 
 
 def test_network_attributes_are_stored():
@@ -94,7 +117,7 @@ def test_pickle_round_trip_is_equal_and_keeps_the_type():
             sensor_schedule=[2, 1, 0, 2], actuator_schedule=[[1], [0]],
             sensor_loss=0.1, actuator_loss=0.3, name="plant")
     Q = pickle.loads(pickle.dumps(P))
-    assert type(Q) is NetworkedStateSpace and Q == P
+    assert type(Q) is NetworkedStateSpace and Q.equals(P)
     assert Q.name == "plant" and Q.dt == 0.25
     assert Q.sensor_schedule == P.sensor_schedule
 
@@ -104,7 +127,7 @@ def test_copies_are_equal_and_keep_the_type(duplicate):
     P = random_plant(np.random.default_rng(4), n=3, m2=2,
                      sensor_schedule=[1, 2, 3], actuator_loss=0.2)
     Q = duplicate(P)
-    assert type(Q) is NetworkedStateSpace and Q == P and Q is not P
+    assert type(Q) is NetworkedStateSpace and Q.equals(P) and Q is not P
 
 
 def test_equality_sees_a_different_network():
