@@ -22,6 +22,7 @@ import itertools
 import math
 import threading
 import time
+import warnings
 from concurrent.futures import Executor, as_completed
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
@@ -30,7 +31,7 @@ import numpy as np
 import control as ct
 from control.exception import ControlArgument, ControlDimension
 
-from .exceptions import SynthesisError
+from .exceptions import ScheduleWarning, SynthesisError
 from .jump import jss
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
@@ -1080,11 +1081,15 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         if why is not None:
             reason[i], pruned[i] = why, True
     todo = np.flatnonzero(~pruned)
-    tasks = [(P.with_network(sensor_schedule=s1[i].tolist(),
-                             actuator_schedule=s2[i].tolist(),
-                             sensor_loss=a1, actuator_loss=a2,
-                             shared_channel=shared),
-              eta, decay, controller, actuator) for i in todo]
+    with warnings.catch_warnings():
+        # the search enumerates schedules that leave some node silent on
+        # purpose; the warning is for schedules a user writes
+        warnings.simplefilter("ignore", ScheduleWarning)
+        tasks = [(P.with_network(sensor_schedule=s1[i].tolist(),
+                                 actuator_schedule=s2[i].tolist(),
+                                 sensor_loss=a1, actuator_loss=a2,
+                                 shared_channel=shared),
+                  eta, decay, controller, actuator) for i in todo]
     out = _run(_synthesise, tasks, executor, progress, "schedule_search")
     eta_a = np.full(len(words), math.nan)
     rate = np.full(len(words), math.nan)

@@ -9,10 +9,12 @@ docs/benchmarks.md, from a full run).
 import os
 import subprocess
 import sys
+import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
+@pytest.mark.slow  # a subprocess: seconds, still run in CI
 def test_quick_run_writes_report(tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg")
     env["PYTHONPATH"] = ROOT + os.pathsep + env.get("PYTHONPATH", "")

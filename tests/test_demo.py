@@ -3,9 +3,12 @@
 import subprocess
 import sys
 
+import pytest
+
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow  # a subprocess: seconds, still run in CI
 def test_demo_command_exits_0_and_writes_png_files(tmp_path):
     out = tmp_path / "plots"
     proc = subprocess.run(

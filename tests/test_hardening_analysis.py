@@ -68,6 +68,7 @@ def test_simulate_runs_where_sched_getaffinity_is_missing(monkeypatch):
     assert np.array_equal(paths.outputs, expected.outputs)
 
 
+@pytest.mark.slow  # a subprocess: seconds, still run in CI
 def test_package_imports_and_runs_under_python_OO():
     # -OO strips docstrings: nothing may edit a docstring that is None
     root = pathlib.Path(cn.__file__).resolve().parents[1]
