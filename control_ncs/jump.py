@@ -1248,6 +1248,9 @@ class JumpPlant:
         Sampling period of one step (default True, unspecified).
     nominal : array_like of int, shape (N,), optional
         The loss-free mode of each phase.
+    transition : array_like, shape (N, M, M), optional
+        Markov modes (MATH §11): ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``;
+        ``probabilities`` are then the stationary marginals. None: i.i.d.
     inputs, outputs, states : list of str, optional
         Names of ``w``, ``z`` and ``ξ``, handed to the closed loop.
     info : dict, optional
@@ -1261,6 +1264,8 @@ class JumpPlant:
         The selection of ``ξ`` that the gain acts on.
     probabilities : ndarray, shape (N, M)
         Mode probabilities per phase.
+    transition : ndarray, shape (N, M, M), or None
+        The Markov chain of the modes; None for i.i.d. modes.
     dt : True or float
         Sampling period of one step.
     nominal : ndarray of int, shape (N,), or None
@@ -1296,8 +1301,6 @@ class JumpPlant:
         self.Cz, self.Du, self.Dw = (np.asarray(X, float) for X in (Cz, Du, Dw))
         self.E = np.asarray(E, float)
         self.probabilities = np.asarray(probabilities, float)
-        #: Markov modes (MATH §11): ``T[k, i, j]``, shape (N, M, M); None
-        #: for i.i.d. modes. ``probabilities`` are then stationary marginals.
         self.transition = None if transition is None else np.asarray(
             transition, float)
         self.dt = dt

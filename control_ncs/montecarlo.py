@@ -221,7 +221,10 @@ def _phases(modes: Any) -> list[_Phase]:
                             np.concatenate([modes.A[k], modes.B[k]], axis=2)],
                            axis=1)
         p_k = modes.probabilities[k]
-        live = np.flatnonzero(p_k > 0)
+        # a Markov chain may visit a mode of zero stationary probability
+        # (from its initial law): keep every mode then
+        live = (np.flatnonzero(p_k > 0) if modes.is_iid
+                else np.arange(p_k.size))
         base = live[np.argmax(p_k[live])]
         Us: list[np.ndarray] = []
         Vs: list[np.ndarray] = []
@@ -264,6 +267,8 @@ def _mode_masks(run: Run, a: int, c: int) -> np.ndarray:
     T, N = run.time.size, len(phases)
     if q == 0:
         return np.empty((T, 0, c))      # one mode per phase: nothing to draw
+    if not run.sys.modes.is_iid:
+        return _markov_masks(run, a, c, q)
     cdf = np.cumsum(run.sys.modes.probabilities, axis=1)
     cdf /= cdf[:, -1:]
     lower = np.concatenate([np.zeros((N, 1)), cdf[:, :-1]], axis=1)
@@ -280,6 +285,31 @@ def _mode_masks(run: Run, a: int, c: int) -> np.ndarray:
                 np.greater_equal(u, lo, out=out)
             else:
                 np.logical_and(u >= lo, u < hi, out=out)
+    return mask
+
+
+def _markov_masks(run: Run, a: int, c: int, q: int) -> np.ndarray:
+    """As :func:`_mode_masks` for Markov modes (MATH §11): per trial the
+    chain starts from ``modes.start()`` and moves by ``T_k``; uniform ``t``
+    of a trial draws its mode at step ``t`` (inverse CDF), so the stream is
+    the i.i.d. engine's."""
+    modes = run.sys.modes
+    T, N, M = run.time.size, modes.period, modes.count
+    cdf = np.cumsum(modes.transition, axis=2)           # (N, M, M)
+    cdf /= cdf[:, :, -1:]
+    start = np.cumsum(modes.start())
+    start /= start[-1]
+    draws = run.uniforms(_MODES, a, c, T).T              # (T, c)
+    mask = np.zeros((T, q, c))
+    sigma = np.minimum(np.searchsorted(start, draws[0], side="right"), M - 1)
+    for t in range(T):
+        if t:
+            k = (t - 1) % N
+            # mode j iff cdf[σ, j-1] <= u < cdf[σ, j]: count the rows' steps
+            rows = cdf[k][sigma]                             # (c, M)
+            sigma = np.minimum((draws[t][:, None] >= rows).sum(axis=1), M - 1)
+        for j, (i, _) in enumerate(run.phases[t % N].parts):
+            np.equal(sigma, i, out=mask[t, j], casting="unsafe")
     return mask
 
 
