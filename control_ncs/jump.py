@@ -830,12 +830,11 @@ class JumpStateSpace(ct.StateSpace):
             return other
         return NotImplemented
 
-    def _law(self) -> tuple:
-        """``(probabilities, transition=)`` arguments that rebuild this law."""
+    def _law(self) -> np.ndarray:
+        """The ``probabilities`` argument that, with ``modes.transition``,
+        rebuilds this law (the initial law for Markov modes)."""
         m = self.modes
-        if m.is_iid:
-            return (m.probabilities,)
-        return (m.initial,)
+        return m.probabilities if m.initial is None else m.initial
 
     def _modewise(self, op: Any, what: str, *, name: str | None = None,
                   names: dict | None = None) -> "JumpStateSpace":
@@ -858,7 +857,7 @@ class JumpStateSpace(ct.StateSpace):
                       states=list(first.state_labels))
         labels.update(names or {})
         dt = self.dt_step if first.dt is True else first.dt
-        return JumpStateSpace(A, B, C, D, *self._law(), dt=dt,
+        return JumpStateSpace(A, B, C, D, self._law(), dt,
                               transition=self.modes.transition,
                               nominal=self.nominal_mode, name=name,
                               info=dict(self.info, algebra=what),
@@ -1003,7 +1002,7 @@ class JumpStateSpace(ct.StateSpace):
         # control.StateSpace holds lambdas and cannot be pickled; rebuild
         # from the defining data instead (this also serves copy/deepcopy).
         m = self.modes
-        return (_restore_jss, (m.A, m.B, m.C, m.D, self._law()[0], self.dt_step,
+        return (_restore_jss, (m.A, m.B, m.C, m.D, self._law(), self.dt_step,
                                self.nominal_mode, self.name, self.jump_inputs,
                                self.jump_outputs, self.jump_states, self.info,
                                m.transition))
@@ -1052,12 +1051,12 @@ class JumpStateSpace(ct.StateSpace):
 
     def __str__(self) -> str:
         p = np.array2string(self.modes.probabilities, precision=4)
-        kind = "i.i.d." if self.modes.is_iid else "Markov"
+        law = "i.i.d." if self.modes.is_iid else "Markov"
         head = (f"JumpStateSpace: {self.name}\n"
                 f"Periodic jump linear system, period N = {self.period}, "
-                f"{self.nmodes} {kind} modes per step, dt = {self.dt_step}\n"
+                f"{self.nmodes} {law} modes per step, dt = {self.dt_step}\n"
                 f"Mode probabilities (rows = phases):\n{p}\n")
-        if not self.modes.is_iid:
+        if self.modes.transition is not None:
             T = np.array2string(self.modes.transition, precision=4)
             head += f"Transition T[k][i, j] = P(j next | i now):\n{T}\n"
         kind = self.info.get("controller")
@@ -1213,7 +1212,7 @@ def _markov_mean(modes: Modes) -> tuple[np.ndarray, ...]:
     stacked by mode (MATH §11): ``μ⁺_j = Σ_i T[i, j] (A_i μ_i + π_i B_i w)``,
     ``E z = Σ_i (C_i μ_i + π_i D_i w)`` with ``π`` the stationary marginals."""
     A, B, C, D, p, T = (modes.A, modes.B, modes.C, modes.D,
-                        modes.probabilities, modes.transition)
+                        modes.probabilities, modes.transitions())
     N, M, n, m = B.shape
     q = C.shape[2]
     Abar = np.einsum("kij,kiab->kjaib", T, A).reshape(N, M * n, M * n)

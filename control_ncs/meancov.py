@@ -346,7 +346,7 @@ def _markov_moments(modes, w, x0, P0, W, mean_x, mean_z, Sx, Sz) -> None:
     ``μ_i = E[ξ 1{σ = i}]``, ``Q_i = E[ξξᵀ 1{σ = i}]`` and ``π_i = P(σ = i)``;
     one step applies mode ``i``'s matrices to its share, then the chain
     ``T_k`` redistributes the shares."""
-    A, B, C, D, T = modes.A, modes.B, modes.C, modes.D, modes.transition
+    A, B, C, D, T = modes.A, modes.B, modes.C, modes.D, modes.transitions()
     N = modes.period
     pi = modes.start().copy()
     mu = pi[:, None] * x0[None]

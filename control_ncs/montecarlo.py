@@ -295,7 +295,7 @@ def _markov_masks(run: Run, a: int, c: int, q: int) -> np.ndarray:
     the i.i.d. engine's."""
     modes = run.sys.modes
     T, N, M = run.time.size, modes.period, modes.count
-    cdf = np.cumsum(modes.transition, axis=2)           # (N, M, M)
+    cdf = np.cumsum(modes.transitions(), axis=2)           # (N, M, M)
     cdf /= cdf[:, :, -1:]
     start = np.cumsum(modes.start())
     start /= start[-1]

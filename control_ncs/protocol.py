@@ -372,10 +372,8 @@ def simulate_protocol(
     th2_hist = np.empty((trials, steps), dtype=bool)
 
     def draw(link: tuple[float, float, float], before: Any) -> Any:
-        if before is None:
-            loss = link[0]
-        else:
-            loss = np.where(before, link[1], link[2])
+        loss = (link[0] if before is None
+                else np.where(before, link[1], link[2]))
         return rng.random(trials) >= loss
 
     th1 = th2 = None

@@ -102,7 +102,7 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
 
 def _markov_operator(sys: JumpStateSpace, phases: Any, dtype: Any
                      ) -> LinearOperator:
-    A, T = sys.modes.A, sys.modes.transition
+    A, T = sys.modes.A, sys.modes.transitions()
     M, n = A.shape[1], A.shape[-1]
 
     def apply(v: np.ndarray) -> np.ndarray:
@@ -118,7 +118,7 @@ def _markov_operator(sys: JumpStateSpace, phases: Any, dtype: Any
 
 
 def _dense_markov_monodromy(sys: JumpStateSpace) -> np.ndarray:
-    A, T = sys.modes.A, sys.modes.transition
+    A, T = sys.modes.A, sys.modes.transitions()
     N, M, n, _ = A.shape
     out = np.eye(M * n * n)
     for k in range(N):

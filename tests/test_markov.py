@@ -13,7 +13,7 @@ from hypothesis import given, settings, strategies as st
 
 import control_ncs as ncs
 from control_ncs import (feedback, gilbert_elliott, is_mss, jss, moments,
-                         ms_radius, nss, simulate)
+                         ms_radius, simulate)
 from control_ncs.protocol import simulate_protocol
 
 from helpers import (assert_mean_within, plant_state_selector, random_plant,
