@@ -210,6 +210,9 @@ class _Phase(NamedTuple):
     G: np.ndarray                 # (p + n, n + m + r)
     V: np.ndarray                 # (r, n + m)
     parts: tuple                  # ((mode, rows of s), ...) for the non-base modes
+    #: per mode, the index in ``parts`` of the part it uses (-1: the base);
+    #: Markov modes are not merged, so modes with equal matrices share a part
+    part_of: np.ndarray
 
 
 def _phases(modes: Any) -> list[_Phase]:
@@ -228,8 +231,15 @@ def _phases(modes: Any) -> list[_Phase]:
         base = live[np.argmax(p_k[live])]
         Us: list[np.ndarray] = []
         Vs: list[np.ndarray] = []
-        parts, r = [], 0
+        parts: list[tuple[int, slice]] = []
+        r = 0
+        part_of = np.full(p_k.size, -1)
         for i in live:
+            same = [j for j, (i0, _) in enumerate(parts)
+                    if np.array_equal(M[i], M[i0])]
+            if same:
+                part_of[i] = same[0]
+                continue
             delta = M[i] - M[base]
             # Factor only the rows and columns where the modes differ, so a
             # signal a mode does not touch gets exact zeros (e.g. noise never
@@ -251,11 +261,12 @@ def _phases(modes: Any) -> list[_Phase]:
             Vi[:, cols] = vt[:rank]
             Us.append(Ui)
             Vs.append(Vi)
+            part_of[i] = len(parts)
             parts.append((int(i), slice(r, r + rank)))
             r += rank
         G = np.concatenate([M[base]] + Us, axis=1)
         V = np.concatenate(Vs) if Vs else np.zeros((0, n + m))
-        phases.append(_Phase(G, V, tuple(parts)))
+        phases.append(_Phase(G, V, tuple(parts), part_of))
     return phases
 
 
@@ -297,19 +308,23 @@ def _markov_masks(run: Run, a: int, c: int, q: int) -> np.ndarray:
     T, N, M = run.time.size, modes.period, modes.count
     cdf = np.cumsum(modes.transitions(), axis=2)           # (N, M, M)
     cdf /= cdf[:, :, -1:]
+    # row i of T_k shifted into [i, i+1]: one searchsorted of σ + u in the
+    # flattened rows finds mode j iff cdf[σ, j-1] <= u < cdf[σ, j]
+    flat = (cdf + np.arange(M)[:, None]).reshape(N, M * M)
     start = np.cumsum(modes.start())
     start /= start[-1]
-    draws = run.uniforms(_MODES, a, c, T).T              # (T, c)
-    mask = np.zeros((T, q, c))
+    draws = np.ascontiguousarray(run.uniforms(_MODES, a, c, T).T)  # (T, c)
+    mask = np.empty((T, q, c))
+    which = np.arange(q)[:, None]
     sigma = np.minimum(np.searchsorted(start, draws[0], side="right"), M - 1)
     for t in range(T):
         if t:
             k = (t - 1) % N
-            # mode j iff cdf[σ, j-1] <= u < cdf[σ, j]: count the rows' steps
-            rows = cdf[k][sigma]                             # (c, M)
-            sigma = np.minimum((draws[t][:, None] >= rows).sum(axis=1), M - 1)
-        for j, (i, _) in enumerate(run.phases[t % N].parts):
-            np.equal(sigma, i, out=mask[t, j], casting="unsafe")
+            pos = np.searchsorted(flat[k], draws[t] + sigma, side="right")
+            # M entries per row below σ were counted
+            sigma = np.minimum(pos - M * sigma, M - 1)
+        part = run.phases[t % N].part_of[sigma]
+        np.equal(part[None], which, out=mask[t], casting="unsafe")
     return mask
 
 
@@ -398,7 +413,7 @@ def simulate_chunk(run: Run, a: int, b: int, store: Storage,
     width = max(MIN_COLUMNS, GEMM_SERIAL // max(ph.G.size for ph in phases))
     blocks = [slice(j, j + width) for j in range(0, c, width)]
     for t in range(T):
-        G, V, parts = phases[t % N]
+        G, V, parts, _ = phases[t % N]
         row = t * R
         r = V.shape[0]
         if r:
