@@ -235,8 +235,11 @@ def _phases(modes: Any) -> list[_Phase]:
         r = 0
         part_of = np.full(p_k.size, -1)
         for i in live:
-            same = [j for j, (i0, _) in enumerate(parts)
-                    if np.array_equal(M[i], M[i0])]
+            # (i.i.d. masks draw one mode per part: share parts only for
+            # Markov modes, which are never merged)
+            same = [] if modes.is_iid else [
+                j for j, (i0, _) in enumerate(parts)
+                if np.array_equal(M[i], M[i0])]
             if same:
                 part_of[i] = same[0]
                 continue

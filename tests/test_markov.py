@@ -376,3 +376,22 @@ def test_protocol_with_markov_links_matches_the_jump_matrices(controller):
     lost = ~sim["theta2"]
     both = np.mean(lost[:, 1:] & lost[:, :-1])
     assert both == pytest.approx(s2.loss * (1 - s2.recover), abs=0.01)
+
+
+def test_iid_modes_with_equal_matrices_are_each_drawn():
+    """Two unmerged i.i.d. modes with the same matrices (0.3 + 0.3) and a
+    third: the sample mean still follows 0.6·a + 0.4·b."""
+    sys = jss([[[1.0]], [[1.0]], [[0.0]]], [[0.0]], [[1.0]], [[0.0]],
+              [0.3, 0.3, 0.4])
+    sim = simulate(sys, 2, initial_state=1.0, trials=20000, seed=2)
+    assert sim.states[0, :, 1].mean() == pytest.approx(0.6, abs=0.02)
+
+
+def test_markov_modes_with_equal_matrices_follow_their_own_futures():
+    """Modes 0 and 1 share their matrices but not their futures: the mean
+    of simulate matches the exact moments."""
+    sys = jss([[[1.0]], [[1.0]], [[0.5]]], [[0.0]], [[1.0]], [[0.0]],
+              transition=[[0.9, 0.0, 0.1], [0.0, 0.2, 0.8], [0.3, 0.3, 0.4]])
+    mom = moments(sys, 8, initial_state=1.0)
+    sim = simulate(sys, 8, initial_state=1.0, trials=20000, seed=5)
+    assert_mean_within(sim.states.transpose(1, 0, 2), mom.states_mean, 5)
