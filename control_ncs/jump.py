@@ -158,6 +158,9 @@ class Modes:
             lines.append(f"  phase {k}: p = {p}{more}")
         if self.period > 10:
             lines.append(f"  ... ({self.period - 10} more phases)")
+        if self.transition is not None:
+            lines.append("  Markov modes: p are the stationary marginals; "
+                         "transition T[k][i, j] = P(j next | i now)")
         return "\n".join(lines)
 
     def __eq__(self, other: object) -> bool:
@@ -220,7 +223,9 @@ def periodic_stationary(T: np.ndarray) -> np.ndarray:
     lhs = np.vstack([phi.T - np.eye(M), np.ones((1, M))])
     rhs = np.zeros(M + 1)
     rhs[-1] = 1.0
-    pi = np.clip(np.linalg.lstsq(lhs, rhs, rcond=None)[0], 0.0, None)
+    pi = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
+    # rounding leaves ~1e-17 on modes the chain never visits: they are 0
+    pi[pi < M * np.finfo(float).eps] = 0.0
     p = np.empty((N, M))
     p[0] = pi / pi.sum()
     for k in range(N - 1):
@@ -571,6 +576,9 @@ class JumpStateSpace(ct.StateSpace):
 
     def mean_phase(self, k: int) -> tuple[np.ndarray, ...]:
         """Mean matrices ``(Σ p A, Σ p B, Σ p C, Σ p D)`` at phase ``k mod N``.
+
+        For Markov modes ``p`` are the stationary marginals: the average
+        matrices of the phase, not the mean dynamics (the face is).
 
         Parameters
         ----------

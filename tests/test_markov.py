@@ -395,3 +395,24 @@ def test_markov_modes_with_equal_matrices_follow_their_own_futures():
     mom = moments(sys, 8, initial_state=1.0)
     sim = simulate(sys, 8, initial_state=1.0, trials=20000, seed=5)
     assert_mean_within(sim.states.transpose(1, 0, 2), mom.states_mean, 5)
+
+
+def test_lifted_mean_face_of_a_periodic_markov_system_is_the_exact_mean():
+    sys = markov_jss(np.random.default_rng(6), n=2, N=2, M=3)
+    assert sys.nstates == 6 and sys.ninputs == 2
+    periods = 6
+    w = np.sin(np.arange(2 * periods))[None]
+    x0 = np.array([0.5, -1.0])
+    mom = moments(sys, 2 * periods, inputs=w, initial_state=x0)
+    face = ct.forced_response(sys.mean(), T=2 * np.arange(periods),
+                              U=w.reshape(periods, 2).T,
+                              X0=np.kron(sys.modes.initial, x0))
+    np.testing.assert_allclose(face.outputs.T.reshape(-1),
+                               mom.outputs_mean[0], atol=1e-12)
+
+
+def test_stationary_law_of_a_closed_loop_has_exact_zeros_on_unvisited_modes():
+    P = scalar_plant(2.0, actuator_loss=gilbert_elliott(loss=0.2, burst=5.0))
+    law = feedback(P, [[-2.0]]).modes.initial
+    assert law[0] == 0.0 and law[2] == 0.0
+    np.testing.assert_allclose(law[[1, 3]], [0.2, 0.8], atol=1e-14)
