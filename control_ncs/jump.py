@@ -1475,6 +1475,36 @@ class JumpPlant:
                 f"{self.probabilities.shape[1]} modes, info={self.info}>")
 
 
+def require_iid(sys: Any, what: str, name: str = "sys") -> None:
+    """Refuse Markov modes where only the i.i.d. formulas exist yet.
+
+    For the analyses and syntheses written from ``probabilities`` alone
+    (MATH §6, §8): on a Markov system they would silently answer for
+    i.i.d. modes with the stationary marginals, which is wrong (MATH §11).
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or JumpPlant
+    what : str
+        The caller's name, for the message.
+    name : str
+        The argument's name, for the message.
+
+    Raises
+    ------
+    ControlArgument
+        If ``sys`` has Markov modes.
+    """
+    modes = getattr(sys, "modes", sys)
+    if getattr(modes, "transition", None) is not None:
+        from control.exception import ControlArgument
+        raise ControlArgument(
+            f"{what}: {name} has Markov (bursty) modes; {what} is written for "
+            f"i.i.d. losses only and would answer for the stationary "
+            f"marginals, which is wrong for bursts (MATH §11). Exact "
+            f"mean-square analysis works: ms_radius, moments, simulate")
+
+
 def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
     """``sys`` as a :class:`JumpStateSpace`; a deterministic discrete-time
     :class:`control.StateSpace` (or :class:`control.TransferFunction`,
