@@ -340,8 +340,11 @@ def test_algebra_and_pickling_keep_the_chain():
 
 
 # -- the event-level protocol with bursty links ---------------------------------
-@pytest.mark.parametrize("controller", ["static", "predictor"])
-def test_protocol_with_markov_links_matches_the_jump_matrices(controller):
+@pytest.mark.parametrize("controller, actuator", [
+    ("static", "zero"), ("static", "hold"), ("predictor", "zero"),
+    ("predictor", "hold")])
+def test_protocol_with_markov_links_matches_the_jump_matrices(controller,
+                                                              actuator):
     s1 = gilbert_elliott(fail=0.1, recover=0.4)
     s2 = gilbert_elliott(fail=0.15, recover=0.5)
     P = random_plant(np.random.default_rng(0), n=2, radius=1.0,
@@ -352,7 +355,9 @@ def test_protocol_with_markov_links_matches_the_jump_matrices(controller):
         P = P.with_network(sensor_schedule=[1, 2, 0],
                            actuator_schedule=[0, 0, 1], shared_channel=True)
     K = -0.5 * ct.dlqr(P.A, P.B2, np.eye(2), np.eye(1))[0]
-    CL = feedback(P, K, controller=controller)
+    if (controller, actuator) == ("predictor", "hold"):
+        K = np.hstack([K, [[0.2]]])        # gain on [x̂; u⁻]
+    CL = feedback(P, K, controller=controller, actuator=actuator)
     steps = 25
     x0 = np.array([1.0, -0.5])
     w = np.sin(0.4 * np.arange(steps + 1))[None]
@@ -364,7 +369,8 @@ def test_protocol_with_markov_links_matches_the_jump_matrices(controller):
     sim = simulate_protocol(
         P.A, P.B1, P.B2, P.C1, P.D11, P.D12, P.sensor_schedule.pattern,
         P.actuator_schedule.pattern, s1, s2, np.tile(K, (P.period, 1, 1)),
-        steps, controller=controller, inputs=w[:, :steps], initial_state=x0,
+        steps, controller=controller, actuator=actuator, inputs=w[:, :steps],
+        initial_state=x0,
         initial_estimate=x0 if controller == "predictor" else None,
         trials=20000, rng=np.random.default_rng(11))
     x = sim["x"]
