@@ -15,10 +15,13 @@ Two objects share one shape, indexed by phase ``k = 0..N-1`` and mode ``i``
   ``A, B, C, D`` are the exact mean (first-moment) system of MATH §7, lifted
   over one period when ``N > 1``. Analysis and simulation consume it.
 
-Markov-driven modes (Gilbert–Elliott losses) would add a transition array of
-shape ``(N, M, M)`` beside ``probabilities``; i.i.d. modes are the case where
-every row of it equals the next phase's ``probabilities``. Everything that
-reads modes goes through :class:`Modes`, so that addition stays local.
+Markov-driven modes (Gilbert–Elliott losses, MATH §11) carry a transition
+array of shape ``(N, M, M)`` beside ``probabilities`` (then the per-phase
+marginals of the periodic stationary chain) and an initial distribution.
+i.i.d. modes are the case where every row of it equals the next phase's
+``probabilities``: such a transition is stored as ``None``, so that every
+i.i.d. number is computed exactly as before. Code that reads only
+``probabilities`` must first test :attr:`Modes.is_iid`.
 """
 
 from __future__ import annotations
@@ -53,7 +56,15 @@ class Modes:
         ``ξ⁺ = A[k, i] ξ + B[k, i] w``, ``z = C[k, i] ξ + D[k, i] w`` in mode
         ``i`` at phase ``k``.
     probabilities : ndarray, shape (N, M)
-        ``P(mode i at phase k)``; rows sum to one. Modes are i.i.d. in time.
+        ``P(mode i at phase k)``; rows sum to one. i.i.d. modes: the law of
+        every step; Markov modes: the marginals of the periodic stationary
+        chain.
+    transition : ndarray, shape (N, M, M), or None
+        Markov modes (MATH §11): ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``;
+        None for i.i.d. modes.
+    initial : ndarray, shape (M,), or None
+        Markov modes: the law of the mode at time 0 (phase 0); None for
+        i.i.d. modes.
 
     Examples
     --------
@@ -72,6 +83,31 @@ class Modes:
     C: np.ndarray
     D: np.ndarray
     probabilities: np.ndarray
+    transition: np.ndarray | None = None
+    initial: np.ndarray | None = None
+
+    @property
+    def is_iid(self) -> bool:
+        """True for i.i.d. modes: ``probabilities`` alone says everything.
+
+        Any code that reads only ``probabilities`` (the i.i.d. formulas of
+        MATH §5–§8) must check this first and refuse a Markov system.
+        """
+        return self.transition is None
+
+    def transitions(self) -> np.ndarray:
+        """``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``, shape (N, M, M).
+
+        For i.i.d. modes every row of ``T[k]`` is ``probabilities[k + 1]``.
+        """
+        if self.transition is not None:
+            return self.transition
+        nxt = np.roll(self.probabilities, -1, axis=0)
+        return np.repeat(nxt[:, None, :], self.count, axis=1)
+
+    def start(self) -> np.ndarray:
+        """Law of the mode at time 0: ``initial``, or ``probabilities[0]``."""
+        return self.probabilities[0] if self.initial is None else self.initial
 
     @property
     def period(self) -> int:
@@ -122,12 +158,19 @@ class Modes:
             lines.append(f"  phase {k}: p = {p}{more}")
         if self.period > 10:
             lines.append(f"  ... ({self.period - 10} more phases)")
+        if self.transition is not None:
+            lines.append("  Markov modes: p are the stationary marginals; "
+                         "transition T[k][i, j] = P(j next | i now)")
         return "\n".join(lines)
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Modes) and all(
             np.array_equal(getattr(self, f), getattr(other, f))
-            for f in ("A", "B", "C", "D", "probabilities"))
+            for f in ("A", "B", "C", "D", "probabilities")) and all(
+            (a is None and b is None) or (a is not None and b is not None
+                                          and np.array_equal(a, b))
+            for a, b in ((self.transition, other.transition),
+                         (self.initial, other.initial)))
 
     # unhashable: mutable numpy content. None is Python's documented way to
     # say so; typeshed types object.__hash__ as a method only.
@@ -166,6 +209,62 @@ def _probabilities(value: Any, name: str = "probabilities") -> np.ndarray:
     # rounding (e.g. merged eq. 14 modes summing to 1 + 2e-16) is tolerated
     # as for the row sums, then removed
     return np.clip(p, 0.0, 1.0)
+
+
+def periodic_stationary(T: np.ndarray) -> np.ndarray:
+    """Per-phase marginals ``p[k]`` of the periodic stationary law of a
+    chain with transitions ``T[k]`` (shape (N, M, M)): ``p[0] Φ = p[0]`` for
+    ``Φ = T[0] ⋯ T[N-1]``, ``p[k+1] = p[k] T[k]``. For a reducible chain the
+    law is one of several (the least-squares one)."""
+    N, M, _ = T.shape
+    phi = np.eye(M)
+    for Tk in T:
+        phi = phi @ Tk
+    lhs = np.vstack([phi.T - np.eye(M), np.ones((1, M))])
+    rhs = np.zeros(M + 1)
+    rhs[-1] = 1.0
+    pi = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
+    # rounding leaves ~1e-17 on modes the chain never visits: they are 0
+    pi[pi < M * np.finfo(float).eps] = 0.0
+    p = np.empty((N, M))
+    p[0] = pi / pi.sum()
+    for k in range(N - 1):
+        p[k + 1] = p[k] @ T[k]
+    return p
+
+
+def _chain(transition: Any, initial: Any, N: int, M: int | None
+           ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """``(probabilities, transition, initial)`` of a Markov jump system;
+    equal rows give the i.i.d. system (transition None) unless ``initial``
+    differs from its law."""
+    from .network import transition_matrix
+    T = transition_matrix(transition, "transition")
+    if T.ndim == 2:
+        T = T[None]
+    if T.ndim != 3 or T.shape[1] != T.shape[2] or T.shape[0] not in (1, N) \
+            or (M is not None and T.shape[1] != M):
+        raise ControlDimension(
+            f"transition: expected shape (M, M) or (N, M, M) with N = {N} "
+            f"phases" + (f" and M = {M} modes" if M is not None else "")
+            + f", got {np.shape(transition)}")
+    T = np.array(np.broadcast_to(T, (N,) + T.shape[1:]))
+    M = T.shape[1]
+    init = None
+    if initial is not None:
+        init = _probabilities(initial, "probabilities")
+        if init.shape != (1, M):
+            raise ControlDimension(
+                f"probabilities: with a transition it is the law of the "
+                f"initial mode, shape ({M},), got {np.shape(initial)}")
+        init = init[0]
+    if np.all(T == T[:, :1, :]):
+        # equal rows: i.i.d. modes, the law of phase k+1 is any row of T[k]
+        p = np.roll(T[:, 0, :], 1, axis=0)
+        if init is None or np.array_equal(init, p[0]):
+            return p, None, None
+    p = periodic_stationary(T)
+    return p, T, (p[0].copy() if init is None else init)
 
 
 def lift(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
@@ -260,7 +359,12 @@ class JumpStateSpace(ct.StateSpace):
 
     ``ξ[t+1] = A[k,i] ξ[t] + B[k,i] w[t]``, ``z[t] = C[k,i] ξ[t] + D[k,i] w[t]``
     with ``k = t mod N`` and mode ``i`` drawn independently at every step
-    with probability ``probabilities[k, i]`` (MATH §10).
+    with probability ``probabilities[k, i]`` (MATH §10), or, given a
+    ``transition``, a Markov chain ``T[k][i, j] = P(σ[t+1] = j | σ[t] = i)``
+    (MATH §11). For Markov modes the StateSpace face is the exact mean
+    system of order ``M·n`` (state ``E[ξ 1{σ = i}]`` per mode ``i``) under
+    the periodic stationary chain; a transition with equal rows is the
+    i.i.d. system.
 
     The :class:`control.StateSpace` matrices ``self.A, self.B, self.C,
     self.D`` are the *mean system* of MATH §7: ``E ξ`` and ``E z`` obey them
@@ -308,10 +412,15 @@ class JumpStateSpace(ct.StateSpace):
     A, B, C, D : array_like
         Per-mode matrices, shape ``(N, M, ., .)``; an ``(M, ., .)`` stack
         means ``N = 1``; a single matrix is shared by all modes.
-    probabilities : array_like, shape (M,) or (N, M)
-        Mode probabilities per phase; each row sums to 1.
+    probabilities : array_like, shape (M,) or (N, M), optional
+        Mode probabilities per phase; each row sums to 1. With a
+        ``transition``: the law of the mode at time 0, shape ``(M,)``
+        (default: the periodic stationary law).
     dt : True or float > 0
         Sampling period of one step (discrete time only).
+    transition : array_like, shape (M, M) or (N, M, M), optional
+        Markov modes: ``T[k][i, j] = P(σ[t+1] = j | σ[t] = i)`` at phase
+        ``k``; rows non-negative, summing to 1.
     nominal : array_like of int, shape (N,), optional
         Index of the loss-free mode at each phase, for :meth:`nominal`.
     name, inputs, outputs, states : optional
@@ -347,14 +456,26 @@ class JumpStateSpace(ct.StateSpace):
     [[0.0]]
     """
 
-    def __init__(self, A: Any, B: Any, C: Any, D: Any, probabilities: Any,
-                 dt: Any = True, *, nominal: Any = None, name: str | None = None,
-                 inputs: Any = None, outputs: Any = None, states: Any = None,
+    def __init__(self, A: Any, B: Any, C: Any, D: Any,
+                 probabilities: Any = None, dt: Any = True, *,
+                 transition: Any = None, nominal: Any = None,
+                 name: str | None = None, inputs: Any = None,
+                 outputs: Any = None, states: Any = None,
                  info: dict | None = None, **kwargs: Any):
         no_extra_kwargs("JumpStateSpace", kwargs)
-        p = _probabilities(probabilities)
-        N, M = p.shape
         a = real_array(A, "A", ndim=(2, 3, 4))
+        if transition is None:
+            if probabilities is None:
+                raise ValueError("probabilities: give the mode probabilities, "
+                                 "or a transition matrix (Markov modes)")
+            p, T, init = _probabilities(probabilities), None, None
+        else:
+            nt = np.ndim(transition)
+            N0 = max(a.shape[0] if a.ndim == 4 else 1,
+                     np.shape(transition)[0] if nt == 3 else 1)
+            p, T, init = _chain(transition, probabilities, N0,
+                                a.shape[-3] if a.ndim >= 3 else None)
+        N, M = p.shape
         n = a.shape[-1]
         if a.shape[-2] != n:
             raise ControlDimension(f"A: each mode matrix must be square, got "
@@ -374,9 +495,10 @@ class JumpStateSpace(ct.StateSpace):
         check_lifted_size(n, m, q, N, "probabilities")
         C_ = _phase_mode_array(c, "C", N, M, (q, n))
         D_ = _phase_mode_array(D, "D", N, M, (q, m))
-        for X in (A_, B_, C_, D_, p):
-            X.setflags(write=False)
-        self.modes = Modes(A_, B_, C_, D_, p)
+        for X in (A_, B_, C_, D_, p, T, init):
+            if X is not None:
+                X.setflags(write=False)
+        self.modes = Modes(A_, B_, C_, D_, p, T, init)
         self.dt_step = discrete_dt(dt)
         self.nominal_mode = None if nominal is None else self._check_nominal(
             nominal, N, M)
@@ -385,7 +507,14 @@ class JumpStateSpace(ct.StateSpace):
         self.jump_outputs = _names(outputs, q, "z", "outputs")
         self.jump_states = _names(states, n, "x", "states")
 
-        Abar, Bbar, Cbar, Dbar = self.modes.mean()
+        if T is None:
+            Abar, Bbar, Cbar, Dbar = self.modes.mean()
+            face_states = self.jump_states
+        else:
+            check_lifted_size(M * n, m, q, N, "transition")
+            Abar, Bbar, Cbar, Dbar = _markov_mean(self.modes)
+            face_states = [f"{s}#{i}" for i in range(M)
+                           for s in self.jump_states]
         if N == 1:
             mats = (Abar[0], Bbar[0], Cbar[0], Dbar[0])
             lifted_dt = self.dt_step
@@ -395,7 +524,7 @@ class JumpStateSpace(ct.StateSpace):
         super().__init__(*mats, lifted_dt, name=name,
                          inputs=lifted_names(self.jump_inputs, N),
                          outputs=lifted_names(self.jump_outputs, N),
-                         states=self.jump_states)
+                         states=face_states)
         # the face is the exact mean of self.modes only while neither changes
         for X in (self.A, self.B, self.C, self.D):
             X.setflags(write=False)
@@ -447,6 +576,9 @@ class JumpStateSpace(ct.StateSpace):
 
     def mean_phase(self, k: int) -> tuple[np.ndarray, ...]:
         """Mean matrices ``(Σ p A, Σ p B, Σ p C, Σ p D)`` at phase ``k mod N``.
+
+        For Markov modes ``p`` are the stationary marginals: the average
+        matrices of the phase, not the mean dynamics (the face is).
 
         Parameters
         ----------
@@ -553,6 +685,10 @@ class JumpStateSpace(ct.StateSpace):
             coincide; zero-probability modes are dropped (except the
             loss-free one).
         """
+        if not self.modes.is_iid:
+            # modes may share a row only if their futures coincide too (MATH
+            # §11); merging is not attempted for Markov modes
+            return self
         keys = (self.modes.A, self.modes.B, self.modes.C, self.modes.D)
         groups, nominal = _merge_groups(keys, self.modes.probabilities,
                                         self.nominal_mode)
@@ -702,6 +838,12 @@ class JumpStateSpace(ct.StateSpace):
             return other
         return NotImplemented
 
+    def _law(self) -> np.ndarray:
+        """The ``probabilities`` argument that, with ``modes.transition``,
+        rebuilds this law (the initial law for Markov modes)."""
+        m = self.modes
+        return m.probabilities if m.initial is None else m.initial
+
     def _modewise(self, op: Any, what: str, *, name: str | None = None,
                   names: dict | None = None) -> "JumpStateSpace":
         """The jump system whose mode (k, i) is ``op`` of mode (k, i)."""
@@ -723,7 +865,8 @@ class JumpStateSpace(ct.StateSpace):
                       states=list(first.state_labels))
         labels.update(names or {})
         dt = self.dt_step if first.dt is True else first.dt
-        return JumpStateSpace(A, B, C, D, self.modes.probabilities, dt,
+        return JumpStateSpace(A, B, C, D, self._law(), dt,
+                              transition=self.modes.transition,
                               nominal=self.nominal_mode, name=name,
                               info=dict(self.info, algebra=what),
                               inputs=labels["inputs"],
@@ -867,9 +1010,10 @@ class JumpStateSpace(ct.StateSpace):
         # control.StateSpace holds lambdas and cannot be pickled; rebuild
         # from the defining data instead (this also serves copy/deepcopy).
         m = self.modes
-        return (_restore_jss, (m.A, m.B, m.C, m.D, m.probabilities, self.dt_step,
+        return (_restore_jss, (m.A, m.B, m.C, m.D, self._law(), self.dt_step,
                                self.nominal_mode, self.name, self.jump_inputs,
-                               self.jump_outputs, self.jump_states, self.info))
+                               self.jump_outputs, self.jump_states, self.info,
+                               m.transition))
 
     def equals(self, other: object) -> bool:
         """Whether ``other`` is the same jump system, value by value.
@@ -915,10 +1059,14 @@ class JumpStateSpace(ct.StateSpace):
 
     def __str__(self) -> str:
         p = np.array2string(self.modes.probabilities, precision=4)
+        law = "i.i.d." if self.modes.is_iid else "Markov"
         head = (f"JumpStateSpace: {self.name}\n"
                 f"Periodic jump linear system, period N = {self.period}, "
-                f"{self.nmodes} i.i.d. modes per step, dt = {self.dt_step}\n"
+                f"{self.nmodes} {law} modes per step, dt = {self.dt_step}\n"
                 f"Mode probabilities (rows = phases):\n{p}\n")
+        if self.modes.transition is not None:
+            T = np.array2string(self.modes.transition, precision=4)
+            head += f"Transition T[k][i, j] = P(j next | i now):\n{T}\n"
         kind = self.info.get("controller")
         if kind:
             head += (f"Closed loop of a networked plant: controller={kind!r}, "
@@ -931,8 +1079,10 @@ class JumpStateSpace(ct.StateSpace):
 def _restore_jss(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray,
                  p: np.ndarray, dt: float | bool, nominal: np.ndarray | None,
                  name: str, inputs: list[str], outputs: list[str],
-                 states: list[str], info: dict) -> JumpStateSpace:
-    return JumpStateSpace(A, B, C, D, p, dt, nominal=nominal, name=name,
+                 states: list[str], info: dict,
+                 transition: np.ndarray | None = None) -> JumpStateSpace:
+    return JumpStateSpace(A, B, C, D, p, dt, transition=transition,
+                          nominal=nominal, name=name,
                           inputs=inputs, outputs=outputs, states=states,
                           info=info)
 
@@ -1002,8 +1152,9 @@ def _apply_groups(mats: Sequence[np.ndarray], p: np.ndarray, groups: list
     return out, prob
 
 
-def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any, dt: Any = True,
-        **kwargs: Any) -> JumpStateSpace:
+def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any = None,
+        dt: Any = True, *, transition: Any = None, **kwargs: Any
+        ) -> JumpStateSpace:
     """Create a periodic jump linear system from per-mode matrices.
 
     Parameters
@@ -1012,10 +1163,15 @@ def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any, dt: Any = True,
         Per-mode matrices: a stack of shape ``(M, ., .)`` for ``N = 1``,
         ``(N, M, ., .)`` for period ``N``; a single matrix is shared by all
         modes.
-    probabilities : array_like, shape (M,) or (N, M)
-        Probability of each mode at each phase (i.i.d. in time).
+    probabilities : array_like, shape (M,) or (N, M), optional
+        Probability of each mode at each phase (i.i.d. in time). With a
+        ``transition``: the law of the mode at time 0, shape ``(M,)``
+        (default: the periodic stationary law).
     dt : True or float > 0, optional
         Sampling period (discrete time only; default True = unspecified).
+    transition : array_like, shape (M, M) or (N, M, M), optional
+        Markov modes (MATH §11): ``T[k][i, j] = P(σ[t+1] = j | σ[t] = i)``
+        at phase ``k``. Equal rows are exactly the i.i.d. system.
     **kwargs
         ``nominal`` (loss-free mode index per phase), ``name``, ``inputs``,
         ``outputs``, ``states`` (as for :class:`control.StateSpace`), and
@@ -1046,8 +1202,32 @@ def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any, dt: Any = True,
     >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
     >>> float(sys.A[0, 0])
     0.4
+
+    The same modes driven by a Markov chain (bursts of mode 0): the mean
+    face has one state per mode.
+
+    >>> bursty = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]],
+    ...              transition=[[0.5, 0.5], [0.125, 0.875]])
+    >>> bursty.modes.is_iid, bursty.nstates, bursty.modes.probabilities.round(12).tolist()
+    (False, 2, [[0.2, 0.8]])
     """
-    return JumpStateSpace(A, B, C, D, probabilities, dt, **kwargs)
+    return JumpStateSpace(A, B, C, D, probabilities, dt, transition=transition,
+                          **kwargs)
+
+
+def _markov_mean(modes: Modes) -> tuple[np.ndarray, ...]:
+    """Per-phase mean system of Markov modes, state ``μ_i = E[ξ 1{σ = i}]``
+    stacked by mode (MATH §11): ``μ⁺_j = Σ_i T[i, j] (A_i μ_i + π_i B_i w)``,
+    ``E z = Σ_i (C_i μ_i + π_i D_i w)`` with ``π`` the stationary marginals."""
+    A, B, C, D, p, T = (modes.A, modes.B, modes.C, modes.D,
+                        modes.probabilities, modes.transitions())
+    N, M, n, m = B.shape
+    q = C.shape[2]
+    Abar = np.einsum("kij,kiab->kjaib", T, A).reshape(N, M * n, M * n)
+    Bbar = np.einsum("kij,ki,kiab->kjab", T, p, B).reshape(N, M * n, m)
+    Cbar = C.transpose(0, 2, 1, 3).reshape(N, q, M * n)
+    Dbar = np.einsum("ki,kiab->kab", p, D)
+    return Abar, Bbar, Cbar, Dbar
 
 
 class JumpPlant:
@@ -1075,6 +1255,9 @@ class JumpPlant:
         Sampling period of one step (default True, unspecified).
     nominal : array_like of int, shape (N,), optional
         The loss-free mode of each phase.
+    transition : array_like, shape (N, M, M), optional
+        Markov modes (MATH §11): ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``;
+        ``probabilities`` are then the stationary marginals. None: i.i.d.
     inputs, outputs, states : list of str, optional
         Names of ``w``, ``z`` and ``ξ``, handed to the closed loop.
     info : dict, optional
@@ -1088,6 +1271,8 @@ class JumpPlant:
         The selection of ``ξ`` that the gain acts on.
     probabilities : ndarray, shape (N, M)
         Mode probabilities per phase.
+    transition : ndarray, shape (N, M, M), or None
+        The Markov chain of the modes; None for i.i.d. modes.
     dt : True or float
         Sampling period of one step.
     nominal : ndarray of int, shape (N,), or None
@@ -1116,12 +1301,15 @@ class JumpPlant:
 
     def __init__(self, A: Any, Bu: Any, Bw: Any, Cz: Any, Du: Any, Dw: Any,
                  E: Any, probabilities: Any, dt: Any = True, *,
+                 transition: Any = None,
                  nominal: Any = None, inputs: Any = None, outputs: Any = None,
                  states: Any = None, info: dict | None = None):
         self.A, self.Bu, self.Bw = (np.asarray(X, float) for X in (A, Bu, Bw))
         self.Cz, self.Du, self.Dw = (np.asarray(X, float) for X in (Cz, Du, Dw))
         self.E = np.asarray(E, float)
         self.probabilities = np.asarray(probabilities, float)
+        self.transition = None if transition is None else np.asarray(
+            transition, float)
         self.dt = dt
         self.nominal = None if nominal is None else np.asarray(nominal, int)
         self.inputs, self.outputs, self.states = inputs, outputs, states
@@ -1131,6 +1319,12 @@ class JumpPlant:
     def period(self) -> int:
         """Number of phases ``N``."""
         return self.probabilities.shape[0]
+
+    @property
+    def is_iid(self) -> bool:
+        """True for i.i.d. modes; synthesis from ``probabilities`` alone
+        (MATH §8) is valid only then."""
+        return self.transition is None
 
     @property
     def shape(self) -> dict:
@@ -1175,11 +1369,21 @@ class JumpPlant:
         F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
         A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
         C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
-        # merge before building: the lifted face is then built once
         loop = (A, self.Bw, C, self.Dw)
+        plant = self.info.get("plant")
+        if self.transition is not None:
+            # Markov modes are not merged (their futures differ, MATH §11)
+            return JumpStateSpace(*loop, None, self.dt,
+                                  transition=self.transition,
+                                  nominal=self.nominal,
+                                  inputs=self.inputs, outputs=self.outputs,
+                                  states=self.states,
+                                  name=None if plant is None
+                                  else f"{plant} (closed loop)",
+                                  info=dict(self.info, gains=K, **info))
+        # merge before building: the lifted face is then built once
         groups, nominal = _merge_groups(loop, self.probabilities, self.nominal)
         (A, B, C, D), p = _apply_groups(loop, self.probabilities, groups)
-        plant = self.info.get("plant")
         return JumpStateSpace(A, B, C, D, p, self.dt, nominal=nominal,
                               inputs=self.inputs, outputs=self.outputs,
                               states=self.states,
@@ -1195,6 +1399,8 @@ class JumpPlant:
         JumpPlant
             Same ``E``, fewer modes where modes coincide.
         """
+        if self.transition is not None:
+            return self  # Markov modes are not merged (MATH §11)
         mats = [getattr(self, f) for f in self._FIELDS]
         groups, nominal = _merge_groups(mats, self.probabilities, self.nominal)
         (A, Bu, Bw, Cz, Du, Dw), p = _apply_groups(mats, self.probabilities,
@@ -1267,6 +1473,36 @@ class JumpPlant:
         return (f"<JumpPlant: {s['nx']} states, {s['nw']} w, {s['nz']} z, "
                 f"{s['nu']} u, period {self.period}, "
                 f"{self.probabilities.shape[1]} modes, info={self.info}>")
+
+
+def require_iid(sys: Any, what: str, name: str = "sys") -> None:
+    """Refuse Markov modes where only the i.i.d. formulas exist yet.
+
+    For the analyses and syntheses written from ``probabilities`` alone
+    (MATH §6, §8): on a Markov system they would silently answer for
+    i.i.d. modes with the stationary marginals, which is wrong (MATH §11).
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or JumpPlant
+    what : str
+        The caller's name, for the message.
+    name : str
+        The argument's name, for the message.
+
+    Raises
+    ------
+    ControlArgument
+        If ``sys`` has Markov modes.
+    """
+    modes = getattr(sys, "modes", sys)
+    if getattr(modes, "transition", None) is not None:
+        from control.exception import ControlArgument
+        raise ControlArgument(
+            f"{what}: {name} has Markov (bursty) modes; {what} is written for "
+            f"i.i.d. losses only and would answer for the stationary "
+            f"marginals, which is wrong for bursts (MATH §11). Exact "
+            f"mean-square analysis works: ms_radius, moments, simulate")
 
 
 def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:

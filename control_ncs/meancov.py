@@ -256,7 +256,10 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     Propagates ``m⁺ = Σ p (A m + B w)`` and
     ``Q⁺ = Σ p [A Q Aᵀ + A m wᵀBᵀ + B w mᵀAᵀ + B (w wᵀ + W) Bᵀ]`` (MATH §7,
     written for the generic modes of §10), where ``w`` is deterministic and
-    ``W`` the covariance of an added white part.
+    ``W`` the covariance of an added white part. For Markov modes (MATH
+    §11) the same recursion runs per mode on ``E[ξ 1{σ = i}]`` and
+    ``E[ξξᵀ 1{σ = i}]``, redistributed by the transition at every step,
+    from the mode law ``sys.modes.initial`` (independent of ``ξ_0``).
 
     Parameters
     ----------
@@ -315,6 +318,11 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     P0 = np.zeros((n, n)) if P0 is None else P0
     mean_x, mean_z = np.zeros((n, T)), np.zeros((q, T))
     Sx, Sz = np.zeros((n, n, T)), np.zeros((q, q, T))
+    if not sys.modes.is_iid:
+        _markov_moments(sys.modes, w, x0, P0, W, mean_x, mean_z, Sx, Sz)
+        cov_x = Sx - np.einsum("at,bt->abt", mean_x, mean_x)
+        cov_z = Sz - np.einsum("at,bt->abt", mean_z, mean_z)
+        return MomentsResponse(t, mean_x, mean_z, cov_x, cov_z, Sx, sys)
     mk, Qk = x0.copy(), P0 + np.outer(x0, x0)
     for j in range(T):
         k = j % sys.period
@@ -331,6 +339,41 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     cov_x = Sx - np.einsum("at,bt->abt", mean_x, mean_x)
     cov_z = Sz - np.einsum("at,bt->abt", mean_z, mean_z)
     return MomentsResponse(t, mean_x, mean_z, cov_x, cov_z, Sx, sys)
+
+
+def _markov_moments(modes, w, x0, P0, W, mean_x, mean_z, Sx, Sz) -> None:
+    """Fill the moments of a Markov jump system (MATH §11): per mode ``i``,
+    ``μ_i = E[ξ 1{σ = i}]``, ``Q_i = E[ξξᵀ 1{σ = i}]`` and ``π_i = P(σ = i)``;
+    one step applies mode ``i``'s matrices to its share, then the chain
+    ``T_k`` redistributes the shares."""
+    A, B, C, D, T = modes.A, modes.B, modes.C, modes.D, modes.transitions()
+    N = modes.period
+    pi = modes.start().copy()
+    mu = pi[:, None] * x0[None]
+    Q = pi[:, None, None] * (P0 + np.outer(x0, x0))[None]
+    for j in range(w.shape[1]):
+        k = j % N
+        wk = w[:, j]
+        W2 = np.outer(wk, wk) + W
+        mean_x[:, j], Sx[:, :, j] = mu.sum(0), Q.sum(0)
+        mean_z[:, j] = np.einsum("iab,ib->a", C[k], mu) + \
+            np.einsum("i,iab,b->a", pi, D[k], wk)
+        Sz[:, :, j] = _shares_step(pi, C[k], D[k], Q, mu, wk, W2).sum(0)
+        nu = np.einsum("iab,ib->ia", A[k], mu) + pi[:, None] * (B[k] @ wk)
+        Y = _shares_step(pi, A[k], B[k], Q, mu, wk, W2)
+        mu = T[k].T @ nu
+        Q = np.tensordot(T[k].T, Y, axes=1)
+        pi = pi @ T[k]
+
+
+def _shares_step(pi, F, G, Q, mu, w, W2):
+    """Per mode ``i``: ``F Q_i Fᵀ + F μ_i wᵀ Gᵀ + G w μ_iᵀ Fᵀ + π_i G W2 Gᵀ``."""
+    Fm = np.einsum("iab,ib->ia", F, mu)
+    Gw = G @ w
+    cross = np.einsum("ia,id->iad", Fm, Gw)
+    S = (F @ Q @ F.transpose(0, 2, 1) + cross + cross.transpose(0, 2, 1)
+         + pi[:, None, None] * (G @ W2 @ G.transpose(0, 2, 1)))
+    return 0.5 * (S + S.transpose(0, 2, 1))
 
 
 def _second_moment_step(p, F, G, Q, m, w, W2):

@@ -210,6 +210,9 @@ class _Phase(NamedTuple):
     G: np.ndarray                 # (p + n, n + m + r)
     V: np.ndarray                 # (r, n + m)
     parts: tuple                  # ((mode, rows of s), ...) for the non-base modes
+    #: per mode, the index in ``parts`` of the part it uses (-1: the base);
+    #: Markov modes are not merged, so modes with equal matrices share a part
+    part_of: np.ndarray
 
 
 def _phases(modes: Any) -> list[_Phase]:
@@ -221,12 +224,25 @@ def _phases(modes: Any) -> list[_Phase]:
                             np.concatenate([modes.A[k], modes.B[k]], axis=2)],
                            axis=1)
         p_k = modes.probabilities[k]
-        live = np.flatnonzero(p_k > 0)
+        # a Markov chain may visit a mode of zero stationary probability
+        # (from its initial law): keep every mode then
+        live = (np.flatnonzero(p_k > 0) if modes.is_iid
+                else np.arange(p_k.size))
         base = live[np.argmax(p_k[live])]
         Us: list[np.ndarray] = []
         Vs: list[np.ndarray] = []
-        parts, r = [], 0
+        parts: list[tuple[int, slice]] = []
+        r = 0
+        part_of = np.full(p_k.size, -1)
         for i in live:
+            # (i.i.d. masks draw one mode per part: share parts only for
+            # Markov modes, which are never merged)
+            same = [] if modes.is_iid else [
+                j for j, (i0, _) in enumerate(parts)
+                if np.array_equal(M[i], M[i0])]
+            if same:
+                part_of[i] = same[0]
+                continue
             delta = M[i] - M[base]
             # Factor only the rows and columns where the modes differ, so a
             # signal a mode does not touch gets exact zeros (e.g. noise never
@@ -248,11 +264,12 @@ def _phases(modes: Any) -> list[_Phase]:
             Vi[:, cols] = vt[:rank]
             Us.append(Ui)
             Vs.append(Vi)
+            part_of[i] = len(parts)
             parts.append((int(i), slice(r, r + rank)))
             r += rank
         G = np.concatenate([M[base]] + Us, axis=1)
         V = np.concatenate(Vs) if Vs else np.zeros((0, n + m))
-        phases.append(_Phase(G, V, tuple(parts)))
+        phases.append(_Phase(G, V, tuple(parts), part_of))
     return phases
 
 
@@ -264,6 +281,8 @@ def _mode_masks(run: Run, a: int, c: int) -> np.ndarray:
     T, N = run.time.size, len(phases)
     if q == 0:
         return np.empty((T, 0, c))      # one mode per phase: nothing to draw
+    if not run.sys.modes.is_iid:
+        return _markov_masks(run, a, c, q)
     cdf = np.cumsum(run.sys.modes.probabilities, axis=1)
     cdf /= cdf[:, -1:]
     lower = np.concatenate([np.zeros((N, 1)), cdf[:, :-1]], axis=1)
@@ -280,6 +299,35 @@ def _mode_masks(run: Run, a: int, c: int) -> np.ndarray:
                 np.greater_equal(u, lo, out=out)
             else:
                 np.logical_and(u >= lo, u < hi, out=out)
+    return mask
+
+
+def _markov_masks(run: Run, a: int, c: int, q: int) -> np.ndarray:
+    """As :func:`_mode_masks` for Markov modes (MATH §11): per trial the
+    chain starts from ``modes.start()`` and moves by ``T_k``; uniform ``t``
+    of a trial draws its mode at step ``t`` (inverse CDF), so the stream is
+    the i.i.d. engine's."""
+    modes = run.sys.modes
+    T, N, M = run.time.size, modes.period, modes.count
+    cdf = np.cumsum(modes.transitions(), axis=2)           # (N, M, M)
+    cdf /= cdf[:, :, -1:]
+    # row i of T_k shifted into [i, i+1]: one searchsorted of σ + u in the
+    # flattened rows finds mode j iff cdf[σ, j-1] <= u < cdf[σ, j]
+    flat = (cdf + np.arange(M)[:, None]).reshape(N, M * M)
+    start = np.cumsum(modes.start())
+    start /= start[-1]
+    draws = np.ascontiguousarray(run.uniforms(_MODES, a, c, T).T)  # (T, c)
+    mask = np.empty((T, q, c))
+    which = np.arange(q)[:, None]
+    sigma = np.minimum(np.searchsorted(start, draws[0], side="right"), M - 1)
+    for t in range(T):
+        if t:
+            k = (t - 1) % N
+            pos = np.searchsorted(flat[k], draws[t] + sigma, side="right")
+            # M entries per row below σ were counted
+            sigma = np.minimum(pos - M * sigma, M - 1)
+        part = run.phases[t % N].part_of[sigma]
+        np.equal(part[None], which, out=mask[t], casting="unsafe")
     return mask
 
 
@@ -368,7 +416,7 @@ def simulate_chunk(run: Run, a: int, b: int, store: Storage,
     width = max(MIN_COLUMNS, GEMM_SERIAL // max(ph.G.size for ph in phases))
     blocks = [slice(j, j + width) for j in range(0, c, width)]
     for t in range(T):
-        G, V, parts = phases[t % N]
+        G, V, parts, _ = phases[t % N]
         row = t * R
         r = V.shape[0]
         if r:

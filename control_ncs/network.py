@@ -1,9 +1,11 @@
-"""Communication schedules and Bernoulli loss models (MATH §1, §3).
+"""Communication schedules and loss models (MATH §1, §3, §11).
 
 A schedule says, for each phase ``k`` of a period ``N``, which sensors (or
-actuators) may send. A loss model says how likely a message is to be lost.
-Together they give the probabilities of the four network modes of paper
-eq. 14. Nothing here knows about plants or controllers.
+actuators) may send. A loss model says how likely a message is to be lost:
+Bernoulli (a float, i.i.d. losses) or Gilbert–Elliott (a two-state Markov
+chain, losses in bursts). Together they give the probabilities of the four
+network modes of paper eq. 14 and, for bursty links, their joint transition
+matrix. Nothing here knows about plants or controllers.
 """
 
 from __future__ import annotations
@@ -17,7 +19,8 @@ import numpy as np
 from ._checks import caller_stacklevel, real_or_nan
 from .exceptions import ScheduleWarning
 
-__all__ = ["Schedule", "schedule", "mode_probabilities"]
+__all__ = ["Schedule", "schedule", "mode_probabilities", "GilbertElliott",
+           "gilbert_elliott", "mode_transition"]
 
 
 class Schedule:
@@ -344,3 +347,229 @@ def mode_probabilities(sensor_loss: float, actuator_loss: float) -> dict:
     a2 = loss_probability(actuator_loss, "actuator_loss")
     return {(0, 0): a1 * a2, (1, 0): (1 - a1) * a2,
             (0, 1): a1 * (1 - a2), (1, 1): (1 - a1) * (1 - a2)}
+
+
+class GilbertElliott:
+    """A link that loses packets in bursts: a two-state Markov chain (MATH §11).
+
+    ``θ = 0`` (lost) or ``1`` (delivered); ``P(θ⁺ = 0 | θ = 1) = fail``,
+    ``P(θ⁺ = 1 | θ = 0) = recover``. Build one with :func:`gilbert_elliott`.
+
+    Attributes
+    ----------
+    fail, recover : float
+        ``f`` and ``r``, both in ``(0, 1]``.
+    loss : float
+        Stationary loss probability ``f / (f + r)``.
+    burst : float
+        Mean length of a run of losses, ``1 / r``.
+    transition : ndarray, shape (2, 2)
+        ``T[a, b] = P(θ⁺ = b | θ = a)``, state order (lost, delivered).
+    is_bernoulli : bool
+        Equal rows (``f + r = 1``): i.i.d. losses with probability ``loss``.
+
+    Examples
+    --------
+    >>> link = gilbert_elliott(fail=0.05, recover=0.75)
+    >>> round(link.loss, 6), round(link.burst, 6)
+    (0.0625, 1.333333)
+    >>> link.transition.tolist()
+    [[0.25, 0.75], [0.05, 0.95]]
+    """
+
+    def __init__(self, fail: float, recover: float):
+        self.fail = _rate(fail, "fail")
+        self.recover = _rate(recover, "recover")
+
+    @property
+    def loss(self) -> float:
+        """Stationary loss probability ``f / (f + r)``."""
+        if self.is_bernoulli:
+            return self.fail  # exactly the Bernoulli α = f = 1 - r
+        return self.fail / (self.fail + self.recover)
+
+    @property
+    def burst(self) -> float:
+        """Mean burst length ``1 / r`` (steps)."""
+        return 1.0 / self.recover
+
+    @property
+    def transition(self) -> np.ndarray:
+        """``T[a, b] = P(θ⁺ = b | θ = a)``, order (lost, delivered)."""
+        f, r = self.fail, self.recover
+        if self.is_bernoulli:
+            return np.array([[f, 1.0 - f], [f, 1.0 - f]])
+        return np.array([[1.0 - r, r], [f, 1.0 - f]])
+
+    @property
+    def is_bernoulli(self) -> bool:
+        """True when ``f + r = 1`` (to rounding): equal rows, i.i.d. losses
+        with probability ``f``."""
+        return bool(abs(self.fail + self.recover - 1.0)
+                    <= 4 * np.finfo(float).eps)
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, GilbertElliott) and self.fail == other.fail
+                and self.recover == other.recover)
+
+    def __hash__(self) -> int:
+        return hash((self.fail, self.recover))
+
+    def __repr__(self) -> str:
+        return (f"GilbertElliott(fail={self.fail:g}, recover={self.recover:g}; "
+                f"loss={self.loss:.4g}, burst={self.burst:.4g})")
+
+    def __reduce__(self) -> tuple:
+        return (GilbertElliott, (self.fail, self.recover))
+
+
+def _rate(value: Any, name: str) -> float:
+    x = real_or_nan(value)
+    if not 0.0 < x <= 1.0:
+        extra = (" (a link with recover = 0 never recovers)"
+                 if name == "recover" and x == 0 else "")
+        raise ValueError(f"{name}: expected a probability in (0, 1]{extra}, "
+                         f"got {value!r}")
+    return x
+
+
+def gilbert_elliott(fail: float | None = None, recover: float | None = None,
+                    *, loss: float | None = None, burst: float | None = None
+                    ) -> GilbertElliott:
+    """A bursty link (Gilbert–Elliott channel), by rates or by loss and burst.
+
+    Give either ``fail`` and ``recover``, or ``loss`` and ``burst``.
+
+    Parameters
+    ----------
+    fail : float in (0, 1]
+        ``f = P(lost next | delivered now)``.
+    recover : float in (0, 1]
+        ``r = P(delivered next | lost now)``; ``r = 0`` would never recover.
+    loss : float in (0, 1)
+        Stationary loss probability ``f / (f + r)``.
+    burst : float >= 1
+        Mean burst length ``1 / r`` in steps.
+
+    Returns
+    -------
+    GilbertElliott
+
+    Raises
+    ------
+    ControlArgument
+        Neither or both pairs given, or only half a pair.
+    ValueError
+        A value outside its range, or ``loss`` and ``burst`` that need
+        ``f > 1``.
+
+    Examples
+    --------
+    >>> gilbert_elliott(loss=0.25, burst=2.0)
+    GilbertElliott(fail=0.166667, recover=0.5; loss=0.25, burst=2)
+    >>> gilbert_elliott(fail=0.3, recover=0.7).is_bernoulli
+    True
+    """
+    from control.exception import ControlArgument
+    rates = (fail is not None, recover is not None)
+    stats = (loss is not None, burst is not None)
+    if rates == (True, True) and stats == (False, False):
+        return GilbertElliott(fail, recover)  # type: ignore[arg-type]
+    if stats == (True, True) and rates == (False, False):
+        a = real_or_nan(loss)
+        if not 0.0 < a < 1.0:
+            raise ValueError(f"loss: expected a probability in (0, 1), got "
+                             f"{loss!r}")
+        b = real_or_nan(burst)
+        if not 1.0 <= b < math.inf:
+            raise ValueError(f"burst: expected a mean burst length >= 1 (steps), "
+                             f"got {burst!r}")
+        r = 1.0 / b
+        f = a * r / (1.0 - a)
+        if f > 1.0:
+            raise ValueError(
+                f"loss, burst: a stationary loss {a:g} with bursts of mean "
+                f"length {b:g} needs fail = {f:.4g} > 1; shorten the bursts "
+                f"(burst <= {a / (1 - a):.4g}) or lower the loss")
+        return GilbertElliott(f, r)
+    raise ControlArgument("gilbert_elliott: give fail= and recover=, or loss= "
+                          "and burst= (one pair, both of its values)")
+
+
+def link_model(value: Any, name: str) -> float | GilbertElliott:
+    """A link's loss model: a float (Bernoulli), a :class:`GilbertElliott`
+    or a 2×2 transition matrix (state order (lost, delivered))."""
+    if isinstance(value, GilbertElliott):
+        return value
+    arr = np.asarray(value) if isinstance(value, (list, tuple, np.ndarray)) \
+        else None
+    if arr is None or arr.ndim == 0:
+        return loss_probability(value, name)
+    from control.exception import ControlDimension
+    if arr.shape != (2, 2):
+        raise ControlDimension(
+            f"{name}: expected a loss probability, a gilbert_elliott link or "
+            f"a 2x2 transition matrix (rows: from lost, from delivered), got "
+            f"an array of shape {arr.shape}")
+    T = transition_matrix(arr, name)
+    try:
+        return GilbertElliott(T[1, 0], T[0, 1])
+    except ValueError as err:
+        raise ValueError(f"{name}: transition {T.tolist()}: {err}") from None
+
+
+def transition_matrix(value: Any, name: str) -> np.ndarray:
+    """A row-stochastic matrix (or stack), checked: finite, non-negative,
+    rows summing to one."""
+    try:
+        T = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a real transition matrix, got "
+                         f"{value!r}") from None
+    if T.dtype == object or not np.all(np.isfinite(T)):
+        raise ValueError(f"{name}: a transition matrix needs finite real entries")
+    if np.any(T < -_TOL):
+        raise ValueError(f"{name}: transition probabilities must be "
+                         f"non-negative, got a minimum {T.min():g}")
+    sums = T.sum(axis=-1)
+    if not np.allclose(sums, 1.0, atol=_TOL, rtol=0):
+        raise ValueError(f"{name}: each row of a transition matrix must sum "
+                         f"to 1, got row sums {np.round(sums, 12).tolist()}")
+    return np.clip(T, 0.0, 1.0)
+
+
+_TOL = 1e-9
+
+
+def mode_transition(sensor_link: Any, actuator_link: Any) -> np.ndarray:
+    """Transition matrix of the four network modes (MATH §11).
+
+    The links are independent chains, so
+    ``T[(a1, a2), (b1, b2)] = T1[a1, b1] · T2[a2, b2]``, modes in the order
+    of paper eq. 14, ``(θ1, θ2) = (0,0), (1,0), (0,1), (1,1)``. A float is
+    a Bernoulli link (equal rows).
+
+    Parameters
+    ----------
+    sensor_link, actuator_link : float, GilbertElliott or 2x2 array_like
+
+    Returns
+    -------
+    ndarray, shape (4, 4)
+
+    Examples
+    --------
+    >>> T = mode_transition(0.0, gilbert_elliott(fail=0.1, recover=0.5))
+    >>> T[3].round(3).tolist()          # from (1, 1): θ2 fails w.p. 0.1
+    [0.0, 0.1, 0.0, 0.9]
+    """
+    T1 = _link_transition(link_model(sensor_link, "sensor_loss"))
+    T2 = _link_transition(link_model(actuator_link, "actuator_loss"))
+    # index = θ1 + 2 θ2 (eq. 14 order): θ2 is the slow index
+    return np.kron(T2, T1)
+
+
+def _link_transition(link: float | GilbertElliott) -> np.ndarray:
+    if isinstance(link, GilbertElliott):
+        return link.transition
+    return np.array([[link, 1.0 - link], [link, 1.0 - link]])

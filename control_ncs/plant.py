@@ -11,8 +11,9 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, matrix, no_extra_kwargs
 from .exceptions import ScheduleWarning
-from .network import (common_period, loss_probability, warn_silent_nodes,
-                      mode_probabilities, schedule)
+from .network import (GilbertElliott, common_period, link_model,
+                      mode_probabilities, mode_transition, schedule,
+                      warn_silent_nodes)
 
 __all__ = ["NetworkedStateSpace", "nss"]
 
@@ -31,8 +32,9 @@ class NetworkedStateSpace(ct.StateSpace):
     ``sensor_schedule`` phase ``t mod N`` send, in one packet lost with
     probability ``sensor_loss``; the controller's packet reaches the
     actuators of ``actuator_schedule`` unless lost (``actuator_loss``).
-    Losses are i.i.d. Bernoulli, independent of each other. The matrices
-    are read-only: the network was validated against them.
+    Each link loses packets i.i.d. (Bernoulli, a float) or in bursts (a
+    Gilbert–Elliott chain, MATH §11); the two links are independent. The
+    matrices are read-only: the network was validated against them.
 
     Use :func:`nss` to create one.
 
@@ -50,8 +52,10 @@ class NetworkedStateSpace(ct.StateSpace):
     sensor_schedule, actuator_schedule : None, index vector or 0/1 matrix
         See :func:`control_ncs.network.schedule`. ``None``: everyone sends at
         every step.
-    sensor_loss, actuator_loss : float in [0, 1]
-        ``α1 = P(θ1 = 0)`` and ``α2 = P(θ2 = 0)`` (paper notation).
+    sensor_loss, actuator_loss : float in [0, 1], GilbertElliott or 2x2 array
+        ``α1 = P(θ1 = 0)`` and ``α2 = P(θ2 = 0)`` (paper notation), or a
+        bursty link: :func:`control_ncs.gilbert_elliott` or its transition
+        matrix (rows: from lost, from delivered).
     shared_channel : bool
         If True, at most one message crosses the network per step: no phase
         may schedule a sensor and an actuator together (paper §2).
@@ -67,7 +71,10 @@ class NetworkedStateSpace(ct.StateSpace):
     sensor_schedule, actuator_schedule : Schedule
         Both written over the common ``period``.
     sensor_loss, actuator_loss : float
-        Loss probabilities ``α1`` and ``α2``.
+        Loss probabilities ``α1`` and ``α2`` (stationary ones for a bursty
+        link).
+    sensor_link, actuator_link : float or GilbertElliott
+        The loss models as given (a matrix becomes a GilbertElliott).
     shared_channel : bool
         Whether at most one message crosses the network per step.
     period : int
@@ -139,8 +146,11 @@ class NetworkedStateSpace(ct.StateSpace):
         period = common_period(self.sensor_schedule, self.actuator_schedule)
         self.sensor_schedule = self.sensor_schedule.repeat(period)
         self.actuator_schedule = self.actuator_schedule.repeat(period)
-        self.sensor_loss = loss_probability(sensor_loss, "sensor_loss")
-        self.actuator_loss = loss_probability(actuator_loss, "actuator_loss")
+        self.sensor_link = link_model(sensor_loss, "sensor_loss")
+        self.actuator_link = link_model(actuator_loss, "actuator_loss")
+        self.sensor_loss, self.actuator_loss = (
+            x.loss if isinstance(x, GilbertElliott) else x
+            for x in (self.sensor_link, self.actuator_link))
         if not isinstance(shared_channel, (bool, np.bool_)):
             raise ControlArgument(f"shared_channel: expected True or False, "
                                   f"got {shared_channel!r}")
@@ -233,6 +243,35 @@ class NetworkedStateSpace(ct.StateSpace):
         """
         return mode_probabilities(self.sensor_loss, self.actuator_loss)
 
+    @property
+    def is_iid(self) -> bool:
+        """True when both links lose packets i.i.d. (Bernoulli)."""
+        return all(not isinstance(x, GilbertElliott) or x.is_bernoulli
+                   for x in (self.sensor_link, self.actuator_link))
+
+    def mode_transition(self) -> np.ndarray | None:
+        """Transition matrix of the four network modes (eq. 14 order), or
+        None when both links are i.i.d. (MATH §11).
+
+        Returns
+        -------
+        ndarray of shape (4, 4) or None
+            ``T[i, j] = P(mode j next | mode i now)``; the links are
+            independent chains (Kronecker product).
+
+        Examples
+        --------
+        >>> from control_ncs import gilbert_elliott
+        >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+        ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+        ...         actuator_loss=gilbert_elliott(fail=0.1, recover=0.5))
+        >>> P.mode_transition()[3].round(3).tolist()
+        [0.0, 0.1, 0.0, 0.9]
+        """
+        if self.is_iid:
+            return None
+        return mode_transition(self.sensor_link, self.actuator_link)
+
     def with_network(self, **changes: Any) -> "NetworkedStateSpace":
         """A copy with some network settings changed (``sensor_loss=0.1``, …).
 
@@ -267,8 +306,8 @@ class NetworkedStateSpace(ct.StateSpace):
                     nmeas=self.nmeas, ncon=self.ncon,
                     sensor_schedule=self.sensor_schedule.pattern.astype(int),
                     actuator_schedule=self.actuator_schedule.pattern.astype(int),
-                    sensor_loss=self.sensor_loss,
-                    actuator_loss=self.actuator_loss,
+                    sensor_loss=self.sensor_link,
+                    actuator_loss=self.actuator_link,
                     shared_channel=self.shared_channel, name=self.name,
                     inputs=list(self.input_labels),
                     outputs=list(self.output_labels),
@@ -307,7 +346,13 @@ class NetworkedStateSpace(ct.StateSpace):
         return (f"<NetworkedStateSpace {self.name}: {self.nstates} states, "
                 f"w:{self._m1} u:{self.ncon} z:{self._p1} y:{self.nmeas}, "
                 f"period {self.period}, α1={self.sensor_loss:g}, "
-                f"α2={self.actuator_loss:g}, dt={self.dt}>")
+                f"α2={self.actuator_loss:g}{self._bursts()}, dt={self.dt}>")
+
+    def _bursts(self) -> str:
+        return "".join(f", {what} bursts {x.burst:.4g}"
+                       for what, x in (("sensor", self.sensor_link),
+                                       ("actuator", self.actuator_link))
+                       if isinstance(x, GilbertElliott) and not x.is_bernoulli)
 
     def __str__(self) -> str:
         s1 = self.sensor_schedule.pattern.astype(int).tolist()
@@ -315,6 +360,7 @@ class NetworkedStateSpace(ct.StateSpace):
         net = (f"NetworkedStateSpace: {self.name}\n"
                f"Network: period N = {self.period}, sensor loss α1 = "
                f"{self.sensor_loss:g}, actuator loss α2 = {self.actuator_loss:g}"
+               f"{self._bursts()}"
                f"{', shared channel' if self.shared_channel else ''}\n"
                f"  sensor schedule (rows = phases): {s1}\n"
                f"  actuator schedule (rows = phases): {s2}\n"

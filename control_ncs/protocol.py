@@ -27,15 +27,23 @@ if actuator ``j`` is addressed at step ``k`` (one packet). ``theta1_k = 0``
 (probability ``alpha1``) means the sensor packet is lost, ``theta2_k = 0``
 (probability ``alpha2``) means the controller-to-actuator packet is lost.
 
+A link may instead lose packets in bursts (Gilbert--Elliott): its channel
+is a two-state chain that moves at every step, scheduled or not, with
+``P(lost next | delivered now) = f`` and ``P(delivered next | lost now) = r``;
+it starts from its stationary law (loss ``f / (f + r)``).
+
 Random draws
 ------------
 For reproducibility, at every step ``k`` -- whether or not anything is
 scheduled -- the simulator draws, in this order::
 
-    theta1 = rng.random(trials) >= sensor_loss
-    theta2 = rng.random(trials) >= actuator_loss
+    theta1 = rng.random(trials) >= loss1      # loss1: P(theta1_k = 0 | past)
+    theta2 = rng.random(trials) >= loss2
 
-No other random numbers are consumed.
+where ``loss`` is the loss probability for a Bernoulli link, and for a
+bursty one the stationary loss at ``k = 0``, then ``f`` after a delivery and
+``1 - r`` after a loss (so a Bernoulli link, ``f = 1 - r = alpha``, draws
+exactly as before). No other random numbers are consumed.
 """
 
 from __future__ import annotations
@@ -122,6 +130,25 @@ def _vector(value: ArrayLike, name: str, length: int) -> NDArray[np.float64]:
     return arr
 
 
+def _link(value: Any, name: str) -> tuple[float, float, float]:
+    """``(stationary loss, P(lost | delivered before), P(lost | lost before))``
+    of a float, a 2x2 transition matrix (rows: from lost, from delivered)
+    or an object with such a ``transition`` attribute."""
+    T = getattr(value, "transition", value)
+    if np.ndim(T) == 0:
+        a = _probability(T, name)
+        return a, a, a
+    T = np.asarray(T, dtype=float)
+    if T.shape != (2, 2) or not np.all(np.isfinite(T)) or np.any(T < 0) \
+            or not np.allclose(T.sum(axis=1), 1.0):
+        raise ValueError(f"{name} must be a probability or a 2x2 transition "
+                         f"matrix with rows summing to 1, got {T.tolist()}")
+    fail, recover = T[1, 0], T[0, 1]
+    if fail + recover == 0:
+        raise ValueError(f"{name}: the channel never changes state")
+    return fail / (fail + recover), fail, T[0, 0]
+
+
 def simulate_protocol(
     A: ArrayLike,
     B1: ArrayLike,
@@ -131,8 +158,8 @@ def simulate_protocol(
     D12: ArrayLike,
     sensor_schedule: ArrayLike,
     actuator_schedule: ArrayLike,
-    sensor_loss: float,
-    actuator_loss: float,
+    sensor_loss: Any,
+    actuator_loss: Any,
     gains: ArrayLike,
     steps: int,
     *,
@@ -169,10 +196,12 @@ def simulate_protocol(
     actuator_schedule : array_like, shape (N, m2)
         0/1 array; ``actuator_schedule[k mod N, j] == 1`` if actuator ``j``
         is addressed at step ``k``.
-    sensor_loss : float
-        ``alpha1 = P(theta1_k = 0)``, the sensor-packet loss probability.
-    actuator_loss : float
-        ``alpha2 = P(theta2_k = 0)``, the actuator-packet loss probability.
+    sensor_loss : float, 2x2 array or Gilbert-Elliott link
+        ``alpha1 = P(theta1_k = 0)``, the sensor-packet loss probability,
+        or the bursty channel's transition matrix (rows: from lost, from
+        delivered; or an object with a ``transition`` attribute).
+    actuator_loss : float, 2x2 array or Gilbert-Elliott link
+        ``alpha2 = P(theta2_k = 0)``, likewise for the actuator packets.
     gains : array_like, shape (N, m2, nk)
         Periodic gains; step ``k`` uses ``gains[k mod N]``. ``nk = n`` except
         for ``controller='predictor'`` with ``actuator='hold'``, where
@@ -278,8 +307,8 @@ def simulate_protocol(
             f"(shape ({N}, {m2})), got {S2.shape}"
         )
 
-    alpha1 = _probability(sensor_loss, "sensor_loss")
-    alpha2 = _probability(actuator_loss, "actuator_loss")
+    link1 = _link(sensor_loss, "sensor_loss")
+    link2 = _link(actuator_loss, "actuator_loss")
 
     predictor = controller == "predictor"
     hold = actuator == "hold"
@@ -342,13 +371,20 @@ def simulate_protocol(
     th1_hist = np.empty((trials, steps), dtype=bool)
     th2_hist = np.empty((trials, steps), dtype=bool)
 
+    def draw(link: tuple[float, float, float], before: Any) -> Any:
+        loss = (link[0] if before is None
+                else np.where(before, link[1], link[2]))
+        return rng.random(trials) >= loss
+
+    th1 = th2 = None
     x_hist[:, :, 0] = x
     for k in range(steps):
         phase = k % N
         # Drawn unconditionally so the random stream is independent of the
-        # schedule; with alpha = 1 this is always False since random() < 1.
-        th1 = rng.random(trials) >= alpha1
-        th2 = rng.random(trials) >= alpha2
+        # schedule (the channel moves whether or not it carries a packet);
+        # with a loss of 1 this is always False since random() < 1.
+        th1 = draw(link1, th1)
+        th2 = draw(link2, th2)
         th1_hist[:, k] = th1
         th2_hist[:, k] = th2
 

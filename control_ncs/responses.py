@@ -451,7 +451,9 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     Simulates ``ξ[t+1] = A[k,i] ξ[t] + B[k,i] w[t]``,
     ``z[t] = C[k,i] ξ[t] + D[k,i] w[t]`` (``k = t mod N``) with the mode ``i``
     of every trial drawn at every step with probability
-    ``sys.modes.probabilities[k, i]``. All trials advance together, one
+    ``sys.modes.probabilities[k, i]``, or, for Markov modes (MATH §11),
+    a chain per trial started from ``sys.modes.initial`` and moved by
+    ``sys.modes.transition``. All trials advance together, one
     matrix product per step for all modes (see :mod:`control_ncs.montecarlo`).
 
     Parameters

@@ -11,6 +11,11 @@ stable exactly when its spectral radius is below one. Two routes compute it:
   (``O(N·M·n³)`` per application) inside ARPACK
   (:func:`scipy.sparse.linalg.eigs`) for the eigenvalue of largest modulus,
   which for this positive map is the spectral radius itself.
+
+Markov modes (MATH §11) carry the second moment per mode,
+``Q_i = E[ξξᵀ 1{σ = i}]``, and ``Q⁺_j = Σ_i T_k[i, j] A_ki Q_i A_kiᵀ``: the
+same two routes on ``M``-tuples (Kronecker size ``M·n²``). i.i.d. modes use
+the ``n²`` operator above, so their numbers do not change.
 """
 
 from __future__ import annotations
@@ -43,7 +48,9 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
 
     Returns
     -------
-    LinearOperator of shape (n², n²)
+    LinearOperator of shape (n², n²), or (M·n², M·n²) for Markov modes
+        For Markov modes it acts on the tuple ``(vec Q_0, …, vec Q_{M-1})``
+        stacked, ``Q_i = E[ξξᵀ 1{σ = i}]`` (MATH §11).
 
     Raises
     ------
@@ -77,6 +84,8 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
     n = A.shape[-1]
     phases = range(sys.period) if k is None else [k % sys.period]
     dtype = np.result_type(A.dtype, float)
+    if not sys.modes.is_iid:
+        return _markov_operator(sys, phases, dtype)
 
     def apply(v: np.ndarray) -> np.ndarray:
         Q = np.asarray(v).reshape(n, n)
@@ -91,7 +100,38 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
                           dtype=dtype)
 
 
+def _markov_operator(sys: JumpStateSpace, phases: Any, dtype: Any
+                     ) -> LinearOperator:
+    A, T = sys.modes.A, sys.modes.transitions()
+    M, n = A.shape[1], A.shape[-1]
+
+    def apply(v: np.ndarray) -> np.ndarray:
+        Q = np.asarray(v).reshape(M, n, n)
+        for k in phases:
+            Y = A[k] @ Q @ A[k].transpose(0, 2, 1)       # (M, n, n)
+            Q = np.tensordot(T[k].T, Y, axes=1)          # Σ_i T[i, j] Y_i
+        return Q.reshape(-1)
+
+    size = M * n * n
+    return LinearOperator((size, size), matvec=apply, rmatvec=None,
+                          dtype=dtype)
+
+
+def _dense_markov_monodromy(sys: JumpStateSpace) -> np.ndarray:
+    A, T = sys.modes.A, sys.modes.transitions()
+    N, M, n, _ = A.shape
+    out = np.eye(M * n * n)
+    for k in range(N):
+        blocks = np.array([np.kron(A[k, i], A[k, i]) for i in range(M)])
+        # block (j, i) = T[k][i, j] (A_i ⊗ A_i), row-major vec
+        Tk = np.einsum("ij,iab->jaib", T[k], blocks).reshape(M * n * n, -1)
+        out = Tk @ out
+    return out
+
+
 def _dense_monodromy(sys) -> np.ndarray:
+    if not sys.modes.is_iid:
+        return _dense_markov_monodromy(sys)
     A, p = sys.modes.A, sys.modes.probabilities
     n = A.shape[-1]
     T = np.eye(n * n)
@@ -123,6 +163,8 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
     the power ``t``; the system is mean-square stable exactly when it is
     below 1. For a deterministic system it is ``ρ(A)²``. A periodic system
     is judged over its whole period, never by the average of its phases.
+    Markov modes (MATH §11) are judged by the operator on ``M``-tuples of
+    second moments, from every initial state and mode.
 
     Parameters
     ----------
@@ -162,33 +204,45 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
     >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
     >>> round(ms_radius(sys), 12)
     0.8
+
+    The same loop losing its control in bursts (mean length 2), with the
+    same average loss 0.2: ``E x²`` now grows.
+
+    >>> bursty = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]],
+    ...              transition=[[0.5, 0.5], [0.125, 0.875]])
+    >>> round(ms_radius(bursty), 12)
+    2.0
     """
     no_extra_kwargs("ms_radius", kwargs)
     sys = as_jump(sys)
     choice(method, "method", ("auto", "dense", "matrix-free"))
     tol = positive_real(tol, "tol")
     n = sys.modes.A.shape[-1]
+    markov = not sys.modes.is_iid
     if method == "auto":
-        phi = _deterministic_monodromy(sys)
+        phi = None if markov else _deterministic_monodromy(sys)
         if phi is not None:
             # one live mode per phase: 𝒯 = Φ ⊗ Φ, so ρ(𝒯) = ρ(Φ)² exactly
             rho = float(np.max(np.abs(np.linalg.eigvals(phi)))) ** 2 \
                 if n else 0.0
             return rho ** (1.0 / sys.period)
         method = "dense" if n <= DENSE_MAX_STATES else "matrix-free"
-    if method == "dense" or n * n <= 4:
+    size = n * n * (sys.nmodes if markov else 1)
+    if method == "dense" or size <= 4:
         rho = float(np.max(np.abs(np.linalg.eigvals(_dense_monodromy(sys)))))
     else:
         op = second_moment_operator(sys)
         # A PSD start lies in the cone where the Perron eigenvector lives.
         v0 = np.eye(n).reshape(-1)
+        if markov:
+            v0 = np.tile(v0, sys.nmodes)
         # 𝒯(I) = Σ p Π Πᵀ over all mode products Π of a period, so it is zero
         # only when every Π is: then 𝒯 = 0 and ARPACK would fail on it.
         if not np.any(op.matvec(v0)):
             return 0.0
         try:
             vals = eigs(op, k=1, which="LM", v0=v0, tol=tol,
-                        ncv=min(n * n - 1, 30), maxiter=5000,
+                        ncv=min(size - 1, 30), maxiter=5000,
                         return_eigenvectors=False)
         except ArpackNoConvergence as err:
             raise RuntimeError(

@@ -113,11 +113,18 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     a1, a2 = P.sensor_loss, P.actuator_loss
     prob = P.mode_probabilities()
     p = np.tile([prob[m] for m in MODES], (N, 1))
+    # bursty links (MATH §11): the channels evolve at every step whether or
+    # not a node is scheduled; the predictor's mode (θ1,k+1, θ2,k) follows
+    # the same Kronecker chain as the static one's (θ1,k, θ2,k)
+    T = P.mode_transition()
+    transition = None if T is None else np.tile(T, (N, 1, 1))
     info = dict(controller=controller, actuator=actuator, sensor_loss=a1,
                 actuator_loss=a2, plant_period=P.period, plant=P.name)
+    if T is not None:
+        info.update(sensor_link=P.sensor_link, actuator_link=P.actuator_link)
     return JumpPlant(stacked["A"], stacked["Bu"], stacked["Bw"], stacked["Cz"],
                      stacked["Du"], stacked["Dw"], E, p, P.dt,
-                     nominal=np.full(N, 3), inputs=P.disturbance_labels,
+                     transition=transition, nominal=np.full(N, 3), inputs=P.disturbance_labels,
                      outputs=P.performance_labels,
                      states=strategy.states(P), info=info)
 

@@ -1,0 +1,106 @@
+"""Benchmark: bursty (Markov) losses, analysis side (issue 13).
+
+Not registered in the runner yet; run it alone::
+
+    python -m benchmarks.bench_markov [--quick]
+
+Two figures, each against its target:
+
+* ``simulate`` with a Markov chain against the i.i.d. engine on the same
+  modes (same system, same trials and steps): trial-steps per second, and
+  their ratio (target >= 0.5).
+* matrix-free ``ms_radius`` of a Markov system with n = 100 states, M = 4
+  modes, period N = 10 (target under 10 s): operator on 4-tuples of
+  100 × 100 matrices, 40 000 unknowns, inside ARPACK.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+
+def markov_system(n: int, N: int, M: int, seed: int = 0, radius: float = 0.9):
+    """Random ``N``-periodic jump system with ``M`` modes, mode matrices of
+    spectral radius ``radius`` and a random (Dirichlet) transition; and its
+    i.i.d. twin (the same modes, the chain's stationary marginals)."""
+    from control_ncs import jss
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((N, M, n, n))
+    A *= radius / np.max(np.abs(np.linalg.eigvals(A)), axis=-1)[..., None, None]
+    B = rng.standard_normal((N, M, n, 1))
+    C = rng.standard_normal((N, M, 1, n))
+    D = np.zeros((N, M, 1, 1))
+    T = rng.dirichlet(np.ones(M), size=(N, M))
+    markov = jss(A, B, C, D, transition=T)
+    iid = jss(A, B, C, D, markov.modes.probabilities)
+    return markov, iid
+
+
+def networked_loop(n: int, seed: int = 0):
+    """A static-gain loop over two bursty links (4 Markov modes, N = 1) and
+    the same loop with Bernoulli links of the same stationary losses."""
+    import control as ct
+    from control_ncs import feedback, gilbert_elliott, nss
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n))
+    A *= 1.02 / np.max(np.abs(np.linalg.eigvals(A)))
+    B = np.hstack([rng.standard_normal((n, 1)), rng.standard_normal((n, 1))])
+    C = np.vstack([rng.standard_normal((1, n)), np.eye(n)])
+    D = np.zeros((n + 1, 2))
+    s1 = gilbert_elliott(fail=0.05, recover=0.5)
+    s2 = gilbert_elliott(fail=0.1, recover=0.6)
+    P = nss(A, B, C, D, True, nmeas=n, ncon=1, sensor_loss=s1, actuator_loss=s2)
+    K = -ct.dlqr(A, B[:, 1:], np.eye(n), np.eye(1))[0]
+    Q = P.with_network(sensor_loss=s1.loss, actuator_loss=s2.loss)
+    return feedback(P, K), feedback(Q, K)
+
+
+def best_of(fn, repeat: int = 3) -> float:
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def bench_simulate(n: int, steps: int, trials: int) -> dict:
+    from control_ncs import simulate
+    markov, iid = networked_loop(n)
+    out = {}
+    for name, loop in (("markov", markov), ("iid", iid)):
+        t = best_of(lambda loop=loop: simulate(
+            loop, steps, initial_state=1.0, trials=trials, seed=1, workers=1))
+        out[name] = trials * steps / t
+    out["ratio"] = out["markov"] / out["iid"]
+    return out
+
+
+def bench_ms_radius(n: int, M: int, N: int) -> dict:
+    from control_ncs import ms_radius
+    markov, _ = markov_system(n, N, M)
+    t0 = time.perf_counter()
+    rho = ms_radius(markov, method="matrix-free")
+    return dict(seconds=time.perf_counter() - t0, ms_radius=rho)
+
+
+def main(argv: list[str]) -> None:
+    quick = "--quick" in argv
+    n_sim, steps, trials = (4, 50, 200) if quick else (8, 200, 20000)
+    s = bench_simulate(n_sim, steps, trials)
+    print(f"simulate, n = {n_sim}, {steps} steps, {trials} trials, 4 modes:")
+    print(f"  Markov chain: {s['markov']:.3g} trial-steps/s")
+    print(f"  i.i.d.      : {s['iid']:.3g} trial-steps/s")
+    print(f"  ratio       : {s['ratio']:.2f} (target >= 0.5)")
+    n, M, N = (10, 4, 3) if quick else (100, 4, 10)
+    r = bench_ms_radius(n, M, N)
+    print(f"matrix-free ms_radius, n = {n}, M = {M}, N = {N}: "
+          f"{r['seconds']:.2f} s (target < 10 s), ms_radius = "
+          f"{r['ms_radius']:.6g}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
