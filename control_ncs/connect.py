@@ -220,7 +220,8 @@ def jump_feedback(sys: Any, other: Any = 1, sign: float = -1, *,
     states = list(J.jump_states) + [f"{G.name}.{x}" for x in G.state_labels]
     info = dict(J.info, feedback=dict(
         other=G.name, sign=s, dt=G.dt, matrices=(A2, B2, C2, D2)))
-    return JumpStateSpace(A, B, C, D, M.probabilities, dt,
+    law, transition = J.mode_law()   # the chain is kept (MATH §11)
+    return JumpStateSpace(A, B, C, D, law, dt, transition=transition,
                           nominal=J.nominal_mode, name=name,
                           inputs=J.jump_inputs, outputs=J.jump_outputs,
                           states=states, info=info)
@@ -408,7 +409,8 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
                            dtype=float) for X in "ABCD")
     dt = J.dt_step if first.dt is True else first.dt
     info = dict(J.info, interconnect=[s.name for s in others if s is not None])
-    return JumpStateSpace(A, B, C, D, J.modes.probabilities, dt,
+    law, transition = J.mode_law()   # the chain is kept (MATH §11)
+    return JumpStateSpace(A, B, C, D, law, dt, transition=transition,
                           nominal=J.nominal_mode, name=name,
                           inputs=list(first.input_labels),
                           outputs=list(first.output_labels),

@@ -838,11 +838,33 @@ class JumpStateSpace(ct.StateSpace):
             return other
         return NotImplemented
 
-    def _law(self) -> np.ndarray:
-        """The ``probabilities`` argument that, with ``modes.transition``,
-        rebuilds this law (the initial law for Markov modes)."""
+    def mode_law(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """The ``(probabilities, transition)`` that rebuild this mode law.
+
+        A system built from new per-mode matrices with the same mode law
+        (an interconnection, python-control's algebra) passes both to
+        :class:`JumpStateSpace`; ``probabilities`` is the initial law for
+        Markov modes (MATH §11) and ``transition`` is None for i.i.d. ones.
+
+        Returns
+        -------
+        probabilities : ndarray, shape (N, M) or (M,)
+        transition : ndarray, shape (N, M, M), or None
+
+        Examples
+        --------
+        >>> S = jss([[[0.5]], [[1.2]]], [[1.0]], [[1.0]], [[0.0]],
+        ...         transition=[[0.5, 0.5], [0.125, 0.875]])
+        >>> p, T = S.mode_law()
+        >>> T.shape
+        (1, 2, 2)
+        """
         m = self.modes
-        return m.probabilities if m.initial is None else m.initial
+        law = m.probabilities if m.initial is None else m.initial
+        return law, m.transition
+
+    def _law(self) -> np.ndarray:
+        return self.mode_law()[0]
 
     def _modewise(self, op: Any, what: str, *, name: str | None = None,
                   names: dict | None = None) -> "JumpStateSpace":

@@ -1037,6 +1037,13 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     P = _plant(P)
     N = _positive_int(period, "period")
     shared = _flag(shared_channel, "shared_channel")
+    if (sensor_loss is None or actuator_loss is None) and not P.is_iid:
+        # the pruning and the synthesis are written for Bernoulli losses;
+        # P's stationary loss would silently drop its bursts (MATH §11)
+        raise ControlArgument(
+            "P: its links are Markov (bursty); schedule_search works with "
+            "Bernoulli losses only: pass sensor_loss= and actuator_loss= "
+            "explicitly")
     a1 = P.sensor_loss if sensor_loss is None else sensor_loss
     a2 = P.actuator_loss if actuator_loss is None else actuator_loss
     a1, a2 = _loss(a1, "sensor_loss"), _loss(a2, "actuator_loss")

@@ -434,3 +434,27 @@ def test_require_iid_refuses_markov_systems_and_plants_by_name():
     iid = scalar_plant(2.0, actuator_loss=0.1)
     assert require_iid(feedback(iid, [[-2.0]]), "ispassive") is None
     assert require_iid(build(iid), "passivesyn") is None
+
+
+# -- the chain survives interconnection; Bernoulli-only tools refuse it ------
+def test_jump_feedback_and_interconnect_keep_the_chain():
+    S = ncs.jss([[[0.5]], [[1.2]]], [[1.0]], [[1.0]], [[0.0]],
+                transition=[[0.5, 0.5], [0.125, 0.875]], dt=1, name="S")
+    G = ct.ss([[0.3]], [[1.0]], [[0.2]], [[0.1]], 1, name="G",
+              inputs="e", outputs="f")
+    loop = ncs.jump_feedback(S, G)
+    chain = ncs.interconnect([S, G], connections=[["G.e", "S.z[0]"]],
+                             inplist=["S.w[0]"], outlist=["G.f"])
+    for J in (loop, chain):
+        assert not J.modes.is_iid
+        np.testing.assert_array_equal(J.modes.transition, S.modes.transition)
+
+
+def test_schedule_search_refuses_markov_links_without_explicit_losses():
+    from control.exception import ControlArgument
+    link = ncs.gilbert_elliott(fail=0.05, recover=0.74)
+    P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+                actuator_loss=link)
+    with pytest.raises(ControlArgument, match="Markov"):
+        ncs.schedule_search(P, 2)
