@@ -6,6 +6,8 @@ from typing import Any
 
 import numpy as np
 
+from control.exception import ControlDimension
+
 from ._checks import choice, real_array
 
 __all__ = ["PeriodicGain"]
@@ -15,6 +17,9 @@ __all__ = ["PeriodicGain"]
 CONTROLLERS = ("static", "predictor")
 #: Actuator strategies on a lost or unaddressed message: apply zero, or hold.
 ACTUATORS = ("zero", "hold")
+#: Above this many entries the repr gives the shape, not the numbers (a
+#: screenful; ``numpy.asarray(K)`` shows them all).
+REPR_ENTRIES = 64
 
 
 class PeriodicGain:
@@ -63,6 +68,9 @@ class PeriodicGain:
     def __init__(self, gains: Any, controller: str = "static",
                  actuator: str = "zero", result: Any = None):
         K = real_array(gains, "gains", ndim=(2, 3))
+        if 0 in K.shape:
+            raise ControlDimension(f"gains: expected nonzero dimensions, got "
+                                   f"shape {K.shape}")
         self.gains = K[None] if K.ndim == 2 else K
         self.gains.flags.writeable = False
         self.controller = choice(controller, "controller", CONTROLLERS)
@@ -94,6 +102,9 @@ class PeriodicGain:
                                self.actuator, self.result))
 
     def __repr__(self) -> str:
+        head = (f"PeriodicGain(controller={self.controller!r}, "
+                f"actuator={self.actuator!r}, period={self.period}")
+        if self.gains.size > REPR_ENTRIES:
+            return f"{head}, shape={self.gains.shape})"
         g = np.array2string(np.asarray(self), precision=4)
-        return (f"PeriodicGain(controller={self.controller!r}, "
-                f"actuator={self.actuator!r}, period={self.period},\n{g})")
+        return f"{head},\n{g})"

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import threading
 import time
+import warnings
 import weakref
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -197,7 +198,12 @@ class _SolverOptionsRestored:
 def _run(problem: cp.Problem, name: str, opts: dict) -> tuple[str, str]:
     """One solver call: its status, or 'solver_error' and why."""
     try:
-        with _SolverOptionsRestored():
+        with _SolverOptionsRestored(), warnings.catch_warnings():
+            # the status says 'optimal_inaccurate' already, and the caller's
+            # exact check decides; the warning would only reach users as noise
+            warnings.filterwarnings("ignore",
+                                    message="Solution may be inaccurate",
+                                    category=UserWarning)
             problem.solve(solver=name, **opts)
         return problem.status, ""
     except (KeyboardInterrupt, SystemExit):

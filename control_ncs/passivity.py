@@ -33,7 +33,6 @@ Two routes produce a certificate, both checked exactly by
 from __future__ import annotations
 
 import time
-import warnings
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -590,21 +589,6 @@ def _zero_dynamics_refute(sys, ifp_index, decay) -> SolveReport | None:
         "output-feedback level ρ can be certified")
 
 
-def _solve(problem: Any, solver: str | None, **options: Any) -> SolveReport:
-    """:func:`control_ncs.lmi.solve` without cvxpy's accuracy warning.
-
-    cvxpy warns "Solution may be inaccurate" whenever its status is
-    ``'optimal_inaccurate'``. That status is in the report, and the result
-    says what it led to (an exactly verified certificate, or the reason
-    ``'inaccurate'``): the warning would only reach users (notebook 4) as
-    noise. ``catch_warnings`` restores the filters on exit.
-    """
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="Solution may be inaccurate",
-                                category=UserWarning)
-        return solve(problem, solver, **options)
-
-
 def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
                      solver_options) -> PassivityResult:
     """The LMI route of :func:`passivity_certificate` (any jump system).
@@ -651,7 +635,7 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
             # zᵀz needs every mode's output matrices (MATH §6)
             model = supply_model(sys, eta, level_rho, level, decay)
         # the caller's options are for the solver the caller chose
-        report = _solve(model.problem, name,
+        report = solve(model.problem, name,
                         **(solver_options if name == solver else {}))
         attempts.append((level, eta if free != "rho" else level_rho,
                          report.solver, report.status))

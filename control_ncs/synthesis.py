@@ -28,7 +28,7 @@ from .lmi import (DEFAULT_MARGIN, SolveReport, check_options, check_solver,
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
 from .strategies import build, loop_closes
-from .exceptions import SynthesisError
+from .exceptions import CERTIFIED, MESSAGES, SynthesisError
 from .verify import (Certificate, certify_index,
                      check_certificate)
 
@@ -171,21 +171,49 @@ class SynthesisResult:
     def ms_radius(self) -> float:
         return self.certificate.ms_radius
 
+    @property
+    def verdict(self) -> bool:
+        """Always True: :func:`passivesyn` returns only certified gains."""
+        return True
+
+    @property
+    def status(self) -> str:
+        """``'certified'`` (:mod:`control_ncs.exceptions`)."""
+        return CERTIFIED
+
+    @property
+    def message(self) -> str:
+        """One sentence: what the certificate proves."""
+        return (f"{MESSAGES[CERTIFIED]} (eta = {self.eta:.6g}, ms_radius = "
+                f"{self.ms_radius:.6g}, structure {self.structure})")
+
+    def __repr__(self) -> str:
+        return (f"<SynthesisResult: {self.status}, eta = {self.eta:.6g}, "
+                f"N = {self.gain.period}, controller {self.gain.controller}, "
+                f"actuator {self.gain.actuator}, structure {self.structure}, "
+                f"solver {self.report.solver}: {self.report.status}>")
+
     def summary(self) -> str:
-        """A few lines for humans: the figures that prove the result."""
-        c = self.certificate
-        return (f"passivesyn: controller={self.gain.controller!r}, "
-                f"actuator={self.gain.actuator!r}, N={self.gain.period}, "
-                f"form={self.form}, structure={self.structure}\n"
-                f"  certified eta = {self.eta:.6g} (solver {self.eta_solver:.6g},"
-                f" sup proved by P: {c.eta_sup:.6g})\n"
-                f"  max_k lambda_max(Theta_k) = {c.theta_max.max():.3e} < 0, "
-                f"min_k lambda_min(P_k) = {c.P_min.min():.3e} > 0\n"
-                f"  ms_radius = {c.ms_radius:.6f} < "
-                f"{min(1.0, self.decay ** 2):.6f}\n"
-                f"  solver {self.report.solver}: {self.report.status}, compile "
-                f"{self.report.compile_time:.3f} s, solve "
-                f"{self.report.solve_time:.3f} s, {len(self.attempts)} attempt(s)")
+        """A few lines for humans: the figures that prove the result.
+
+        Returns
+        -------
+        str
+        """
+        r = self.report
+        lines = [f"SynthesisResult: certified ({self.status})",
+                 f"  {self.message}",
+                 f"  controller={self.gain.controller!r}, "
+                 f"actuator={self.gain.actuator!r}, N={self.gain.period}, "
+                 f"form={self.form}, structure={self.structure}",
+                 f"  certified eta = {self.eta:.6g} (solver "
+                 f"{self.eta_solver:.6g})",
+                 f"  solver {r.solver}: {r.status}, compile "
+                 f"{r.compile_time:.3f} s, solve {r.solve_time:.3f} s, "
+                 f"{len(self.attempts)} attempt(s)"]
+        lines += ["  " + line for line in
+                  self.certificate.summary().splitlines()]
+        return "\n".join(lines)
 
 
 def _checks(P, eta, decay, controller, actuator, form, structure, plant):

@@ -285,3 +285,27 @@ def test_clarabel_stall_at_its_default_accuracy_is_optimal():
     strict = lmi.solve(model.problem, "CLARABEL", tol_gap_abs=1e-9,
                        tol_gap_rel=1e-9, tol_feas=1e-9)
     assert strict.status == "optimal_inaccurate"
+
+
+def test_solver_accuracy_warning_never_reaches_the_caller():
+    """The strict solve above ends 'optimal_inaccurate', on which cvxpy
+    warns "Solution may be inaccurate"; the status says it already."""
+    import warnings
+    sys, = loops([6])
+    model = lmi.analysis_model(sys, None, 1e-7, 1.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        report = lmi.solve(model.problem, "CLARABEL", tol_gap_abs=1e-9,
+                           tol_gap_rel=1e-9, tol_feas=1e-9)
+    assert report.status == "optimal_inaccurate"
+    assert [str(w.message) for w in caught] == []
+
+
+def test_index_analysis_through_an_inaccurate_first_solve_emits_no_warning():
+    import warnings
+    from control_ncs import get_input_ff_index
+    sys, = loops([6])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        get_input_ff_index(sys)
+    assert [str(w.message) for w in caught] == []

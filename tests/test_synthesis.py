@@ -658,3 +658,35 @@ def test_result_carries_certificate_report_and_gain_for_feedback():
     again = feedback(P, K)
     np.testing.assert_allclose(again.modes.A, CL.modes.A)
     assert "certified eta" in res.summary()
+
+
+def test_synthesis_emits_no_warning(plant):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        passivesyn(plant)
+    assert [str(w.message) for w in caught] == []
+
+
+def test_synthesis_result_has_verdict_status_message_and_a_one_line_repr(
+        plant):
+    K, _, eta = passivesyn(plant)
+    res = K.result
+    assert res.verdict is True and res.status == "certified"
+    assert "certified" in res.message
+    text = repr(res)
+    assert "\n" not in text and text.startswith("<SynthesisResult: certified")
+    assert f"N = {K.period}" in text and "solver" in text
+    assert res.certificate.summary().splitlines()[0] in res.summary()
+
+
+def test_periodic_gain_repr_gives_the_shape_above_64_entries():
+    big = control_ncs.PeriodicGain(np.zeros((2, 4, 9)))
+    assert "shape=(2, 4, 9)" in repr(big) and "\n" not in repr(big)
+    small = control_ncs.PeriodicGain(np.ones((1, 2)))
+    assert "[[1. 1.]]" in repr(small)
+
+
+@pytest.mark.parametrize("shape", [(0, 2, 2), (1, 0, 2), (2, 0)])
+def test_periodic_gain_refuses_an_empty_dimension(shape):
+    with pytest.raises(ControlDimension, match="gains"):
+        control_ncs.PeriodicGain(np.zeros(shape))
