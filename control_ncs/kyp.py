@@ -3,7 +3,7 @@
 For a Schur-stable LTI system ``G(z) = D + C (zI - A)⁻¹ B`` the
 input-feedforward passivity index equals
 ``min_θ λmin(G(e^{jθ}) + G(e^{jθ})ᴴ) / 2`` (KYP lemma). This module
-evaluates that minimum (:class:`_FrequencyResponse`, used by
+evaluates that minimum (:class:`FrequencyResponse`, used by
 :func:`control_ncs.frequency_ff_index` and the Riccati route of
 :func:`control_ncs.passivity_certificate`) and locates, by the symplectic
 pencil of the Riccati equation, the frequencies where
@@ -35,7 +35,7 @@ ZOOM_POINTS = 33
 CROSSING_TOL = 1e-5
 
 
-class _FrequencyResponse:
+class FrequencyResponse:
     """``G(e^{jθ}) = D + C (e^{jθ}I - A)⁻¹ B`` at many frequencies at once.
 
     One complex Schur form ``A = U T Uᴴ`` (unitary, hence backward stable)
@@ -174,7 +174,7 @@ class _FrequencyResponse:
                                                    float(cand[i]))
 
 
-def frequency_minimum(resp: _FrequencyResponse,
+def frequency_minimum(resp: FrequencyResponse,
                       thetas: np.ndarray | None = None,
                       points: int | None = None) -> float:
     """``min λmin(G + Gᴴ)/2`` of ``resp`` on the grid ``thetas``

@@ -23,6 +23,7 @@ import numpy as np
 import cvxpy as cp
 from control.exception import ControlArgument
 
+from .exceptions import TIME_LIMIT
 from .jump import JumpPlant, JumpStateSpace
 
 __all__: list[str] = []
@@ -264,7 +265,7 @@ def solve(problem: cp.Problem, solver: str | None = None, *,
     total = time.perf_counter() - start
     if status == cp.USER_LIMIT and time_limit is not None \
             and total >= 0.9 * time_limit:
-        status, message = "time_limit", f"{name} reached its time limit"
+        status, message = TIME_LIMIT, f"{name} reached its time limit"
     template = _cache.templates.get(problem)
     if template is not None:
         template.solved = template.owner
@@ -350,7 +351,7 @@ class _Template:
     its own values before its problem is handed out, so two models of one
     shape never solve each other's data. ``solved`` is the model whose data
     were last solved (set by :func:`solve`); variables are read only when
-    both are the reader (``_Model._check_current``), and loading other data
+    both are the reader (``_Model.check_current``), and loading other data
     clears the variables' values.
     """
 
@@ -402,7 +403,7 @@ class _Model:
         self._template.load(self, self._values)
         return self._template.problem
 
-    def _check_current(self) -> None:
+    def check_current(self) -> None:
         """Raise unless the variables hold the solution of this model's
         data (its problem solved since it was last loaded)."""
         if self._template.owner is not self or self._template.solved is not self:
@@ -729,7 +730,7 @@ def read_gains(model: SynthesisModel, plant: JumpPlant
     ``K_k E_k = Y_k Z_k⁻¹`` is computed block-wise, so the zero pattern that
     the structure imposes (silent sensors, unaddressed actuators) is exact.
     """
-    model._check_current()
+    model.check_current()
     s = plant.shape
     N, nx, nu = plant.period, s["nx"], s["nu"]
     gains = np.zeros((N, nu, s["nk"]))
@@ -769,7 +770,7 @@ class SupplyModel:
         self.problem, self.P = problem, P
         self.eta, self.rho, self.margin = eta, rho, margin
 
-    def _check_current(self) -> None:
+    def check_current(self) -> None:
         """Nothing to check: the problem is this model's own."""
 
 

@@ -33,7 +33,7 @@ Two routes produce a certificate, both checked exactly by
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, cast
 
 import numpy as np
@@ -44,16 +44,17 @@ from scipy.linalg import (LinAlgError, solve_discrete_are,
 from . import kyp
 from ._checks import (choice, decay_bound, finite_real, no_extra_kwargs,
                       positive_int, positive_real, real_array)
-from .exceptions import (CERTIFIED, FEEDTHROUGH, INACCURATE, INFEASIBLE,
+from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE,
                          MESSAGES, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
                          CertificationError)
+from .driver import drive
 from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
-                  analysis_model,
-                  fallback_solver, solve, supply_model)
+                  analysis_model, solve, supply_model)
 from .jump import JumpStateSpace
 from .stability import ms_radius
-from .verify import (Certificate, _system, certify_index, certify_ofp_index,
-                     check_certificate, feedthrough_bound)
+from .verify import (Certificate, certify_index, certify_ofp_index,
+                     check_certificate, feedthrough_bound, level_floor,
+                     square_system)
 
 __all__ = ["ispassive", "get_input_ff_index", "get_output_fb_index",
            "mean_input_ff_index", "frequency_ff_index",
@@ -87,15 +88,15 @@ RICCATI_EPS_FRACTION = 0.25
 KYP_CORRECTIONS = 4
 
 #: Attempts, in turn, until an answer passes the exact checks, as
-#: (margin multiplier, back-off or None). The back-off lowers the maximised
+#: (margin multiplier, back-off) of ``driver.drive``. The back-off lowers the maximised
 #: index below the first solve's optimum by back-off × max(1, |optimum|)
 #: (absolute below 1, relative above). For an index: the
 #: maximisation, then feasibility problems a little below its optimum (a
 #: maximum sits on the boundary, where interior-point answers end
 #: 'optimal_inaccurate'; measured on periodic lossy loops: at 1e-6 below,
 #: Clarabel says 'optimal'), then a 100× larger margin.
-INDEX_ATTEMPTS = ((1.0, None), (1.0, 1e-6), (1.0, 1e-4), (1.0, 1e-3),
-                  (1e2, None))
+INDEX_ATTEMPTS = ((1.0, 0.0), (1.0, 1e-6), (1.0, 1e-4), (1.0, 1e-3),
+                  (1e2, 0.0))
 #: For a given η: the LMI with its margin, a 100× larger one, and last the
 #: LMI that maximises its own margin (multiplier None), for an η so close to
 #: the index that a fixed margin makes the LMI infeasible; its answer is the
@@ -103,7 +104,7 @@ INDEX_ATTEMPTS = ((1.0, None), (1.0, 1e-6), (1.0, 1e-4), (1.0, 1e-3),
 #: Measured: needed to re-certify the η that passivesyn returns (1e-6
 #: below what its certificate proves); the non-strict LMI (margin 0)
 #: instead returns boundary points that fail the exact check.
-LEVEL_ATTEMPTS = ((1.0, None), (1e2, None), (None, None))
+LEVEL_ATTEMPTS = ((1.0, 0.0), (1e2, 0.0), (None, 0.0))
 
 
 @dataclass
@@ -263,7 +264,7 @@ def _deterministic(sys: JumpStateSpace) -> tuple[np.ndarray, ...] | None:
                                            for X in mats)
 
 
-def _riccati_storage(resp: kyp._FrequencyResponse, eta: float, eps: float
+def _riccati_storage(resp: kyp.FrequencyResponse, eta: float, eps: float
                      ) -> np.ndarray | None:
     """``P ≻ 0`` with ``Θ(P, η) ≺ 0`` from one Riccati equation, or None.
 
@@ -341,7 +342,7 @@ def _riccati_certificate(sys, mats, ifp_index, decay
     A, B, C, D = mats
     # ms_radius of a deterministic system is ρ(A)², the Schur form's
     # diagonal (decay > 0: checked at the public boundary)
-    resp = kyp._FrequencyResponse(A / decay, B / decay, C, D)
+    resp = kyp.FrequencyResponse(A / decay, B / decay, C, D)
     if not (resp.radius * decay) ** 2 < min(1.0, decay ** 2):
         return PassivityResult(False, np.nan, None, None, NOT_MSS,
                                "riccati"), {}
@@ -445,7 +446,11 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         Square (``w`` and ``z`` of equal size).
     ifp_index : float, optional
         Input-feedforward level ``η`` to certify; None: the largest
-        certifiable one.
+        certifiable one. A level below :func:`control_ncs.verify.level_floor`
+        (``verify.LEVEL_FLOOR`` data scales below the feedthrough bound) is
+        solved and checked at that floor ``η0``: as ``Θ(η) ≼ Θ(η0)``, the
+        certificate at ``η0`` (``result.certificate.eta``) certifies the
+        requested ``η`` (``result.eta``) exactly.
     ofp_index : float, optional
         Output-feedback level ``ρ`` to certify (default 0); None: the
         largest certifiable one (then ``ifp_index`` must be given).
@@ -517,7 +522,7 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     >>> result.passive, result.reason, result.certificate.verified
     (True, 'certified', True)
     """
-    sys = _system(sys)
+    sys = square_system(sys)
     choice(method, "method", METHODS)
     ifp_index = finite_real(ifp_index, "ifp_index", allow_none=True)
     ofp_index = finite_real(ofp_index, "ofp_index", allow_none=True)
@@ -530,6 +535,31 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         raise ControlDimension(
             "sys: a passivity certificate needs at least one state (a static "
             "system's index is λmin(D + Dᵀ)/2)")
+    requested = ifp_index
+    if ifp_index is not None:
+        bound, _ = feedthrough_bound(sys.modes.probabilities, sys.modes.D)
+        ifp_index = max(ifp_index, level_floor(
+            bound, sys.modes.A, sys.modes.B, sys.modes.C, sys.modes.D))
+    result = _certificate(sys, ifp_index, ofp_index, decay, method, solver,
+                          margin, solver_options)
+    if requested is None or requested == ifp_index:
+        return result
+    # certified at the floor: every lower level is certified exactly; a
+    # refutation at the floor proves nothing about the level asked
+    if result.passive or result.reason != INFEASIBLE:
+        return replace(result, eta=requested)
+    report = result.report
+    if report is not None:
+        report = replace(report, message=(
+            f"refuted only at the floor eta0 = {ifp_index:.6g} "
+            f"(verify.level_floor), not at eta = {requested:.6g}"))
+    return replace(result, eta=requested, reason=SOLVER_FAILED,
+                   report=report)
+
+
+def _certificate(sys, ifp_index, ofp_index, decay, method, solver, margin,
+                 solver_options) -> PassivityResult:
+    """:func:`passivity_certificate` on checked arguments."""
     mats = _deterministic(sys)
     if method == "riccati" and (mats is None or ofp_index != 0.0):
         raise ControlArgument(
@@ -610,25 +640,13 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
             return PassivityResult(False, float(ifp_index), None, refutation,
                                    INFEASIBLE, ofp_index=np.nan)
     fixed = free is None
-    plan = [(scale, backoff, solver) for scale, backoff in
-            (LEVEL_ATTEMPTS if fixed else INDEX_ATTEMPTS)]
-    if fallback_solver(solver):
-        plan.append(((None if fixed else 1.0), None, fallback_solver(solver)))
-    attempts, best, refuted = [], None, False
-    # (report, certificate, reason) of the last attempt that failed
-    last: tuple[SolveReport, Certificate | None, str] | None = None
-    cert: Certificate | None
-    model: AnalysisModel | SupplyModel
-    while plan:
-        scale, backoff, name = plan.pop(0)
-        target = None
-        if backoff is not None:
-            if best is None:
-                continue  # the first solve gave no optimum to back off from
-            target = best - backoff * max(1.0, abs(best))
+    log: list[tuple] = []  # (margin, level, solver, status) per attempt
+
+    def attempt(scale, target, name, left):
         eta = target if free == "eta" else ifp_index
         level_rho = target if free == "rho" else ofp_index
         level = None if scale is None else margin * scale
+        model: AnalysisModel | SupplyModel
         if level_rho == 0.0:
             model = analysis_model(sys, eta, level, decay)
         else:
@@ -636,72 +654,48 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
             model = supply_model(sys, eta, level_rho, level, decay)
         # the caller's options are for the solver the caller chose
         report = solve(model.problem, name,
-                        **(solver_options if name == solver else {}))
-        attempts.append((level, eta if free != "rho" else level_rho,
-                         report.solver, report.status))
-        if len(attempts) == 1:
-            best = report.value
-        if report.infeasible:
-            last = (report, None, INFEASIBLE)
-            if fixed:
-                refuted = True
-                # a larger margin is infeasible too; a smaller one may not be
-                plan = [a for a in plan if a[0] is None]
-                continue
-            if len(attempts) == 1:
-                break
-            continue  # e.g. a backed-off target still above the index
+                       **(solver_options if name == solver else {}))
+        log.append((level, eta if free != "rho" else level_rho,
+                    report.solver, report.status))
         if report.status not in ("optimal", "optimal_inaccurate"):
-            last = (report, None, SOLVER_FAILED)
-            continue
-        if scale is None and report.value is not None and report.value <= 0:
-            # the largest margin is not positive: no strict certificate
-            # (unless another solver's answer verifies after all)
-            last, refuted = (report, None, INFEASIBLE), True
-            continue
-        model._check_current()
-        P = np.array([Pk.value for Pk in model.P])
+            return report, None
+        model.check_current()
+        # the solver's ρ is only where to start: certify_ofp_index
+        # computes the certified level from P (an 'optimal' status comes
+        # with a value, lmi.solve)
+        guess = report.value if target is None else target
+        return report, (np.array([Pk.value for Pk in model.P]), guess)
+
+    def verify(candidate):
+        P, guess = candidate
         if fixed:
-            cert = check_certificate(sys, P, ifp_index, decay=decay,
+            return check_certificate(sys, P, ifp_index, decay=decay,
                                      ofp_index=ofp_index)
-        elif free == "eta":
-            cert = certify_index(sys, P, decay=decay, ofp_index=ofp_index)
-        else:
-            # the solver's ρ is only where to start: certify_ofp_index
-            # computes the certified level from P
-            # an 'optimal' status comes with a value (lmi.solve)
-            guess = cast(float, report.value if target is None else target)
-            cert = certify_ofp_index(sys, P, guess, eta=ifp_index,
-                                     decay=decay)
-        # For a given level the exact check is the proof, whatever the
-        # solver's status; an index also claims optimality, which needs
-        # 'optimal'.
-        if cert.verified and (report.ok or fixed):
-            return PassivityResult(True, cert.eta, cert, report, CERTIFIED,
-                                   ofp_index=cert.ofp_index)
-        last = (report, cert, NOT_VERIFIED if report.ok else INACCURATE)
-    # the first attempt never backs off, so it always records an outcome
-    assert last is not None
-    report, cert, reason = last
-    if refuted:
-        # No certificate with a margin exists, and without one none verified.
-        return PassivityResult(False, float(ifp_index), None, report,
-                               INFEASIBLE, ofp_index=float(ofp_index))
-    if reason == INFEASIBLE and len(attempts) == 1:
-        return PassivityResult(False, np.nan, None, report, INFEASIBLE,
-                               ofp_index=np.nan if free == "rho"
-                               else float(ofp_index))
-    figures = dict(status=report.status, solver=report.solver,
-                   attempts=attempts,
-                   **(cert.figures() if cert is not None else {}))
-    what = {SOLVER_FAILED: "the solver failed",
-            INACCURATE: "the solver's status stayed inaccurate",
-            INFEASIBLE: "a retry was reported infeasible",
-            NOT_VERIFIED: "the solver's answer fails the exact check: "
-            + ("; ".join(cert.failures) if cert is not None else "")}[reason]
+        if free == "eta":
+            return certify_index(sys, P, decay=decay, ofp_index=ofp_index)
+        return certify_ofp_index(sys, P, cast(float, guess), eta=ifp_index,
+                                 decay=decay)
+
+    out = drive(attempt, verify, eta=ifp_index if fixed else None,
+                solver=solver,
+                retries=LEVEL_ATTEMPTS if fixed else INDEX_ATTEMPTS,
+                fallback=(None if fixed else 1.0, 0.0),
+                refute_margins=fixed, spare=False,
+                label=f"passivity LMI ({'level' if fixed else free})")
+    if out.ok:
+        cert = out.certificate
+        return PassivityResult(True, cert.eta, cert, out.report, CERTIFIED,
+                               ofp_index=cert.ofp_index)
+    if out.reason == INFEASIBLE:
+        return PassivityResult(
+            False, np.nan if free == "eta" else float(ifp_index), None,
+            out.report, INFEASIBLE,
+            ofp_index=np.nan if free == "rho" else float(ofp_index))
     raise CertificationError(
-        f"passivity: no certificate could be verified ({what}; attempts "
-        f"(margin, level, solver, status): {attempts})", reason, figures)
+        f"passivity: no certificate could be verified ({out.message}; "
+        f"attempts (margin, level, solver, status): {log})",
+        cast(str, out.reason),
+        dict(out.figures(), attempts=log))
 
 
 def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
@@ -769,7 +763,7 @@ def _index(sys: Any, result: PassivityResult, name: str) -> None:
         raise CertificationError(
             f"{name}: sys is not mean-square stable (ms_radius ≥ 1, or ≥ r² "
             "with a decay bound); no passivity index exists", NOT_MSS,
-            dict(ms_radius=ms_radius(_system(sys))))
+            dict(ms_radius=ms_radius(square_system(sys))))
     if not result.passive:
         # sys is mean-square stable, so for ρ = 0 some η is certifiable
         # (MATH §6: the (1,1) block is Lemma 1); an infeasible LMI here is
@@ -922,7 +916,7 @@ def mean_input_ff_index(sys: Any, **kwargs: Any) -> float:
     >>> round(mean_input_ff_index(sys), 4), round(get_input_ff_index(sys), 4)
     (0.2, 0.1791)
     """
-    sys = _system(sys)
+    sys = square_system(sys)
     return get_input_ff_index(sys.mean(), **kwargs)
 
 
@@ -972,9 +966,9 @@ def frequency_ff_index(sys: Any, omega: Any = None, *,
     0.3333333333
     """
     no_extra_kwargs("frequency_ff_index", kwargs)
-    lti = _system(sys).mean()
+    lti = square_system(sys).mean()
     A, B, C, D = (np.asarray(M, float) for M in (lti.A, lti.B, lti.C, lti.D))
-    resp = kyp._FrequencyResponse(A, B, C, D)
+    resp = kyp.FrequencyResponse(A, B, C, D)
     if resp.radius >= 1:
         raise ValueError("sys: frequency_ff_index needs a Schur-stable system")
     dt = 1.0 if lti.dt is True else float(lti.dt)

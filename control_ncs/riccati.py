@@ -86,7 +86,7 @@ from control.exception import ControlArgument
 
 from ._checks import decay_bound, positive_int, positive_real
 from .jump import JumpPlant
-from .exceptions import SynthesisError
+from .exceptions import INFEASIBLE, SOLVER_FAILED, SynthesisError
 
 __all__ = ["RiccatiResult", "riccati_synthesis",
            "RICCATI_MARGIN"]
@@ -293,20 +293,20 @@ def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
                 f"riccati: the iteration diverged at eta={eta} (sweep "
                 f"{sweeps}): the LMI with margin {margin} is infeasible, no "
                 "gain has a certificate for this eta and decay",
-                "infeasible", dict(figures, sweeps=sweeps))
+                INFEASIBLE, dict(figures, sweeps=sweeps))
         if status == "blowup":
             raise SynthesisError(
                 f"riccati: inconclusive: P grew beyond {_BLOWUP:g} times the "
                 f"data scale at eta={eta} (sweep {sweeps}): any certificate "
                 "would be too large for double precision to verify; the LMI "
-                "is probably infeasible", "solver_failed",
+                "is probably infeasible", SOLVER_FAILED,
                 dict(figures, sweeps=sweeps))
         if status == "max_sweeps":
             raise SynthesisError(
                 f"riccati: inconclusive: the iteration did not converge in "
                 f"max_sweeps={max_sweeps} sweeps at eta={eta} (nor diverge); "
                 "raise max_sweeps, lower eta, or use an LMI solver",
-                "solver_failed", dict(figures, sweeps=sweeps))
+                SOLVER_FAILED, dict(figures, sweeps=sweeps))
         return P, K, float(eta), sweeps, 0
 
     hi = min(float(np.linalg.eigvalsh(d.Dsym)[0]) for d in data) / 2
@@ -324,20 +324,20 @@ def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
             raise SynthesisError(
                 f"riccati: inconclusive: no convergence in max_sweeps="
                 f"{max_sweeps} sweeps at eta={trial:.6g}",
-                "solver_failed", dict(figures, sweeps=sweeps))
+                SOLVER_FAILED, dict(figures, sweeps=sweeps))
         width *= 8
         if width > 1e8 * max(1.0, abs(hi)):
             if status == "diverged":
                 raise SynthesisError(
                     "riccati: the iteration diverged for every eta down to "
                     f"{trial:.3g}: no gain has a certificate (margin "
-                    f"{margin}, decay {decay})", "infeasible",
+                    f"{margin}, decay {decay})", INFEASIBLE,
                     dict(figures, sweeps=sweeps))
             raise SynthesisError(
                 "riccati: inconclusive: for every eta down to "
                 f"{trial:.3g}, P grew beyond {_BLOWUP:g} times the data "
                 "scale: probably no mean-square stabilising gain exists "
-                f"(margin {margin}, decay {decay})", "solver_failed",
+                f"(margin {margin}, decay {decay})", SOLVER_FAILED,
                 dict(figures, sweeps=sweeps))
     lo = max(lo, min(_certified_sup(data, P, K, decay), hi))
     while hi - lo > rtol * max(1.0, abs(hi)):

@@ -28,9 +28,10 @@ from .lmi import (DEFAULT_MARGIN, SolveReport, check_options, check_solver,
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
 from .strategies import build, loop_closes
-from .exceptions import CERTIFIED, MESSAGES, SynthesisError
-from .verify import (Certificate, certify_index,
-                     check_certificate)
+from .exceptions import (CERTIFIED, INFEASIBLE, MESSAGES, NOT_VERIFIED,
+                         SOLVER_FAILED, TIME_LIMIT, SynthesisError)
+from .verify import (Certificate, certify_index, check_certificate,
+                     feedthrough_bound, level_floor)
 
 __all__ = ["passivesyn", "SynthesisResult"]
 
@@ -62,7 +63,7 @@ RICCATI_FALLBACK_MAX = 16
 RICCATI_OPTIONS = ("rtol", "max_sweeps", "probe_sweeps")
 
 #: Default time budget of :func:`passivesyn`, seconds.
-TIME_LIMIT = 120.0
+TIME_BUDGET = 120.0
 
 #: The state is rescaled by a diagonal of powers of two (balancing the mode
 #: matrices, :func:`_balancing`) before the LMI when the scales it finds
@@ -233,13 +234,12 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant):
             f"got C2 of shape {P.C2.shape}")
     eta = finite_real(eta, "eta", allow_none=True)
     if eta is not None:
-        D = P.D11
-        low = float(np.linalg.eigvalsh(D + D.T).min())
-        if not low > 2 * eta:
+        bound, _ = feedthrough_bound(plant.probabilities, plant.Dw)
+        if not bound > eta:
             raise ValueError(
                 f"eta: D11 + D11ᵀ ≻ 2·eta·I is necessary (paper's Assumption 1, "
-                f"MATH §6), but λmin(D11 + D11ᵀ) = {low:.6g} ≤ 2·eta = "
-                f"{2 * eta:.6g}")
+                f"MATH §6), but λmin(D11 + D11ᵀ)/2 = {bound:.6g} ≤ eta = "
+                f"{eta:.6g}")
     decay = decay_bound(decay)
     choice(controller, "controller", CONTROLLERS)
     choice(actuator, "actuator", ACTUATORS)
@@ -267,7 +267,7 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
                actuator: str = "zero", form: str = "merged",
                structure: str = "auto", solver: str | None = None,
                margin: float = DEFAULT_MARGIN,
-               time_limit: float | None = TIME_LIMIT, **solver_options: Any
+               time_limit: float | None = TIME_BUDGET, **solver_options: Any
                ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """Periodic state feedback making a networked loop strictly passive.
 
@@ -301,7 +301,11 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     eta : float, optional
         Dissipation to achieve; None maximises it. Maximising drives the
         mean-square margin towards zero (``ms_radius → 1``); bound it with
-        ``decay``.
+        ``decay``. A level below :func:`control_ncs.verify.level_floor`
+        (``verify.LEVEL_FLOOR`` data scales below the feedthrough bound) is
+        solved and checked at that floor ``η0``: as ``Θ(η) ≼ Θ(η0)``, the
+        certificate at ``η0`` (``K.result.certificate.eta``) certifies the
+        requested ``η`` exactly, and ``η`` is returned.
     decay : float in (0, 1], optional
         Mean-square decay bound ``r``: ``E‖x_t‖²`` decays at least like
         ``r^(2t)``, i.e. ``ms_radius < r²``.
@@ -332,7 +336,7 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         Relative strictness margin of the LMIs (for the Riccati iteration:
         the ``εI`` added at each step, relative to the data's scale).
     time_limit : float or None, optional
-        Time budget in seconds (default ``TIME_LIMIT`` = 120 s; None: no
+        Time budget in seconds (default ``TIME_BUDGET`` = 120 s; None: no
         limit). The remaining time is passed to Clarabel
         (``time_limit``); the budget is checked between attempts. A
         Riccati iteration already running is not interrupted.
@@ -425,6 +429,32 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     else:
         check_options(check_solver(solver), solver_options)
     _open_loop_bound(plant, decay)
+    requested = eta
+    if eta is not None:
+        bound, _ = feedthrough_bound(plant.probabilities, plant.Dw)
+        eta = max(eta, level_floor(bound, plant.A, plant.Bu, plant.Bw,
+                                   plant.Cz, plant.Du, plant.Dw))
+    try:
+        K, CL, got = _routes(plant, eta, decay, margin, structure,
+                             structure0, form, solver, solver_options,
+                             deadline, riccati)
+    except SynthesisError as err:
+        if requested == eta or err.reason != INFEASIBLE:
+            raise
+        # infeasible at the floor proves nothing about the level asked
+        raise SynthesisError(
+            f"{err} (at the floor eta0 = {eta:.6g}, verify.level_floor; "
+            f"nothing is proven for eta = {requested:.6g})", SOLVER_FAILED,
+            err.figures) from err
+    if requested != eta:
+        # Θ(η) ≼ Θ(η0) for η ≤ η0: the certificate at η0 proves η exactly
+        K.result.eta = K.result.eta_solver = got = float(requested)
+    return K, CL, got
+
+
+def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
+            solver_options, deadline, riccati):
+    """The solve-and-verify routes of :func:`passivesyn` (checked input)."""
     if riccati:
         return _riccati(plant, eta, decay, margin, solver_options)
     chosen = (solver is None and not solver_options and structure0 == "full"
@@ -437,7 +467,7 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
             # (out of sweeps, e.g. a tight decay bound) falls back to the LMI
             # while the LMI is still affordable; a divergence is a proof of
             # infeasibility and stands.
-            if (err.reason != "solver_failed"
+            if (err.reason != SOLVER_FAILED
                     or plant.shape["nx"] > RICCATI_FALLBACK_MAX):
                 raise
     # Under structure='auto' the sufficient 'extended' LMI is followed by
@@ -456,19 +486,19 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         if out.ok:
             return finish()
         first = first or (out, struct)
-        if out.reason == "time_limit":
+        if out.reason == TIME_LIMIT:
             break
     assert first is not None  # the loop over `order` ran at least once
     out, struct = first
     if (solver is None and eta is None and out.reason not in
-            ("infeasible", "time_limit")):
+            (INFEASIBLE, TIME_LIMIT)):
         for struct2 in order:
             found = _eta_search(plant, decay, margin, struct2, form, solver,
                                 solver_options, deadline)
             if found is not None:
                 return found
     if (solver is None and structure0 == "full" and not chosen
-            and out.reason != "time_limit"
+            and out.reason != TIME_LIMIT
             and (deadline is None or time.perf_counter() < deadline)):
         # The default call: the Riccati iteration solves the same exact
         # condition, and its divergence proves infeasibility, where an
@@ -478,11 +508,11 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         try:
             return _riccati(plant, eta, decay, margin, {})
         except SynthesisError as err:
-            if err.reason == "infeasible":
+            if err.reason == INFEASIBLE:
                 err.figures.update(lmi_statuses=out.figures()["statuses"])
                 raise
     reason = out.reason
-    if reason == "infeasible":
+    if reason == INFEASIBLE:
         what = (f"{out.message}: no gain of this kind "
                 + ("exists with a certificate" if struct == "full" else
                    f"passes the sufficient '{struct}' condition")
@@ -508,9 +538,7 @@ def _eta_search(plant, decay, margin, structure, form, solver, options,
     (``certify_index``: the returned ``η`` is what its ``P`` proves).
     Returns the result of the best verified level, or None.
     """
-    p = plant.probabilities
-    Dw = np.einsum("km,kmij->kij", p, plant.Dw)
-    u = min(float(np.linalg.eigvalsh(D + D.T).min()) / 2 for D in Dw)
+    u, _ = feedthrough_bound(plant.probabilities, plant.Dw)
     unit = max(1.0, abs(u))
     found = high = None
 
@@ -590,7 +618,7 @@ def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
             f"every closed loop's rate is at least that: no gain makes the "
             f"loop mean-square stable"
             + (f" with decay {decay}" if decay < 1 else ""),
-            "infeasible", dict(ms_radius_without_control=rho, bound=bound,
+            INFEASIBLE, dict(ms_radius_without_control=rho, bound=bound,
                                proof="gain-independent modes"))
 
 
@@ -712,7 +740,7 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
 
 def _variables(model, plant):
     """The LMI's ``X_k`` and ``Y_k`` (zero-padded to ``(N, nu, nx)``)."""
-    model._check_current()
+    model.check_current()
     s = plant.shape
     Y = np.zeros((plant.period, s["nu"], s["nx"]))
     for k, Yv in enumerate(model.Y):
@@ -743,7 +771,7 @@ def _riccati(plant, eta, decay, margin, options):
     if not cert.verified:
         raise SynthesisError(
             "passivesyn: no verified gain (the Riccati gain fails the exact "
-            "check: " + "; ".join(cert.failures) + ")", "not_verified",
+            "check: " + "; ".join(cert.failures) + ")", NOT_VERIFIED,
             dict(status=report.status, solver=report.solver,
                  statuses=[report.status], **cert.figures()))
     s = plant.shape

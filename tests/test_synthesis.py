@@ -690,3 +690,14 @@ def test_periodic_gain_repr_gives_the_shape_above_64_entries():
 def test_periodic_gain_refuses_an_empty_dimension(shape):
     with pytest.raises(ControlDimension, match="gains"):
         control_ncs.PeriodicGain(np.zeros(shape))
+
+
+@pytest.mark.parametrize("level", [-1e200, -1e12])
+@pytest.mark.parametrize("solver", [None, "riccati"])
+def test_very_negative_fixed_eta_gives_a_verified_gain(plant, level, solver):
+    K, CL, eta = passivesyn(plant, eta=level, solver=solver)
+    cert = K.result.certificate
+    assert eta == level and K.result.eta == level
+    # checked at a floor above the level: Θ(η) ≼ Θ(η0) for η ≤ η0
+    assert cert.verified and cert.eta >= level
+    assert control_ncs.check_certificate(CL, cert.P, cert.eta).verified
