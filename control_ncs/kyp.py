@@ -136,7 +136,7 @@ class FrequencyResponse:
 
         They are the unit-circle eigenvalues of the extended symplectic
         pencil of the Riccati equation of
-        :func:`control_ncs.passivity._riccati_storage` with
+        :func:`control_ncs.riccati.dare_storage` with
         ``ε = 0`` (the pencil scipy's ``solve_discrete_are`` factors;
         van Dooren 1981): ``z`` is a finite eigenvalue of it iff
         ``det Φ(z) = 0`` for the Popov function

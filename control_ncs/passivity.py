@@ -26,20 +26,17 @@ Two routes produce a certificate, both checked exactly by
   (any jump system);
 * ``'riccati'`` -- for a deterministic system (one mode, period 1): the KYP
   frequency test gives the index from above, and one discrete algebraic
-  Riccati equation just below it gives ``P`` (see :func:`_riccati_storage`);
+  Riccati equation just below it gives ``P`` (see :func:`control_ncs.riccati.dare_storage`);
   no solver, ``O(n³)`` work against the LMI's ``n(n+1)/2`` dense unknowns.
 """
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, replace
 from typing import Any, cast
 
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
-from scipy.linalg import (LinAlgError, solve_discrete_are,
-                          solve_discrete_lyapunov)
 
 from . import kyp
 from ._checks import (choice, decay_bound, finite_real, no_extra_kwargs,
@@ -48,6 +45,7 @@ from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE,
                          MESSAGES, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
                          CertificationError)
 from .driver import drive
+from .riccati import dare_certificate
 from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
                   analysis_model, solve, supply_model)
 from .jump import JumpStateSpace
@@ -69,23 +67,6 @@ __all__ = ["ispassive", "get_input_ff_index", "get_output_fb_index",
 #: ~1e-6, like the LMI. With several BLAS threads on busy cores both small
 #: cases vary 3-5× from run to run.
 METHODS = ("auto", "riccati", "lmi")
-
-#: Back-offs, below the KYP upper bound ν̂, of the levels at which the
-#: Riccati route solves its equation, in turn, in units of max(1, |ν̂|)
-#: (absolute below 1, relative above). The first is small
-#: because the exact check (verify.certify_index) backs off another 1e-6;
-#: measured on n = 4..64: 1e-7 below ν̂ the Riccati equation solves and its
-#: P passes the exact check, 1e-8 also does, so 1e-7 leaves a factor 10.
-RICCATI_BACKOFFS = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
-
-#: Strictness ``ε`` of the Riccati route, as a fraction of the largest
-#: admissible one, ``min_θ 2(λmin(θ) - η)/‖(e^{jθ}I - A)⁻¹B‖²`` (estimated
-#: on the grid, which can miss a peak: hence well below 1).
-RICCATI_EPS_FRACTION = 0.25
-
-#: Pencil corrections of ν̂ (a dip of ``λmin`` that the grid missed) before
-#: the Riccati route gives up and, under ``'auto'``, the LMI takes over.
-KYP_CORRECTIONS = 4
 
 #: Attempts, in turn, until an answer passes the exact checks, as
 #: (margin multiplier, back-off) of ``driver.drive``. The back-off lowers the maximised
@@ -264,163 +245,6 @@ def _deterministic(sys: JumpStateSpace) -> tuple[np.ndarray, ...] | None:
                                            for X in mats)
 
 
-def _riccati_storage(resp: kyp.FrequencyResponse, eta: float, eps: float
-                     ) -> np.ndarray | None:
-    """``P ≻ 0`` with ``Θ(P, η) ≺ 0`` from one Riccati equation, or None.
-
-    Derivation. For ``ξ⁺ = Aξ + Bw``, ``z = Cξ + Dw`` (MATH §6 with one
-    mode and ``N = 1``; the matrix of ``verify.dissipation_matrices``)::
-
-        Θ(P, η) = [ AᵀPA - P    AᵀPB - Cᵀ           ] = [ Θ11  L  ]
-                  [ BᵀPA - C    BᵀPB + 2ηI - D - Dᵀ ]   [ Lᵀ   -W ]
-
-    with ``W = D + Dᵀ - 2ηI - BᵀPB``. By a Schur complement on the ``w``
-    block, ``Θ ≺ 0`` iff ``W ≻ 0`` and ``Θ11 + L W⁻¹ Lᵀ ≺ 0``. Ask for
-    the latter with equality and a margin ``ε > 0``::
-
-        AᵀPA - P + (AᵀPB - Cᵀ) W⁻¹ (BᵀPA - C) = -εI.              (*)
-
-    With ``X = -P`` and ``Q = -εI``, ``S = Cᵀ``, ``R = D + Dᵀ - 2ηI``,
-    (*) times -1 is scipy's DARE
-    ``AᵀXA - X - (AᵀXB + S)(R + BᵀXB)⁻¹(BᵀXA + Sᵀ) + Q = 0``
-    (``R + BᵀXB = W``, ``AᵀXB + S = -L``). ``solve_discrete_are`` returns
-    the stabilising solution: the value of the LQ problem
-    ``ξ0ᵀXξ0 = min_w Σ_t (ξᵀQξ + 2ξᵀSw + wᵀRw)
-    = min_w Σ_t (2wᵀz - 2η wᵀw - ε‖ξ‖²)`` (twice the supply rate less
-    ``ε‖ξ‖²``), which exists iff the Popov function
-    ``G + Gᴴ - 2ηI - εFᴴF`` (``F = (e^{jθ}I - A)⁻¹B``) is positive definite
-    on the unit circle: for ``η < ν`` and ``ε‖F‖²_∞ < 2(ν - η)``. Then
-    ``W ≻ 0`` and (*) give ``Θ ≺ 0``; ``w = 0`` gives
-    ``ξ0ᵀXξ0 ≤ -ε‖ξ0‖²``, so ``P = -X ≻ 0`` (up to the ``ε`` term, the
-    available storage, the smallest storage function).
-
-    A decay bound ``r`` (``Θ11 = AᵀPA - r²P``) is the same problem for
-    ``(A/r, B/r)`` and ``r²P``: ``resp`` holds the scaled data, the caller
-    divides by ``r²``. None of this is trusted: the caller checks ``P``
-    exactly.
-    """
-    A, B, C, D = resp.A, resp.B, resp.C, resp.D
-    n, m = B.shape
-    Q, R, S = -eps * np.eye(n), D + D.T - 2 * eta * np.eye(m), C.T
-    try:
-        X = solve_discrete_are(A, B, Q, R, s=S)
-    except (LinAlgError, ValueError):
-        # pencil eigenvalues on (or too close to) the unit circle: η ≥ ν,
-        # or ε too large for this η
-        return None
-
-    def residual(X):
-        K = np.linalg.solve(R + B.T @ X @ B, B.T @ X @ A + S.T)
-        Res = A.T @ X @ A - X - (A.T @ X @ B + S) @ K + Q
-        return 0.5 * (Res + Res.T), A - B @ K
-
-    try:
-        # One Newton step (Hewer 1971): the residual's derivative at X is
-        # N ↦ AcᵀNAc - N, Ac = A - BK, so N solves a Stein equation. The
-        # QZ solution's residual is ~eps·cond·‖X‖, which near a lightly
-        # damped pole exceeds the margin ε (measured: 1 - |pole| = 1e-6,
-        # ‖P‖ = 6e5, residual 3e-5 > ε = 1e-7; after the step 2e-10).
-        Res, Ac = residual(X)
-        step = solve_discrete_lyapunov(Ac.T, Res)
-        if np.linalg.norm(residual(X + step)[0]) < np.linalg.norm(Res):
-            X = X + step
-    except (LinAlgError, ValueError):
-        pass  # keep the QZ solution; the exact check decides
-    P = -0.5 * (X + X.T)
-    return P if np.all(np.isfinite(P)) else None
-
-
-def _riccati_certificate(sys, mats, ifp_index, decay
-                         ) -> tuple[PassivityResult | None, dict]:
-    """The Riccati route of :func:`passivity_certificate`.
-
-    Returns ``(result, figures)``: ``result`` None when no level gave a
-    certificate that passes the exact check (the caller falls back to the
-    LMI or raises).
-    """
-    start = time.perf_counter()
-    A, B, C, D = mats
-    # ms_radius of a deterministic system is ρ(A)², the Schur form's
-    # diagonal (decay > 0: checked at the public boundary)
-    resp = kyp.FrequencyResponse(A / decay, B / decay, C, D)
-    if not (resp.radius * decay) ** 2 < min(1.0, decay ** 2):
-        return PassivityResult(False, np.nan, None, None, NOT_MSS,
-                               "riccati"), {}
-    if _feedthrough_refutes(sys, ifp_index):
-        return PassivityResult(False, float(ifp_index), None, None,
-                               FEEDTHROUGH, "riccati"), {}
-    grid = np.linspace(0.0, np.pi, kyp.KYP_POINTS)
-    lam, gain = resp.values(grid)
-    upper, theta = resp.minimum(grid, lam)
-    t_freq = time.perf_counter() - start
-
-    def strictness(level: float) -> float:
-        # Φ - εFᴴF ≻ 0 (see _riccati_storage) at θ where
-        # 2(λmin(θ) - η) > ε‖F(θ)‖²; the grid and θ̂ estimate the worst θ
-        _, at = resp.values(np.array([theta]))
-        norms = np.append(gain, at) ** 2
-        room = 2 * (np.append(lam, upper) - level)
-        ok = norms > 0
-        limit = (room[ok] / norms[ok]).min() if ok.any() else room.min()
-        return RICCATI_EPS_FRACTION * float(limit)
-
-    levels, solves, corrections = [], 0, 0
-    cert, level, eps = None, np.nan, np.nan
-
-    def report(status: str, message: str = "") -> SolveReport:
-        total = time.perf_counter() - start
-        return SolveReport(status, "scipy.linalg.solve_discrete_are", t_freq,
-                           total - t_freq, total, solves, float(level),
-                           message, dict(level=float(level), eps=float(eps)))
-
-    def refuted() -> tuple[PassivityResult, dict]:
-        # KYP: Θ ≺ 0 needs G + Gᴴ ≻ 2ηI at every frequency
-        return PassivityResult(
-            False, float(ifp_index), None,
-            report("infeasible", f"λmin(G + Gᴴ)/2 = {upper:.10g} ≤ η at "
-                   f"θ = {theta:.10g} rad/sample"),
-            INFEASIBLE, "riccati", upper), {}
-
-    fixed = ifp_index is not None
-    if fixed and not ifp_index < upper:
-        return refuted()
-    plan = [None] if fixed else list(RICCATI_BACKOFFS)
-    while plan:
-        backoff = plan.pop(0)
-        # backoff is None exactly when the level is fixed
-        step = 0.0 if backoff is None else backoff * max(1.0, abs(upper))
-        level = float(ifp_index) if fixed else upper - step
-        eps = strictness(level)
-        levels.append(level)
-        solves += 1
-        P = _riccati_storage(resp, level, eps)
-        if P is not None:
-            P = P[None] / decay ** 2
-            cert = (check_certificate(sys, P, level, decay=decay) if fixed
-                    else certify_index(sys, P, decay=decay))
-            # an index must come with P proving (nearly) the level asked
-            if cert.verified and (fixed or cert.eta_sup >= level - step):
-                return PassivityResult(True, cert.eta, cert,
-                                       report("optimal"), CERTIFIED,
-                                       "riccati", upper), {}
-        if corrections < KYP_CORRECTIONS:
-            corrections += 1
-            lower = resp.lower_near_crossings(level)
-            # accept a dip the grid missed only if it takes at least half
-            # the room between level and ν̂ (not a rounding-level change)
-            if lower is not None and lower[0] < 0.5 * (level + upper):
-                upper, theta = lower
-                if fixed:
-                    if not ifp_index < upper:
-                        return refuted()
-                    plan = [None]
-                else:
-                    plan = list(RICCATI_BACKOFFS)
-    figures = dict(levels=levels, eta_upper=upper, frequency=theta,
-                   **(cert.figures() if cert is not None else {}))
-    return None, figures
-
-
 def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
                           ofp_index: float | None = 0.0, decay: float = 1.0,
                           method: str = "auto", solver: str | None = None,
@@ -498,10 +322,10 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
 
     Notes
     -----
-    The Riccati route (derivation at :func:`_riccati_storage`): the KYP
+    The Riccati route (derivation at :func:`control_ncs.riccati.dare_storage`): the KYP
     frequency test on a grid of ``kyp.KYP_POINTS`` points, refined by
     local grids, gives ``ν̂ ≥ ν`` (a value of ``λmin(G + Gᴴ)/2`` at one
-    frequency). Just below ``ν̂`` (``RICCATI_BACKOFFS``: ``1e-7`` up to
+    frequency). Just below ``ν̂`` (``riccati.RICCATI_BACKOFFS``: ``1e-7`` up to
     ``1e-3`` times ``max(1, |ν̂|)``) one discrete algebraic Riccati
     equation gives ``P ≻ 0``, and :func:`control_ncs.verify.certify_index`
     certifies the largest ``η`` it proves (another back-off of ``1e-6``
@@ -572,9 +396,13 @@ def _certificate(sys, ifp_index, ofp_index, decay, method, solver, margin,
     lmi_asked = solver is not None or bool(solver_options)
     if mats is not None and ofp_index == 0.0 and (
             method == "riccati" or (method == "auto" and not lmi_asked)):
-        result, figures = _riccati_certificate(sys, mats, ifp_index, decay)
-        if result is not None:
-            return result
+        reason, eta, cert, fields, upper, figures = dare_certificate(
+            sys, mats, ifp_index, decay)
+        if reason is not None:
+            return PassivityResult(
+                reason == CERTIFIED, eta, cert,
+                None if fields is None else SolveReport(**fields), reason,
+                "riccati", upper)
         if method == "riccati":
             raise CertificationError(
                 "passivity: the Riccati route found no certificate that "

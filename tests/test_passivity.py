@@ -14,7 +14,7 @@ from hypothesis import given, settings, strategies as st
 
 import control_ncs as cn
 import control_ncs.kyp as kyp
-import control_ncs.passivity as passivity
+import control_ncs.riccati as riccati
 from control_ncs import (CertificationError, feedback, frequency_ff_index,
                          get_input_ff_index, ispassive, jss,
                          mean_input_ff_index, nss, passivesyn,
@@ -378,7 +378,7 @@ def test_riccati_route_finds_a_dip_the_frequency_grid_misses(monkeypatch):
 
 
 def test_auto_falls_back_to_the_lmi_when_riccati_cannot_certify(monkeypatch):
-    monkeypatch.setattr(passivity, "_riccati_storage", lambda *a: None)
+    monkeypatch.setattr(riccati, "dare_storage", lambda *a: None)
     G = random_stable_ss(1)
     result = passivity_certificate(G)
     assert result.passive and result.method == "lmi"
