@@ -20,14 +20,14 @@ import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import choice, decay_bound, finite_real, positive_real
-from .gain import ACTUATORS, CONTROLLERS, PeriodicGain
+from .gain import PeriodicGain, actuators, controllers
 from .jump import JumpPlant, JumpStateSpace
 from .driver import RETRIES, drive
 from .lmi import (DEFAULT_MARGIN, SolveReport, check_options, check_solver,
                   data_scale, read_gains, solve, synthesis_model)
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
-from .strategies import build, loop_closes
+from .strategies import build
 from .exceptions import (CERTIFIED, INFEASIBLE, MESSAGES, NOT_VERIFIED,
                          SOLVER_FAILED, TIME_LIMIT, SynthesisError)
 from .verify import (Certificate, certify_index, check_certificate,
@@ -217,21 +217,60 @@ class SynthesisResult:
         return "\n".join(lines)
 
 
+def _plant_arrays(plant: JumpPlant) -> None:
+    """ControlDimension unless a JumpPlant's arrays fit together."""
+    N, M = plant.probabilities.shape if plant.probabilities.ndim == 2 \
+        else (None, None)
+    if N is None or plant.A.ndim != 4:
+        raise ControlDimension(
+            f"P: a JumpPlant needs probabilities of shape (N, M) and A of "
+            f"shape (N, M, nx, nx), got {plant.probabilities.shape} and "
+            f"{plant.A.shape}")
+    s = plant.shape
+    nx, nu, nw, nz, nk = s["nx"], s["nu"], s["nw"], s["nz"], s["nk"]
+    want = dict(A=(nx, nx), Bu=(nx, nu), Bw=(nx, nw), Cz=(nz, nx),
+                Du=(nz, nu), Dw=(nz, nw))
+    for name, tail in want.items():
+        got = getattr(plant, name).shape
+        if got != (N, M) + tail:
+            raise ControlDimension(f"P: JumpPlant.{name} must have shape "
+                                   f"{(N, M) + tail}, got {got}")
+    if plant.E.shape != (N, nk, nx) or min(nx, nu) == 0:
+        raise ControlDimension(
+            f"P: JumpPlant.E must have shape (N, nk, nx) = {(N, nk, nx)} "
+            f"with nx, nu > 0, got E {plant.E.shape}, nu = {nu}")
+    p = plant.probabilities
+    if not (np.all(np.isfinite(p)) and np.all(p >= 0)
+            and np.allclose(p.sum(axis=1), 1.0)):
+        raise ValueError("P: JumpPlant.probabilities must be nonnegative "
+                         "with rows summing to 1")
+    if not all(np.all(np.isfinite(getattr(plant, f))) for f in want):
+        raise ValueError("P: JumpPlant matrices must be finite")
+
+
 def _checks(P, eta, decay, controller, actuator, form, structure, plant):
-    if not isinstance(P, NetworkedStateSpace):
-        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
-                              f"got {type(P).__name__}")
-    m1, p1 = P.B1.shape[1], P.C1.shape[0]
+    if isinstance(P, JumpPlant):
+        _plant_arrays(plant)
+        if not plant.is_selection():
+            raise ControlArgument(
+                "P: synthesis needs each E_k to be a coordinate selection "
+                "(what the controller knows of the state, MATH §10)")
+    elif not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()) "
+                              f"or a JumpPlant (see build()), got "
+                              f"{type(P).__name__}")
+    else:
+        n = P.nstates
+        if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)):
+            raise ControlArgument(
+                f"P: synthesis needs the state measured, y = x (C2 = I, "
+                f"{n}x{n}), got C2 of shape {P.C2.shape}")
+    m1, p1 = plant.shape["nw"], plant.shape["nz"]
     if m1 != p1 or m1 == 0:
         raise ControlDimension(
             f"P: passivity needs w and z of equal, nonzero size (paper eq. 1 "
             f"with m1 = p1), got {m1} disturbance inputs and {p1} performance "
             "outputs")
-    n = P.nstates
-    if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)):
-        raise ControlArgument(
-            f"P: synthesis needs the state measured, y = x (C2 = I, {n}x{n}), "
-            f"got C2 of shape {P.C2.shape}")
     eta = finite_real(eta, "eta", allow_none=True)
     if eta is not None:
         bound, _ = feedthrough_bound(plant.probabilities, plant.Dw)
@@ -241,15 +280,16 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant):
                 f"MATH §6), but λmin(D11 + D11ᵀ)/2 = {bound:.6g} ≤ eta = "
                 f"{eta:.6g}")
     decay = decay_bound(decay)
-    choice(controller, "controller", CONTROLLERS)
-    choice(actuator, "actuator", ACTUATORS)
     choice(form, "form", FORMS)
     choice(structure, "structure", STRUCTURES)
-    if controller == "static" and not loop_closes(P):
+    # the loop closes where some phase knows a coordinate and can act
+    if not any(plant.known_coordinates(k).size and plant.active_inputs(k).size
+               for k in range(plant.period)):
         raise ValueError(
-            "P: a memoryless (static) gain never closes this loop: no phase "
-            "schedules a sensor and an actuator together (MATH §4). Use "
-            "controller='predictor'.")
+            "P: the gain never closes this loop: no phase schedules a sensor "
+            "and an actuator together (MATH §4)"
+            + (". Use controller='predictor'." if controller == "static"
+               else ""))
     structured = any(plant.known_coordinates(k).size < plant.shape["nx"]
                      for k in range(plant.period))
     if structure == "auto":
@@ -262,7 +302,7 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant):
     return eta, decay, structure
 
 
-def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
+def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                decay: float | None = None, controller: str = "static",
                actuator: str = "zero", form: str = "merged",
                structure: str = "auto", solver: str | None = None,
@@ -296,8 +336,12 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
 
     Parameters
     ----------
-    P : NetworkedStateSpace
-        Plant with its network; needs ``y = x`` and ``dim w = dim z``.
+    P : NetworkedStateSpace or JumpPlant
+        Plant with its network; needs ``y = x`` and ``dim w = dim z``. Or
+        the open-loop jump system a strategy built
+        (:func:`control_ncs.build`, or one made by hand with selection
+        matrices ``E_k``): then ``controller`` and ``actuator`` only label
+        the gain (its ``info`` names them, if it does).
     eta : float, optional
         Dissipation to achieve; None maximises it. Maximising drives the
         mean-square margin towards zero (``ms_radius → 1``); bound it with
@@ -409,8 +453,21 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     >>> bool(ms_radius(CL) < 1)
     True
     """
-    plant = build(P, controller, actuator) if isinstance(
-        P, NetworkedStateSpace) else None
+    choice(controller, "controller", controllers())
+    choice(actuator, "actuator", actuators())
+    if isinstance(P, JumpPlant):
+        # the gain's labels: the strategy that built the plant, if named
+        controller = P.info.get("controller", controller)
+        actuator = P.info.get("actuator", actuator)
+        plant = JumpPlant(P.A, P.Bu, P.Bw, P.Cz, P.Du, P.Dw, P.E,
+                          P.probabilities, P.dt, nominal=P.nominal,
+                          inputs=P.inputs, outputs=P.outputs,
+                          states=P.states, info=dict(
+                              P.info, controller=controller,
+                              actuator=actuator))
+    else:
+        plant = build(P, controller, actuator) if isinstance(
+            P, NetworkedStateSpace) else None
     eta, decay, structure0 = _checks(P, eta, decay, controller, actuator,
                                      form, structure, plant)
     margin = positive_real(margin, "margin")

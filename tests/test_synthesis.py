@@ -701,3 +701,39 @@ def test_very_negative_fixed_eta_gives_a_verified_gain(plant, level, solver):
     # checked at a floor above the level: Θ(η) ≼ Θ(η0) for η ≤ η0
     assert cert.verified and cert.eta >= level
     assert control_ncs.check_certificate(CL, cert.P, cert.eta).verified
+
+
+def test_synthesis_on_a_built_jump_plant_equals_synthesis_on_its_plant(plant):
+    K1, CL1, eta1 = passivesyn(plant, decay=0.95)
+    K2, CL2, eta2 = passivesyn(control_ncs.build(plant), decay=0.95)
+    assert eta1 == eta2 and K1 == K2
+    assert K2.result.certificate.verified
+
+
+def test_synthesis_on_a_hand_made_jump_plant_gives_a_verified_gain():
+    # x⁺ = 2x + w + u, z = x + w; the actuator message lost w.p. 0.1
+    A = [[[[2.0]], [[2.0]]]]
+    Bu = [[[[1.0]], [[0.0]]]]
+    same = dict(Bw=[[[[1.0]], [[1.0]]]], Cz=[[[[1.0]], [[1.0]]]],
+                Du=[[[[0.0]], [[0.0]]]], Dw=[[[[1.0]], [[1.0]]]])
+    hand = control_ncs.JumpPlant(A, Bu, E=[[[1.0]]],
+                                 probabilities=[[0.9, 0.1]], **same)
+    K, CL, eta = passivesyn(hand, eta=0.0, decay=0.9)
+    assert K.result.certificate.verified and eta == 0.0
+    assert control_ncs.ms_radius(CL) < 0.81
+    assert control_ncs.ispassive(CL)
+
+
+def test_jump_plant_with_mismatched_arrays_raises_control_dimension(plant):
+    built = control_ncs.build(plant)
+    built.Bw = built.Bw[..., :1, :]
+    with pytest.raises(ControlDimension, match="Bw"):
+        passivesyn(built)
+
+
+def test_jump_plant_whose_gain_never_acts_is_refused():
+    hand = control_ncs.JumpPlant(
+        [[[[0.5]]]], [[[[1.0]]]], [[[[1.0]]]], [[[[1.0]]]], [[[[0.0]]]],
+        [[[[1.0]]]], E=np.zeros((1, 1, 1)), probabilities=[[1.0]])
+    with pytest.raises(ValueError, match="never closes"):
+        passivesyn(hand)
