@@ -92,7 +92,8 @@ from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE, NOT_MSS,
                          SOLVER_FAILED, SynthesisError)
 from .jump import JumpPlant, JumpStateSpace
 from .kyp import KYP_POINTS, FrequencyResponse
-from .verify import certify_index, check_certificate, feedthrough_bound
+from .verify import (certify_index, check_certificate, dissipation_blocks,
+                     feedthrough_bound, ifp_supremum)
 
 __all__ = ["RiccatiResult", "riccati_synthesis",
            "RICCATI_MARGIN"]
@@ -145,7 +146,7 @@ class RiccatiResult:
 class _Phase:
     """One phase's data, restricted to live modes and active inputs."""
 
-    def __init__(self, p, A, Bu, Bw, Cz, Du, Dw, active):
+    def __init__(self, p, A, Bu, Bw, Cz, Du, Dw, active, means):
         live = np.flatnonzero(p > 0)
         self.p = p[live]
         self.active = active
@@ -153,9 +154,12 @@ class _Phase:
         # [A Bw Bu] per mode: one batched product gives every quadratic term
         self.F = np.concatenate([A[live], Bw[live], Bu[live][:, :, active]],
                                 axis=2)
-        self.Czb = np.einsum("i,iab->ab", self.p, Cz[live])
-        self.Dub = np.einsum("i,iab->ab", self.p, Du[live])[:, active]
-        Dwb = np.einsum("i,iab->ab", self.p, Dw[live])
+        # per-mode data for the verify kernel (closed loops of a gain)
+        self.A, self.Bw, self.Bu = A[live], Bw[live], Bu[live][:, :, active]
+        self.Cz, self.Du, self.Dw = Cz[live], Du[live][:, :, active], Dw[live]
+        # the phase's means (JumpPlant.mean): C̄z, D̄u, D̄w
+        self.Czb, Dub, Dwb = means
+        self.Dub = Dub[:, active]
         self.Dsym = Dwb + Dwb.T
 
     def quad(self, Pn: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -200,21 +204,20 @@ def _step(d: _Phase, Pn: np.ndarray, eta: float):
     return _sym(G + K.T @ L), K        # G0 + S0 R⁻¹ S0ᵀ − Lᵀ H⁻¹ L
 
 
-def _blocks(d: _Phase, P: np.ndarray, Pn: np.ndarray, K: np.ndarray,
-            decay: float):
-    """``M11``, ``M12`` and ``M22`` at ``η = 0`` of ``Θ_k`` (MATH §6) for a gain."""
-    Qaa, Qaw, Qau, Qww, Qwu, Quu = d.quad(Pn)
-    KQ = K.T @ Qau.T
-    M11 = Qaa + KQ + KQ.T + K.T @ Quu @ K - decay ** 2 * P
-    M12 = Qaw + K.T @ Qwu.T - (d.Czb + d.Dub @ K).T
-    return _sym(M11), M12, _sym(Qww - d.Dsym)
+def _theta0(d: _Phase, P: np.ndarray, Pn: np.ndarray, K: np.ndarray,
+            decay: float) -> np.ndarray:
+    """``Θ_k`` at ``η = 0`` of the loop closed by ``K`` (the verify kernel)."""
+    return dissipation_blocks(d.p, d.A + d.Bu @ K, d.Bw, d.Cz + d.Du @ K,
+                              d.Dw, P, Pn, 0.0, decay=decay)
 
 
 def _residual_ok(d: _Phase, P: np.ndarray, Pn: np.ndarray, K: np.ndarray,
                  eta: float, decay: float, slack: float) -> bool:
     """``Θ_k ≼ -slack·diag(I, 0)`` roughly: ``R ≻ 0`` and
     ``r² P_k − G_k(K; P⁺) ≽ slack·I`` (Cholesky factorisations)."""
-    M11, M12, M22 = _blocks(d, P, Pn, K, decay)
+    theta = _theta0(d, P, Pn, K, decay)
+    n = d.n
+    M11, M12, M22 = theta[:n, :n], theta[:n, n:], theta[n:, n:]
     Lr = _chol(-M22 - 2 * eta * np.eye(d.nw))
     if Lr is None:
         return False
@@ -223,19 +226,12 @@ def _residual_ok(d: _Phase, P: np.ndarray, Pn: np.ndarray, K: np.ndarray,
 
 
 def _certified_sup(data, P, K, decay):
-    """Supremum of the ``η`` that ``(P, K)`` certify (``-inf``: none), by the
-    Schur complement of :func:`control_ncs.verify.certified_index`; used only
-    to move the bisection, never as a verdict."""
-    N, best = len(data), np.inf
-    for k, d in enumerate(data):
-        M11, M12, M22 = _blocks(d, P[k], P[(k + 1) % N], K[k], decay)
-        Lm = _chol(-M11)
-        if Lm is None:
-            return -np.inf
-        W = np.linalg.solve(Lm, M12)
-        S = _sym(M22 + W.T @ W)
-        best = min(best, -np.linalg.eigvalsh(S)[-1] / 2)
-    return float(best)
+    """Supremum of the ``η`` that ``(P, K)`` certify (``-inf``: none), by
+    :func:`control_ncs.verify.ifp_supremum`; used only to move the
+    bisection, never as a verdict."""
+    N = len(data)
+    return min(ifp_supremum(_theta0(d, P[k], P[(k + 1) % N], K[k], decay),
+                            d.n) for k, d in enumerate(data))
 
 
 def _iterate(data, eta, decay, eps, P0, max_sweeps, blowup):
@@ -427,9 +423,11 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
                 "plant: the Riccati iteration needs every state known at "
                 "every phase (structure 'full', E_k = I); this plant needs "
                 "the LMI ('block' or 'extended')")
+    _, _, _, Czb, Dub, Dwb = plant.mean()
     data = [_Phase(plant.probabilities[k], plant.A[k], plant.Bu[k],
                    plant.Bw[k], plant.Cz[k], plant.Du[k], plant.Dw[k],
-                   plant.active_inputs(k)) for k in range(N)]
+                   plant.active_inputs(k), (Czb[k], Dub[k], Dwb[k]))
+            for k in range(N)]
     P, K, e, sweeps, bis = _search(data, eta, float(decay), margin, rtol,
                                    int(max_sweeps), int(probe_sweeps))
     gains = np.zeros((N, s["nu"], s["nk"]))
