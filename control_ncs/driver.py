@@ -29,19 +29,8 @@ __all__: list[str] = []
 
 _log = logging.getLogger("control_ncs")
 
-#: Attempts made in turn while the answer is inaccurate or fails the exact
-#: checks: (margin multiplier, relative back-off of ``η`` below the first
-#: attempt's optimum). A maximum sits on the boundary of the feasible set,
-#: where interior-point answers are least accurate; a retry therefore solves
-#: the feasibility problem a little below it. Measured (loss-free plants
-#: with unstable A, tests/test_passivity.py): the maximisation ends
-#: 'optimal_inaccurate', the feasibility problem 1e-3 below is 'optimal',
-#: at a cost of ~9e-4 of η; trying 1e-5 and 1e-4 first rescued 1 of 3 such
-#: cases, so they are not tried. A retry reported infeasible proves nothing
-#: (its η comes from an inaccurate optimum): only the problem as posed, with
-#: the default or the fallback solver (``lmi.FALLBACK_SOLVER``), decides
-#: infeasibility, and only by the exact status 'infeasible' (an
-#: ``*_inaccurate`` status proves nothing).
+#: (margin multiplier, relative back-off of η): a maximum sits on the boundary,
+#: where answers are least accurate, so retries solve a little below it.
 RETRIES = ((1.0, 0.0), (1.0, 1e-3), (1e2, 1e-2))
 
 

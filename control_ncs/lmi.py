@@ -85,15 +85,8 @@ def check_solver(solver: str | None) -> str:
     return name
 
 
-#: When nothing verifies with the default solver (Clarabel), synthesis and
-#: analysis ask this solver once, if installed (never when the caller names a
-#: solver). Measured (tests/test_synthesis.py, tests/test_passivity.py): on
-#: 54 seeded plants with sensor schedules (n = 2..5, N = 2, 3), 26 admit no
-#: structured gain and Clarabel stops with InsufficientProgress as η runs off
-#: to -∞ (or once claims 'optimal' at η = -2.8e14 with X indefinite); CVXOPT
-#: proves 25 of them infeasible in 0.1-0.3 s each. Re-certifying a given η
-#: within ~1e-8 of the index, Clarabel ends 'optimal_inaccurate' with
-#: λmax(Θ) ≈ +1e-8 where CVXOPT's answer passes the exact check.
+#: Asked once when nothing verified with the default solver (never when the
+#: caller names one): CVXOPT proves infeasible what Clarabel leaves unsettled.
 FALLBACK_SOLVER = "CVXOPT"
 
 
@@ -296,20 +289,12 @@ def data_scale(*mats: np.ndarray) -> float:
 # plants of the same sizes only load new parameter values, and cvxpy re-applies
 # them to its cached compilation (a few ms) instead of recompiling.
 
-#: Compiled problems kept per thread (least recently used dropped first).
-#: passivesyn uses two shapes per call (η maximised, then fixed-η retries) and
-#: passivity_certificate up to three (η maximised, fixed η, margin
-#: maximised): six let a loop of synthesis and analysis of one loop shape
-#: hit the cache throughout. A compiled problem keeps its parametrised
-#: problem data alive (they grow like the LMI's coefficient matrix, ~n⁴ for
-#: the analysis LMI), so the bound is kept small.
+#: Compiled problems kept per thread (LRU): enough for the shapes of one
+#: synthesis plus one analysis; each holds ~n⁴ parametrised data.
 CACHE_SIZE = 6
 
-#: From this many parameter entries on, a cached problem is compiled with
-#: cvxpy's COO backend (cvxpy itself switches at 1000): its C++ backend slows
-#: down as the parameter entries that multiply variables grow. Measured (cold
-#: compile, one run): synthesis n = 16, N = 1 (683 entries) 72 ms with C++,
-#: 53 ms with COO; n = 8, N = 1 (≈ 200 entries) 44 and 49 ms.
+#: From this many parameter entries on, cvxpy's COO backend compiles faster
+#: than its C++ one (cvxpy itself switches at 1000).
 COO_FROM = 500
 
 

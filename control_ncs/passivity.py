@@ -58,33 +58,16 @@ __all__ = ["ispassive", "get_input_ff_index", "get_output_fb_index",
            "mean_input_ff_index", "frequency_ff_index",
            "passivity_certificate", "PassivityResult"]
 
-#: Routes of :func:`passivity_certificate` (``method``). ``'auto'`` takes the
-#: Riccati route for every deterministic system, whatever its size. Measured
-#: on benchmarks/bench_passivity.py's systems (interleaved, median of 3; one
-#: BLAS thread): n = 4: 7.5 ms against the LMI's 14 ms; n = 16: 0.11 s
-#: against 0.25 s; n = 32: 0.45 s against 14 s; n = 64: 1.2 s, the LMI
-#: unfinished after 150 s. It agrees with control.get_input_ff_index to
-#: ~1e-6, like the LMI. With several BLAS threads on busy cores both small
-#: cases vary 3-5× from run to run.
+#: Routes of :func:`passivity_certificate`; 'auto' takes the Riccati route
+#: for every deterministic system (faster at every size, benchmarks).
 METHODS = ("auto", "riccati", "lmi")
 
-#: Attempts, in turn, until an answer passes the exact checks, as
-#: (margin multiplier, back-off) of ``driver.drive``. The back-off lowers the maximised
-#: index below the first solve's optimum by back-off × max(1, |optimum|)
-#: (absolute below 1, relative above). For an index: the
-#: maximisation, then feasibility problems a little below its optimum (a
-#: maximum sits on the boundary, where interior-point answers end
-#: 'optimal_inaccurate'; measured on periodic lossy loops: at 1e-6 below,
-#: Clarabel says 'optimal'), then a 100× larger margin.
+#: (margin multiplier, back-off) of ``driver.drive`` for an index: the
+#: maximum, feasibility problems just below it, then a 100× margin.
 INDEX_ATTEMPTS = ((1.0, 0.0), (1.0, 1e-6), (1.0, 1e-4), (1.0, 1e-3),
                   (1e2, 0.0))
-#: For a given η: the LMI with its margin, a 100× larger one, and last the
-#: LMI that maximises its own margin (multiplier None), for an η so close to
-#: the index that a fixed margin makes the LMI infeasible; its answer is the
-#: most interior certificate and is checked exactly like any other.
-#: Measured: needed to re-certify the η that passivesyn returns (1e-6
-#: below what its certificate proves); the non-strict LMI (margin 0)
-#: instead returns boundary points that fail the exact check.
+#: For a given η: margin 1, 100×, then the margin maximised (None), whose
+#: most interior answer re-certifies a level close to the index.
 LEVEL_ATTEMPTS = ((1.0, 0.0), (1e2, 0.0), (None, 0.0))
 
 

@@ -35,27 +35,12 @@ from .verify import (Certificate, certify_index, check_certificate,
 
 __all__ = ["passivesyn", "SynthesisResult"]
 
-#: With ``solver=None`` and no solver options, a loop whose structure
-#: resolves to ``'full'`` with more states than this is designed by the
-#: Riccati iteration (``control_ncs.riccati``) instead of the LMI.
-#: Measured (η maximised, passivesyn end to end with the exact checks,
-#: ``benchmarks.common.random_plant(n, N, seed=0)``, one run each on a
-#: shared 2-core machine), Clarabel / Riccati: n=4: 0.05/0.03 s (N=1),
-#: 0.21/0.12 s (N=4); n=6: 0.17/0.05, 1.05/1.16; n=8: 0.19/0.29,
-#: 0.58/0.19; n=10: 0.57/0.37, 6.2/0.49; n=12: 4.3/0.37, 14.1/3.4;
-#: n=16 (N=1): 7.7/3.2. From n = 10 on Riccati wins every case, and
-#: Clarabel starts ending 'optimal_inaccurate' (its retry backs off 1e-3,
-#: so Riccati's η is then higher); at n <= 8 the two are within a factor of
-#: about 3 either way, and on small plants with a wide η range (the random
-#: plants of tests/test_riccati.py, n = 2..5) Clarabel is 10-50x faster and
-#: its η is closer to the supremum (1e-6 against Riccati's bisection
-#: tolerance 1e-4). Hence the LMI up to 8 states.
+#: Above this many states (structure 'full', no solver options) the default
+#: call takes the Riccati iteration: it wins from n = 10 on (benchmarks §2).
 RICCATI_THRESHOLD = 8
 
-#: Largest state dimension at which an automatically chosen Riccati
-#: iteration that runs out of sweeps (inconclusive) is followed by the LMI:
-#: Clarabel still solves n = 16 in seconds to tens of seconds (benchmarks
-#: §1), while at n = 24, N = 4 it already takes minutes.
+#: Up to this many states an inconclusive automatic Riccati iteration is
+#: followed by the LMI, still affordable there (benchmarks §1).
 RICCATI_FALLBACK_MAX = 16
 
 #: Options of the Riccati route (``solver='riccati'``), passed through
@@ -70,13 +55,8 @@ TIME_BUDGET = 120.0
 #: spread by at least this factor; below it the data are taken as they are.
 BALANCE_FROM = 16.0
 
-#: An ``η`` below ``-ETA_FLOOR`` times the data's scale is not read as an
-#: answer: there ``2ηI`` swamps the rest of the LMI, interior-point solvers
-#: report 'optimal' on problems that are infeasible (measured: Clarabel,
-#: 'optimal' at η = -4.9e12 on a structurally infeasible plant that CVXOPT
-#: proves infeasible, tests/test_synthesis.py) and no certificate there
-#: could be verified in double precision. Such an answer is a solver
-#: failure, not a gain to check.
+#: A maximised η below -ETA_FLOOR × the data's scale is a solver failure:
+#: there 2ηI swamps the LMI and no certificate verifies in double precision.
 ETA_FLOOR = 1e8
 
 #: The fixed-η search of the default call (``_eta_search``): decades
