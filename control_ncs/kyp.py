@@ -23,15 +23,12 @@ __all__: list[str] = []
 #: Grid of the KYP frequency search on [0, π] (also frequency_ff_index's).
 KYP_POINTS = 2000
 
-#: Points of each local grid that refines a minimum of the KYP test (the
-#: bracket shrinks 16-fold per round: 8 rounds from the grid's spacing to
-#: 1e-12 rad).
+#: Points of each local grid refining a KYP minimum (the bracket shrinks
+#: 16-fold per round: 8 rounds from the grid's spacing to 1e-12 rad).
 ZOOM_POINTS = 33
 
-#: An eigenvalue of the symplectic pencil counts as a unit-circle crossing
-#: when ``| |z| - 1 | <`` this. Only a candidate: ``λmin`` is evaluated there
-#: and kept only if lower, so a loose tolerance costs evaluations, nothing
-#: else (a tangency is a double eigenvalue, computed to ~√eps).
+#: A pencil eigenvalue with ``| |z| - 1 |`` below this is a candidate crossing
+#: (a tangency is a double eigenvalue, ~√eps); a loose value only costs time.
 CROSSING_TOL = 1e-5
 
 

@@ -102,9 +102,8 @@ CVXPY_SOLVE_KEYWORDS = frozenset((
     "verbose", "warm_start", "gp", "qcp", "requires_grad", "enforce_dpp",
     "ignore_dpp", "canon_backend", "bounds"))
 
-#: CVXOPT's cone-programming options (cvxopt.solvers.options) and the two
-#: cvxpy adds. CVXOPT ignores any other key silently, so a misspelt option
-#: would change nothing and say nothing: it is rejected here instead.
+#: CVXOPT's options (and cvxpy's two): CVXOPT ignores unknown keys silently,
+#: so a misspelt one is rejected here instead.
 CVXOPT_OPTIONS = frozenset((
     "show_progress", "maxiters", "abstol", "reltol", "feastol", "refinement",
     "kktreg", "debug", "max_iters", "kktsolver"))

@@ -98,11 +98,8 @@ from .verify import (certify_index, check_certificate, dissipation_blocks,
 __all__ = ["RiccatiResult", "riccati_synthesis",
            "RICCATI_MARGIN"]
 
-#: Default margin ``ε`` of the iteration, relative to the scale of the data
-#: (largest norm of ``C̄z``, ``D̄w + D̄wᵀ``, at least 1): each step adds
-#: ``εI`` to ``r² P_k``. Large enough that the converged certificate clears
-#: the exact check's rounding bound (``~16 n eps ‖Θ‖``) by orders of
-#: magnitude, small enough to cost a negligible part of ``η``.
+#: Margin ``ε`` added at each step, relative to the data's scale: clears the
+#: exact check's rounding bound by orders of magnitude at a negligible cost.
 RICCATI_MARGIN = 1e-6
 
 #: ``P`` larger than this times the data scale counts as divergence.
@@ -443,17 +440,12 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
 # The analysis route of control_ncs.passivity_certificate for an LTI system
 # (one mode, period 1): no iteration, one Riccati equation per level.
 
-#: Back-offs, below the KYP upper bound ν̂, of the levels at which the
-#: Riccati route solves its equation, in turn, in units of max(1, |ν̂|)
-#: (absolute below 1, relative above). The first is small
-#: because the exact check (verify.certify_index) backs off another 1e-6;
-#: measured on n = 4..64: 1e-7 below ν̂ the Riccati equation solves and its
-#: P passes the exact check, 1e-8 also does, so 1e-7 leaves a factor 10.
+#: Levels below ν̂ (units of max(1, |ν̂|)) at which the DARE is solved, in
+#: turn; the first leaves room for certify_index's own 1e-6 back-off.
 RICCATI_BACKOFFS = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
 
-#: Strictness ``ε`` of the Riccati route, as a fraction of the largest
-#: admissible one, ``min_θ 2(λmin(θ) - η)/‖(e^{jθ}I - A)⁻¹B‖²`` (estimated
-#: on the grid, which can miss a peak: hence well below 1).
+#: Strictness ε as a fraction of the largest admissible one (estimated on a
+#: grid that can miss a peak: hence well below 1).
 RICCATI_EPS_FRACTION = 0.25
 
 #: Pencil corrections of ν̂ (a dip of ``λmin`` that the grid missed) before

@@ -50,18 +50,16 @@ RICCATI_OPTIONS = ("rtol", "max_sweeps", "probe_sweeps")
 #: Default time budget of :func:`passivesyn`, seconds.
 TIME_BUDGET = 120.0
 
-#: The state is rescaled by a diagonal of powers of two (balancing the mode
-#: matrices, :func:`_balancing`) before the LMI when the scales it finds
-#: spread by at least this factor; below it the data are taken as they are.
+#: Balance the state (powers of two, exact) before the LMI only when the
+#: scales found spread by at least this factor.
 BALANCE_FROM = 16.0
 
 #: A maximised η below -ETA_FLOOR × the data's scale is a solver failure:
 #: there 2ηI swamps the LMI and no certificate verifies in double precision.
 ETA_FLOOR = 1e8
 
-#: The fixed-η search of the default call (``_eta_search``): decades
-#: below the feedthrough bound (1e-2 .. 1e7 times its scale) and bisection
-#: steps after the first verified level.
+#: The default call's fixed-η search: decades below the feedthrough bound,
+#: then bisection steps after the first verified level.
 ETA_SEARCH_DECADES = 10
 ETA_SEARCH_STEPS = 12
 

@@ -33,15 +33,8 @@ __all__ = ["Certificate", "dissipation_matrices", "certified_index",
            "check_certificate", "certify_index", "certify_ofp_index",
            "dissipation_blocks", "ifp_supremum", "feedthrough_bound"]
 
-#: Relative back-offs of ``η`` below the supremum a certificate proves, tried
-#: in turn by :func:`certify_index`. The supremum comes from a Schur
-#: complement, which loses accuracy when ``M11`` is nearly singular (a loop
-#: at the mean-square boundary, ``ms_radius → 1``, which maximising ``η``
-#: produces; measured: 1e-9 below failed the exact check at
-#: ms_radius = 1 - 1e-6). Stepping 1e-6 below also leaves a certificate
-#: margin that a fresh solve can find again: at 1e-9 below, ``ispassive``
-#: could not re-certify passivesyn's η (its most interior certificate has
-#: λmax(Θ) ≈ -1e-10, below Clarabel's accuracy).
+#: Relative back-offs below a certificate's supremum, tried in turn: the Schur
+#: complement loses accuracy near the ms boundary, and a re-check needs room.
 INDEX_BACKOFFS = (1e-6, 1e-5, 1e-4)
 
 
@@ -204,9 +197,8 @@ def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
     return float(lam[k]), k
 
 
-#: Fixed levels ``η`` further than this below the feedthrough bound, in units
-#: of the data's scale, are solved and checked at that floor instead: lower
-#: levels swamp ``Θ`` in double precision (solvers fail, ``P`` overflows).
+#: Levels further below the feedthrough bound (in data scales) are checked at
+#: that floor: lower ones swamp Θ in double precision (Θ(η) ≼ Θ(η0)).
 LEVEL_FLOOR = 1e6
 
 
