@@ -21,25 +21,16 @@ from typing import Any, Callable
 
 import cvxpy as cp
 
+from .exceptions import (INACCURATE, INFEASIBLE, NOT_VERIFIED,
+                         SOLVER_FAILED, TIME_LIMIT)
 from .lmi import SolveReport, fallback_solver
 
 __all__: list[str] = []
 
 _log = logging.getLogger("control_ncs")
 
-#: Attempts made in turn while the answer is inaccurate or fails the exact
-#: checks: (margin multiplier, relative back-off of ``η`` below the first
-#: attempt's optimum). A maximum sits on the boundary of the feasible set,
-#: where interior-point answers are least accurate; a retry therefore solves
-#: the feasibility problem a little below it. Measured (loss-free plants
-#: with unstable A, tests/test_passivity.py): the maximisation ends
-#: 'optimal_inaccurate', the feasibility problem 1e-3 below is 'optimal',
-#: at a cost of ~9e-4 of η; trying 1e-5 and 1e-4 first rescued 1 of 3 such
-#: cases, so they are not tried. A retry reported infeasible proves nothing
-#: (its η comes from an inaccurate optimum): only the problem as posed, with
-#: the default or the fallback solver (``lmi.FALLBACK_SOLVER``), decides
-#: infeasibility, and only by the exact status 'infeasible' (an
-#: ``*_inaccurate`` status proves nothing).
+#: (margin multiplier, relative back-off of η): a maximum sits on the boundary,
+#: where answers are least accurate, so retries solve a little below it.
 RETRIES = ((1.0, 0.0), (1.0, 1e-3), (1e2, 1e-2))
 
 
@@ -93,6 +84,7 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
           verify: Callable[[Any], Any], *, eta: float | None,
           solver: str | None, deadline: float | None = None,
           retries: tuple = RETRIES, fallback: tuple = (1.0, 0.0),
+          refute_margins: bool = False, spare: bool = True,
           label: str = "LMI") -> Outcome:
     """Solve, read, verify and retry until a candidate passes the exact check.
 
@@ -120,6 +112,20 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
     fallback : (float, float)
         The attempt asked of ``lmi.FALLBACK_SOLVER`` (only when ``solver``
         is None): by default the problem as posed.
+    refute_margins : bool
+        For a fixed ``eta`` (an analysis): an exact 'infeasible' at any
+        margin also rules out every larger one, so the remaining attempts
+        with a numeric margin are skipped (those with None, margin
+        maximised, still run), and a maximised margin that is not positive
+        (``report.value <= 0``) refutes too. The reason is 'infeasible'
+        when nothing verifies afterwards. Without it only the problem as
+        posed (margin 1, the requested ``eta``) proves infeasibility.
+    spare : bool
+        Keep a verified candidate of an inaccurate solve, returned only
+        when no accurate one verifies (synthesis). False: for a fixed
+        ``eta`` such a candidate is returned at once (the exact check is
+        the proof), for a maximised index it is refused (an index also
+        claims optimality, which needs 'optimal').
     label : str
         Named in progress messages (logger ``'control_ncs'``, level INFO).
 
@@ -133,11 +139,15 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
     # a verified gain from an inaccurate solve: returned only when no
     # accurate answer verifies (the gain is proved; its η may lie further
     # below the supremum)
-    spare = None
+    kept = None
     plan = [(scale, backoff, solver) for scale, backoff in retries]
     if fallback_solver(solver):
         plan.append((*fallback, fallback_solver(solver)))
+    refute = refute_margins and eta is not None
+    refuted = None  # the report that refuted the level (refute_margins)
     for scale, backoff, name in plan:
+        if refuted is not None and scale is not None:
+            continue  # a larger margin is infeasible too
         target = eta
         if eta is None and backoff:
             if best is None:
@@ -148,7 +158,7 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
         tried.add((scale, target, name))
         left = None if deadline is None else deadline - time.perf_counter()
         if left is not None and left <= 0:
-            out.reason = "time_limit"
+            out.reason = TIME_LIMIT
             out.message = "the time limit was reached between attempts"
             return out
         original = scale == 1.0 and target == eta
@@ -159,42 +169,58 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
         out.attempts.append(report)
         if original and best is None and eta is None:
             best = report.value
-        if report.status == "time_limit":
-            out.reason, out.report = "time_limit", report
+        if report.status == TIME_LIMIT:
+            out.reason, out.report = TIME_LIMIT, report
             out.message = f"solver {report.solver} reached the time limit"
             return out
+        if report.status == cp.INFEASIBLE and refute:
+            refuted = report
+            continue
         if report.status == cp.INFEASIBLE and original:
-            out.reason, out.report = "infeasible", report
+            out.reason, out.report = INFEASIBLE, report
             out.message = (f"the LMI is infeasible (solver {report.solver}, "
                            f"status {report.status!r})")
             return out
+        if (refute and scale is None and report.value is not None
+                and report.value <= 0):
+            # the largest margin is not positive: no strict certificate
+            # (unless another solver's answer verifies after all)
+            refuted = report
+            continue
         if candidate is None:
             continue
         cert = verify(candidate)
         out.certificate, out.report = cert, report
-        if cert.verified and report.ok:
+        if cert.verified and (report.ok or (not spare and eta is not None)):
             out.candidate = candidate
             out.eta_solver = eta if eta is not None else (
                 best if best is not None else cert.eta)
             return out
-        if cert.verified and (spare is None or cert.eta > spare[1].eta):
-            spare = (candidate, cert, report)
-    if spare is not None:
-        out.candidate, out.certificate, out.report = spare
+        if cert.verified and spare and (
+                kept is None or cert.eta > kept[1].eta):
+            kept = (candidate, cert, report)
+    if kept is not None:
+        out.candidate, out.certificate, out.report = kept
         out.eta_solver = eta if eta is not None else (
             best if best is not None else out.certificate.eta)
         return out
+    if refuted is not None:
+        out.reason, out.report = INFEASIBLE, refuted
+        out.message = (f"no certificate with a margin exists (solver "
+                       f"{refuted.solver}, status {refuted.status!r}), and "
+                       "without one none verified")
+        return out
     if out.certificate is None:
         out.report = out.attempts[-1] if out.attempts else None
-        out.reason = "solver_failed"
+        out.reason = SOLVER_FAILED
         out.message = ("the solver failed"
                        + (f" ({out.report.message})" if out.report
                           and out.report.message else ""))
     elif out.report is not None and not out.report.ok:
-        out.reason = "inaccurate"
+        out.reason = INACCURATE
         out.message = "the solver's status stayed inaccurate"
     else:
-        out.reason = "not_verified"
+        out.reason = NOT_VERIFIED
         out.message = ("the gain fails the exact check: "
                        + "; ".join(out.certificate.failures))
     out.message += (f"; statuses {[a.status for a in out.attempts]} after "

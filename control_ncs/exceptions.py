@@ -29,10 +29,12 @@ SOLVER_FAILED = "solver_failed"
 INACCURATE = "inaccurate"
 #: The answer found fails the exact checks of :mod:`control_ncs.verify`.
 NOT_VERIFIED = "not_verified"
+#: The time budget ran out (between attempts, or the solver's own limit).
+TIME_LIMIT = "time_limit"
 
 #: Every reason an error may carry.
 REASONS = (NOT_MSS, FEEDTHROUGH, INFEASIBLE, SOLVER_FAILED, INACCURATE,
-           NOT_VERIFIED)
+           NOT_VERIFIED, TIME_LIMIT)
 
 #: One sentence per verdict, the ``message`` of a result with that ``status``.
 MESSAGES = {
@@ -47,6 +49,7 @@ MESSAGES = {
                 "passed the exact checks: nothing is proven either way",
     NOT_VERIFIED: "the answer found fails the exact checks: nothing is "
                   "proven either way",
+    TIME_LIMIT: "the time limit was reached: nothing is proven either way",
 }
 
 
@@ -83,7 +86,7 @@ class CertificationError(RuntimeError):
     reason : str
         One of :data:`REASONS`: ``'not_mss'``, ``'feedthrough'``,
         ``'infeasible'``, ``'solver_failed'``, ``'inaccurate'``,
-        ``'not_verified'``.
+        ``'not_verified'``, ``'time_limit'``.
     figures : dict, optional
         Whatever was measured (solver status, eigenvalues, ``ms_radius``).
 

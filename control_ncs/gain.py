@@ -6,15 +6,51 @@ from typing import Any
 
 import numpy as np
 
+from control.exception import ControlDimension
+
 from ._checks import choice, real_array
 
 __all__ = ["PeriodicGain"]
 
-#: Controller kinds: the paper's memoryless gain on the received measurement,
-#: and the model-based predictor of MATH §8b.
-CONTROLLERS = ("static", "predictor")
-#: Actuator strategies on a lost or unaddressed message: apply zero, or hold.
-ACTUATORS = ("zero", "hold")
+
+
+def controllers() -> tuple[str, ...]:
+    """Controller kinds, the keys of ``strategies.STRATEGIES``.
+
+    Returns
+    -------
+    tuple of str
+        E.g. ``('static', 'predictor')``.
+
+    Examples
+    --------
+    >>> 'static' in controllers()
+    True
+    """
+    # imported here: strategies imports this module
+    from .strategies import STRATEGIES
+    return tuple(dict.fromkeys(c for c, _ in STRATEGIES))
+
+
+def actuators() -> tuple[str, ...]:
+    """Actuator strategies, the keys of ``strategies.STRATEGIES``.
+
+    Returns
+    -------
+    tuple of str
+        E.g. ``('zero', 'hold')``.
+
+    Examples
+    --------
+    >>> 'hold' in actuators()
+    True
+    """
+    from .strategies import STRATEGIES
+    return tuple(dict.fromkeys(a for _, a in STRATEGIES))
+
+#: Above this many entries the repr gives the shape, not the numbers (a
+#: screenful; ``numpy.asarray(K)`` shows them all).
+REPR_ENTRIES = 64
 
 
 class PeriodicGain:
@@ -63,10 +99,13 @@ class PeriodicGain:
     def __init__(self, gains: Any, controller: str = "static",
                  actuator: str = "zero", result: Any = None):
         K = real_array(gains, "gains", ndim=(2, 3))
+        if 0 in K.shape:
+            raise ControlDimension(f"gains: expected nonzero dimensions, got "
+                                   f"shape {K.shape}")
         self.gains = K[None] if K.ndim == 2 else K
         self.gains.flags.writeable = False
-        self.controller = choice(controller, "controller", CONTROLLERS)
-        self.actuator = choice(actuator, "actuator", ACTUATORS)
+        self.controller = choice(controller, "controller", controllers())
+        self.actuator = choice(actuator, "actuator", actuators())
         self.result = result
 
     @property
@@ -94,6 +133,9 @@ class PeriodicGain:
                                self.actuator, self.result))
 
     def __repr__(self) -> str:
+        head = (f"PeriodicGain(controller={self.controller!r}, "
+                f"actuator={self.actuator!r}, period={self.period}")
+        if self.gains.size > REPR_ENTRIES:
+            return f"{head}, shape={self.gains.shape})"
         g = np.array2string(np.asarray(self), precision=4)
-        return (f"PeriodicGain(controller={self.controller!r}, "
-                f"actuator={self.actuator!r}, period={self.period},\n{g})")
+        return f"{head},\n{g})"

@@ -3,7 +3,7 @@
 For a Schur-stable LTI system ``G(z) = D + C (zI - A)⁻¹ B`` the
 input-feedforward passivity index equals
 ``min_θ λmin(G(e^{jθ}) + G(e^{jθ})ᴴ) / 2`` (KYP lemma). This module
-evaluates that minimum (:class:`_FrequencyResponse`, used by
+evaluates that minimum (:class:`FrequencyResponse`, used by
 :func:`control_ncs.frequency_ff_index` and the Riccati route of
 :func:`control_ncs.passivity_certificate`) and locates, by the symplectic
 pencil of the Riccati equation, the frequencies where
@@ -23,19 +23,16 @@ __all__: list[str] = []
 #: Grid of the KYP frequency search on [0, π] (also frequency_ff_index's).
 KYP_POINTS = 2000
 
-#: Points of each local grid that refines a minimum of the KYP test (the
-#: bracket shrinks 16-fold per round: 8 rounds from the grid's spacing to
-#: 1e-12 rad).
+#: Points of each local grid refining a KYP minimum (the bracket shrinks
+#: 16-fold per round: 8 rounds from the grid's spacing to 1e-12 rad).
 ZOOM_POINTS = 33
 
-#: An eigenvalue of the symplectic pencil counts as a unit-circle crossing
-#: when ``| |z| - 1 | <`` this. Only a candidate: ``λmin`` is evaluated there
-#: and kept only if lower, so a loose tolerance costs evaluations, nothing
-#: else (a tangency is a double eigenvalue, computed to ~√eps).
+#: A pencil eigenvalue with ``| |z| - 1 |`` below this is a candidate crossing
+#: (a tangency is a double eigenvalue, ~√eps); a loose value only costs time.
 CROSSING_TOL = 1e-5
 
 
-class _FrequencyResponse:
+class FrequencyResponse:
     """``G(e^{jθ}) = D + C (e^{jθ}I - A)⁻¹ B`` at many frequencies at once.
 
     One complex Schur form ``A = U T Uᴴ`` (unitary, hence backward stable)
@@ -136,7 +133,7 @@ class _FrequencyResponse:
 
         They are the unit-circle eigenvalues of the extended symplectic
         pencil of the Riccati equation of
-        :func:`control_ncs.passivity._riccati_storage` with
+        :func:`control_ncs.riccati.dare_storage` with
         ``ε = 0`` (the pencil scipy's ``solve_discrete_are`` factors;
         van Dooren 1981): ``z`` is a finite eigenvalue of it iff
         ``det Φ(z) = 0`` for the Popov function
@@ -174,7 +171,7 @@ class _FrequencyResponse:
                                                    float(cand[i]))
 
 
-def frequency_minimum(resp: _FrequencyResponse,
+def frequency_minimum(resp: FrequencyResponse,
                       thetas: np.ndarray | None = None,
                       points: int | None = None) -> float:
     """``min λmin(G + Gᴴ)/2`` of ``resp`` on the grid ``thetas``

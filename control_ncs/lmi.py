@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import threading
 import time
+import warnings
 import weakref
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -22,6 +23,7 @@ import numpy as np
 import cvxpy as cp
 from control.exception import ControlArgument
 
+from .exceptions import TIME_LIMIT
 from .jump import JumpPlant, JumpStateSpace
 
 __all__: list[str] = []
@@ -83,15 +85,8 @@ def check_solver(solver: str | None) -> str:
     return name
 
 
-#: When nothing verifies with the default solver (Clarabel), synthesis and
-#: analysis ask this solver once, if installed (never when the caller names a
-#: solver). Measured (tests/test_synthesis.py, tests/test_passivity.py): on
-#: 54 seeded plants with sensor schedules (n = 2..5, N = 2, 3), 26 admit no
-#: structured gain and Clarabel stops with InsufficientProgress as η runs off
-#: to -∞ (or once claims 'optimal' at η = -2.8e14 with X indefinite); CVXOPT
-#: proves 25 of them infeasible in 0.1-0.3 s each. Re-certifying a given η
-#: within ~1e-8 of the index, Clarabel ends 'optimal_inaccurate' with
-#: λmax(Θ) ≈ +1e-8 where CVXOPT's answer passes the exact check.
+#: Asked once when nothing verified with the default solver (never when the
+#: caller names one): CVXOPT proves infeasible what Clarabel leaves unsettled.
 FALLBACK_SOLVER = "CVXOPT"
 
 
@@ -107,9 +102,8 @@ CVXPY_SOLVE_KEYWORDS = frozenset((
     "verbose", "warm_start", "gp", "qcp", "requires_grad", "enforce_dpp",
     "ignore_dpp", "canon_backend", "bounds"))
 
-#: CVXOPT's cone-programming options (cvxopt.solvers.options) and the two
-#: cvxpy adds. CVXOPT ignores any other key silently, so a misspelt option
-#: would change nothing and say nothing: it is rejected here instead.
+#: CVXOPT's options (and cvxpy's two): CVXOPT ignores unknown keys silently,
+#: so a misspelt one is rejected here instead.
 CVXOPT_OPTIONS = frozenset((
     "show_progress", "maxiters", "abstol", "reltol", "feastol", "refinement",
     "kktreg", "debug", "max_iters", "kktsolver"))
@@ -197,7 +191,12 @@ class _SolverOptionsRestored:
 def _run(problem: cp.Problem, name: str, opts: dict) -> tuple[str, str]:
     """One solver call: its status, or 'solver_error' and why."""
     try:
-        with _SolverOptionsRestored():
+        with _SolverOptionsRestored(), warnings.catch_warnings():
+            # the status says 'optimal_inaccurate' already, and the caller's
+            # exact check decides; the warning would only reach users as noise
+            warnings.filterwarnings("ignore",
+                                    message="Solution may be inaccurate",
+                                    category=UserWarning)
             problem.solve(solver=name, **opts)
         return problem.status, ""
     except (KeyboardInterrupt, SystemExit):
@@ -258,7 +257,7 @@ def solve(problem: cp.Problem, solver: str | None = None, *,
     total = time.perf_counter() - start
     if status == cp.USER_LIMIT and time_limit is not None \
             and total >= 0.9 * time_limit:
-        status, message = "time_limit", f"{name} reached its time limit"
+        status, message = TIME_LIMIT, f"{name} reached its time limit"
     template = _cache.templates.get(problem)
     if template is not None:
         template.solved = template.owner
@@ -289,20 +288,12 @@ def data_scale(*mats: np.ndarray) -> float:
 # plants of the same sizes only load new parameter values, and cvxpy re-applies
 # them to its cached compilation (a few ms) instead of recompiling.
 
-#: Compiled problems kept per thread (least recently used dropped first).
-#: passivesyn uses two shapes per call (η maximised, then fixed-η retries) and
-#: passivity_certificate up to three (η maximised, fixed η, margin
-#: maximised): six let a loop of synthesis and analysis of one loop shape
-#: hit the cache throughout. A compiled problem keeps its parametrised
-#: problem data alive (they grow like the LMI's coefficient matrix, ~n⁴ for
-#: the analysis LMI), so the bound is kept small.
+#: Compiled problems kept per thread (LRU): enough for the shapes of one
+#: synthesis plus one analysis; each holds ~n⁴ parametrised data.
 CACHE_SIZE = 6
 
-#: From this many parameter entries on, a cached problem is compiled with
-#: cvxpy's COO backend (cvxpy itself switches at 1000): its C++ backend slows
-#: down as the parameter entries that multiply variables grow. Measured (cold
-#: compile, one run): synthesis n = 16, N = 1 (683 entries) 72 ms with C++,
-#: 53 ms with COO; n = 8, N = 1 (≈ 200 entries) 44 and 49 ms.
+#: From this many parameter entries on, cvxpy's COO backend compiles faster
+#: than its C++ one (cvxpy itself switches at 1000).
 COO_FROM = 500
 
 
@@ -325,13 +316,13 @@ class _Cache(threading.local):
 _cache = _Cache()
 
 
-def _cache_info() -> dict:
+def cache_info() -> dict:
     """This thread's cache: ``hits``, ``misses``, ``size``, ``maxsize``."""
     return dict(hits=_cache.hits, misses=_cache.misses,
                 size=len(_cache.entries), maxsize=CACHE_SIZE)
 
 
-def _cache_clear() -> None:
+def cache_clear() -> None:
     """Empty this thread's cache and reset its statistics."""
     _cache.entries.clear()
     _cache.hits = _cache.misses = 0
@@ -344,7 +335,7 @@ class _Template:
     its own values before its problem is handed out, so two models of one
     shape never solve each other's data. ``solved`` is the model whose data
     were last solved (set by :func:`solve`); variables are read only when
-    both are the reader (``_Model._check_current``), and loading other data
+    both are the reader (``_Model.check_current``), and loading other data
     clears the variables' values.
     """
 
@@ -396,7 +387,7 @@ class _Model:
         self._template.load(self, self._values)
         return self._template.problem
 
-    def _check_current(self) -> None:
+    def check_current(self) -> None:
         """Raise unless the variables hold the solution of this model's
         data (its problem solved since it was last loaded)."""
         if self._template.owner is not self or self._template.solved is not self:
@@ -723,7 +714,7 @@ def read_gains(model: SynthesisModel, plant: JumpPlant
     ``K_k E_k = Y_k Z_k⁻¹`` is computed block-wise, so the zero pattern that
     the structure imposes (silent sensors, unaddressed actuators) is exact.
     """
-    model._check_current()
+    model.check_current()
     s = plant.shape
     N, nx, nu = plant.period, s["nx"], s["nu"]
     gains = np.zeros((N, nu, s["nk"]))
@@ -763,7 +754,7 @@ class SupplyModel:
         self.problem, self.P = problem, P
         self.eta, self.rho, self.margin = eta, rho, margin
 
-    def _check_current(self) -> None:
+    def check_current(self) -> None:
         """Nothing to check: the problem is this model's own."""
 
 
@@ -810,3 +801,7 @@ def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
                  cp.Maximize(e) if eta is None else
                  cp.Maximize(r) if rho is None else cp.Minimize(0))
     return SupplyModel(cp.Problem(objective, cons), P, e, r, t)
+
+
+# the names the benchmarks (benchmarks/bench_synthesis.py) still import
+_cache_clear, _cache_info = cache_clear, cache_info

@@ -26,85 +26,49 @@ Two routes produce a certificate, both checked exactly by
   (any jump system);
 * ``'riccati'`` -- for a deterministic system (one mode, period 1): the KYP
   frequency test gives the index from above, and one discrete algebraic
-  Riccati equation just below it gives ``P`` (see :func:`_riccati_storage`);
+  Riccati equation just below it gives ``P`` (see :func:`control_ncs.riccati.dare_storage`);
   no solver, ``O(n³)`` work against the LMI's ``n(n+1)/2`` dense unknowns.
 """
 
 from __future__ import annotations
 
-import time
-import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, cast
 
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
-from scipy.linalg import (LinAlgError, solve_discrete_are,
-                          solve_discrete_lyapunov)
 
 from . import kyp
 from ._checks import (choice, decay_bound, finite_real, no_extra_kwargs,
                       positive_int, positive_real, real_array)
-from .exceptions import (CERTIFIED, FEEDTHROUGH, INACCURATE, INFEASIBLE,
+from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE,
                          MESSAGES, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
                          CertificationError)
+from .driver import drive
+from .riccati import dare_certificate
 from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
-                  analysis_model,
-                  fallback_solver, solve, supply_model)
+                  analysis_model, solve, supply_model)
 from .jump import JumpStateSpace
 from .stability import ms_radius
-from .verify import (Certificate, _system, certify_index, certify_ofp_index,
-                     check_certificate, feedthrough_bound)
+from .verify import (Certificate, certify_index, certify_ofp_index,
+                     check_certificate, feedthrough_bound, level_floor,
+                     square_system)
 
 __all__ = ["ispassive", "get_input_ff_index", "get_output_fb_index",
            "mean_input_ff_index", "frequency_ff_index",
            "passivity_certificate", "PassivityResult"]
 
-#: Routes of :func:`passivity_certificate` (``method``). ``'auto'`` takes the
-#: Riccati route for every deterministic system, whatever its size. Measured
-#: on benchmarks/bench_passivity.py's systems (interleaved, median of 3; one
-#: BLAS thread): n = 4: 7.5 ms against the LMI's 14 ms; n = 16: 0.11 s
-#: against 0.25 s; n = 32: 0.45 s against 14 s; n = 64: 1.2 s, the LMI
-#: unfinished after 150 s. It agrees with control.get_input_ff_index to
-#: ~1e-6, like the LMI. With several BLAS threads on busy cores both small
-#: cases vary 3-5× from run to run.
+#: Routes of :func:`passivity_certificate`; 'auto' takes the Riccati route
+#: for every deterministic system (faster at every size, benchmarks).
 METHODS = ("auto", "riccati", "lmi")
 
-#: Back-offs, below the KYP upper bound ν̂, of the levels at which the
-#: Riccati route solves its equation, in turn, in units of max(1, |ν̂|)
-#: (absolute below 1, relative above). The first is small
-#: because the exact check (verify.certify_index) backs off another 1e-6;
-#: measured on n = 4..64: 1e-7 below ν̂ the Riccati equation solves and its
-#: P passes the exact check, 1e-8 also does, so 1e-7 leaves a factor 10.
-RICCATI_BACKOFFS = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
-
-#: Strictness ``ε`` of the Riccati route, as a fraction of the largest
-#: admissible one, ``min_θ 2(λmin(θ) - η)/‖(e^{jθ}I - A)⁻¹B‖²`` (estimated
-#: on the grid, which can miss a peak: hence well below 1).
-RICCATI_EPS_FRACTION = 0.25
-
-#: Pencil corrections of ν̂ (a dip of ``λmin`` that the grid missed) before
-#: the Riccati route gives up and, under ``'auto'``, the LMI takes over.
-KYP_CORRECTIONS = 4
-
-#: Attempts, in turn, until an answer passes the exact checks, as
-#: (margin multiplier, back-off or None). The back-off lowers the maximised
-#: index below the first solve's optimum by back-off × max(1, |optimum|)
-#: (absolute below 1, relative above). For an index: the
-#: maximisation, then feasibility problems a little below its optimum (a
-#: maximum sits on the boundary, where interior-point answers end
-#: 'optimal_inaccurate'; measured on periodic lossy loops: at 1e-6 below,
-#: Clarabel says 'optimal'), then a 100× larger margin.
-INDEX_ATTEMPTS = ((1.0, None), (1.0, 1e-6), (1.0, 1e-4), (1.0, 1e-3),
-                  (1e2, None))
-#: For a given η: the LMI with its margin, a 100× larger one, and last the
-#: LMI that maximises its own margin (multiplier None), for an η so close to
-#: the index that a fixed margin makes the LMI infeasible; its answer is the
-#: most interior certificate and is checked exactly like any other.
-#: Measured: needed to re-certify the η that passivesyn returns (1e-6
-#: below what its certificate proves); the non-strict LMI (margin 0)
-#: instead returns boundary points that fail the exact check.
-LEVEL_ATTEMPTS = ((1.0, None), (1e2, None), (None, None))
+#: (margin multiplier, back-off) of ``driver.drive`` for an index: the
+#: maximum, feasibility problems just below it, then a 100× margin.
+INDEX_ATTEMPTS = ((1.0, 0.0), (1.0, 1e-6), (1.0, 1e-4), (1.0, 1e-3),
+                  (1e2, 0.0))
+#: For a given η: margin 1, 100×, then the margin maximised (None), whose
+#: most interior answer re-certifies a level close to the index.
+LEVEL_ATTEMPTS = ((1.0, 0.0), (1e2, 0.0), (None, 0.0))
 
 
 @dataclass
@@ -264,163 +228,6 @@ def _deterministic(sys: JumpStateSpace) -> tuple[np.ndarray, ...] | None:
                                            for X in mats)
 
 
-def _riccati_storage(resp: kyp._FrequencyResponse, eta: float, eps: float
-                     ) -> np.ndarray | None:
-    """``P ≻ 0`` with ``Θ(P, η) ≺ 0`` from one Riccati equation, or None.
-
-    Derivation. For ``ξ⁺ = Aξ + Bw``, ``z = Cξ + Dw`` (MATH §6 with one
-    mode and ``N = 1``; the matrix of ``verify.dissipation_matrices``)::
-
-        Θ(P, η) = [ AᵀPA - P    AᵀPB - Cᵀ           ] = [ Θ11  L  ]
-                  [ BᵀPA - C    BᵀPB + 2ηI - D - Dᵀ ]   [ Lᵀ   -W ]
-
-    with ``W = D + Dᵀ - 2ηI - BᵀPB``. By a Schur complement on the ``w``
-    block, ``Θ ≺ 0`` iff ``W ≻ 0`` and ``Θ11 + L W⁻¹ Lᵀ ≺ 0``. Ask for
-    the latter with equality and a margin ``ε > 0``::
-
-        AᵀPA - P + (AᵀPB - Cᵀ) W⁻¹ (BᵀPA - C) = -εI.              (*)
-
-    With ``X = -P`` and ``Q = -εI``, ``S = Cᵀ``, ``R = D + Dᵀ - 2ηI``,
-    (*) times -1 is scipy's DARE
-    ``AᵀXA - X - (AᵀXB + S)(R + BᵀXB)⁻¹(BᵀXA + Sᵀ) + Q = 0``
-    (``R + BᵀXB = W``, ``AᵀXB + S = -L``). ``solve_discrete_are`` returns
-    the stabilising solution: the value of the LQ problem
-    ``ξ0ᵀXξ0 = min_w Σ_t (ξᵀQξ + 2ξᵀSw + wᵀRw)
-    = min_w Σ_t (2wᵀz - 2η wᵀw - ε‖ξ‖²)`` (twice the supply rate less
-    ``ε‖ξ‖²``), which exists iff the Popov function
-    ``G + Gᴴ - 2ηI - εFᴴF`` (``F = (e^{jθ}I - A)⁻¹B``) is positive definite
-    on the unit circle: for ``η < ν`` and ``ε‖F‖²_∞ < 2(ν - η)``. Then
-    ``W ≻ 0`` and (*) give ``Θ ≺ 0``; ``w = 0`` gives
-    ``ξ0ᵀXξ0 ≤ -ε‖ξ0‖²``, so ``P = -X ≻ 0`` (up to the ``ε`` term, the
-    available storage, the smallest storage function).
-
-    A decay bound ``r`` (``Θ11 = AᵀPA - r²P``) is the same problem for
-    ``(A/r, B/r)`` and ``r²P``: ``resp`` holds the scaled data, the caller
-    divides by ``r²``. None of this is trusted: the caller checks ``P``
-    exactly.
-    """
-    A, B, C, D = resp.A, resp.B, resp.C, resp.D
-    n, m = B.shape
-    Q, R, S = -eps * np.eye(n), D + D.T - 2 * eta * np.eye(m), C.T
-    try:
-        X = solve_discrete_are(A, B, Q, R, s=S)
-    except (LinAlgError, ValueError):
-        # pencil eigenvalues on (or too close to) the unit circle: η ≥ ν,
-        # or ε too large for this η
-        return None
-
-    def residual(X):
-        K = np.linalg.solve(R + B.T @ X @ B, B.T @ X @ A + S.T)
-        Res = A.T @ X @ A - X - (A.T @ X @ B + S) @ K + Q
-        return 0.5 * (Res + Res.T), A - B @ K
-
-    try:
-        # One Newton step (Hewer 1971): the residual's derivative at X is
-        # N ↦ AcᵀNAc - N, Ac = A - BK, so N solves a Stein equation. The
-        # QZ solution's residual is ~eps·cond·‖X‖, which near a lightly
-        # damped pole exceeds the margin ε (measured: 1 - |pole| = 1e-6,
-        # ‖P‖ = 6e5, residual 3e-5 > ε = 1e-7; after the step 2e-10).
-        Res, Ac = residual(X)
-        step = solve_discrete_lyapunov(Ac.T, Res)
-        if np.linalg.norm(residual(X + step)[0]) < np.linalg.norm(Res):
-            X = X + step
-    except (LinAlgError, ValueError):
-        pass  # keep the QZ solution; the exact check decides
-    P = -0.5 * (X + X.T)
-    return P if np.all(np.isfinite(P)) else None
-
-
-def _riccati_certificate(sys, mats, ifp_index, decay
-                         ) -> tuple[PassivityResult | None, dict]:
-    """The Riccati route of :func:`passivity_certificate`.
-
-    Returns ``(result, figures)``: ``result`` None when no level gave a
-    certificate that passes the exact check (the caller falls back to the
-    LMI or raises).
-    """
-    start = time.perf_counter()
-    A, B, C, D = mats
-    # ms_radius of a deterministic system is ρ(A)², the Schur form's
-    # diagonal (decay > 0: checked at the public boundary)
-    resp = kyp._FrequencyResponse(A / decay, B / decay, C, D)
-    if not (resp.radius * decay) ** 2 < min(1.0, decay ** 2):
-        return PassivityResult(False, np.nan, None, None, NOT_MSS,
-                               "riccati"), {}
-    if _feedthrough_refutes(sys, ifp_index):
-        return PassivityResult(False, float(ifp_index), None, None,
-                               FEEDTHROUGH, "riccati"), {}
-    grid = np.linspace(0.0, np.pi, kyp.KYP_POINTS)
-    lam, gain = resp.values(grid)
-    upper, theta = resp.minimum(grid, lam)
-    t_freq = time.perf_counter() - start
-
-    def strictness(level: float) -> float:
-        # Φ - εFᴴF ≻ 0 (see _riccati_storage) at θ where
-        # 2(λmin(θ) - η) > ε‖F(θ)‖²; the grid and θ̂ estimate the worst θ
-        _, at = resp.values(np.array([theta]))
-        norms = np.append(gain, at) ** 2
-        room = 2 * (np.append(lam, upper) - level)
-        ok = norms > 0
-        limit = (room[ok] / norms[ok]).min() if ok.any() else room.min()
-        return RICCATI_EPS_FRACTION * float(limit)
-
-    levels, solves, corrections = [], 0, 0
-    cert, level, eps = None, np.nan, np.nan
-
-    def report(status: str, message: str = "") -> SolveReport:
-        total = time.perf_counter() - start
-        return SolveReport(status, "scipy.linalg.solve_discrete_are", t_freq,
-                           total - t_freq, total, solves, float(level),
-                           message, dict(level=float(level), eps=float(eps)))
-
-    def refuted() -> tuple[PassivityResult, dict]:
-        # KYP: Θ ≺ 0 needs G + Gᴴ ≻ 2ηI at every frequency
-        return PassivityResult(
-            False, float(ifp_index), None,
-            report("infeasible", f"λmin(G + Gᴴ)/2 = {upper:.10g} ≤ η at "
-                   f"θ = {theta:.10g} rad/sample"),
-            INFEASIBLE, "riccati", upper), {}
-
-    fixed = ifp_index is not None
-    if fixed and not ifp_index < upper:
-        return refuted()
-    plan = [None] if fixed else list(RICCATI_BACKOFFS)
-    while plan:
-        backoff = plan.pop(0)
-        # backoff is None exactly when the level is fixed
-        step = 0.0 if backoff is None else backoff * max(1.0, abs(upper))
-        level = float(ifp_index) if fixed else upper - step
-        eps = strictness(level)
-        levels.append(level)
-        solves += 1
-        P = _riccati_storage(resp, level, eps)
-        if P is not None:
-            P = P[None] / decay ** 2
-            cert = (check_certificate(sys, P, level, decay=decay) if fixed
-                    else certify_index(sys, P, decay=decay))
-            # an index must come with P proving (nearly) the level asked
-            if cert.verified and (fixed or cert.eta_sup >= level - step):
-                return PassivityResult(True, cert.eta, cert,
-                                       report("optimal"), CERTIFIED,
-                                       "riccati", upper), {}
-        if corrections < KYP_CORRECTIONS:
-            corrections += 1
-            lower = resp.lower_near_crossings(level)
-            # accept a dip the grid missed only if it takes at least half
-            # the room between level and ν̂ (not a rounding-level change)
-            if lower is not None and lower[0] < 0.5 * (level + upper):
-                upper, theta = lower
-                if fixed:
-                    if not ifp_index < upper:
-                        return refuted()
-                    plan = [None]
-                else:
-                    plan = list(RICCATI_BACKOFFS)
-    figures = dict(levels=levels, eta_upper=upper, frequency=theta,
-                   **(cert.figures() if cert is not None else {}))
-    return None, figures
-
-
 def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
                           ofp_index: float | None = 0.0, decay: float = 1.0,
                           method: str = "auto", solver: str | None = None,
@@ -446,7 +253,11 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         Square (``w`` and ``z`` of equal size).
     ifp_index : float, optional
         Input-feedforward level ``η`` to certify; None: the largest
-        certifiable one.
+        certifiable one. A level below :func:`control_ncs.verify.level_floor`
+        (``verify.LEVEL_FLOOR`` data scales below the feedthrough bound) is
+        solved and checked at that floor ``η0``: as ``Θ(η) ≼ Θ(η0)``, the
+        certificate at ``η0`` (``result.certificate.eta``) certifies the
+        requested ``η`` (``result.eta``) exactly.
     ofp_index : float, optional
         Output-feedback level ``ρ`` to certify (default 0); None: the
         largest certifiable one (then ``ifp_index`` must be given).
@@ -494,10 +305,10 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
 
     Notes
     -----
-    The Riccati route (derivation at :func:`_riccati_storage`): the KYP
+    The Riccati route (derivation at :func:`control_ncs.riccati.dare_storage`): the KYP
     frequency test on a grid of ``kyp.KYP_POINTS`` points, refined by
     local grids, gives ``ν̂ ≥ ν`` (a value of ``λmin(G + Gᴴ)/2`` at one
-    frequency). Just below ``ν̂`` (``RICCATI_BACKOFFS``: ``1e-7`` up to
+    frequency). Just below ``ν̂`` (``riccati.RICCATI_BACKOFFS``: ``1e-7`` up to
     ``1e-3`` times ``max(1, |ν̂|)``) one discrete algebraic Riccati
     equation gives ``P ≻ 0``, and :func:`control_ncs.verify.certify_index`
     certifies the largest ``η`` it proves (another back-off of ``1e-6``
@@ -518,7 +329,7 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     >>> result.passive, result.reason, result.certificate.verified
     (True, 'certified', True)
     """
-    sys = _system(sys)
+    sys = square_system(sys)
     choice(method, "method", METHODS)
     ifp_index = finite_real(ifp_index, "ifp_index", allow_none=True)
     ofp_index = finite_real(ofp_index, "ofp_index", allow_none=True)
@@ -531,6 +342,31 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         raise ControlDimension(
             "sys: a passivity certificate needs at least one state (a static "
             "system's index is λmin(D + Dᵀ)/2)")
+    requested = ifp_index
+    if ifp_index is not None:
+        bound, _ = feedthrough_bound(sys.modes.probabilities, sys.modes.D)
+        ifp_index = max(ifp_index, level_floor(
+            bound, sys.modes.A, sys.modes.B, sys.modes.C, sys.modes.D))
+    result = _certificate(sys, ifp_index, ofp_index, decay, method, solver,
+                          margin, solver_options)
+    if requested is None or requested == ifp_index:
+        return result
+    # certified at the floor: every lower level is certified exactly; a
+    # refutation at the floor proves nothing about the level asked
+    if result.passive or result.reason != INFEASIBLE:
+        return replace(result, eta=requested)
+    report = result.report
+    if report is not None:
+        report = replace(report, message=(
+            f"refuted only at the floor eta0 = {ifp_index:.6g} "
+            f"(verify.level_floor), not at eta = {requested:.6g}"))
+    return replace(result, eta=requested, reason=SOLVER_FAILED,
+                   report=report)
+
+
+def _certificate(sys, ifp_index, ofp_index, decay, method, solver, margin,
+                 solver_options) -> PassivityResult:
+    """:func:`passivity_certificate` on checked arguments."""
     mats = _deterministic(sys)
     if method == "riccati" and (mats is None or ofp_index != 0.0):
         raise ControlArgument(
@@ -543,9 +379,13 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     lmi_asked = solver is not None or bool(solver_options)
     if mats is not None and ofp_index == 0.0 and (
             method == "riccati" or (method == "auto" and not lmi_asked)):
-        result, figures = _riccati_certificate(sys, mats, ifp_index, decay)
-        if result is not None:
-            return result
+        reason, eta, cert, fields, upper, figures = dare_certificate(
+            sys, mats, ifp_index, decay)
+        if reason is not None:
+            return PassivityResult(
+                reason == CERTIFIED, eta, cert,
+                None if fields is None else SolveReport(**fields), reason,
+                "riccati", upper)
         if method == "riccati":
             raise CertificationError(
                 "passivity: the Riccati route found no certificate that "
@@ -590,21 +430,6 @@ def _zero_dynamics_refute(sys, ifp_index, decay) -> SolveReport | None:
         "output-feedback level ρ can be certified")
 
 
-def _solve(problem: Any, solver: str | None, **options: Any) -> SolveReport:
-    """:func:`control_ncs.lmi.solve` without cvxpy's accuracy warning.
-
-    cvxpy warns "Solution may be inaccurate" whenever its status is
-    ``'optimal_inaccurate'``. That status is in the report, and the result
-    says what it led to (an exactly verified certificate, or the reason
-    ``'inaccurate'``): the warning would only reach users (notebook 4) as
-    noise. ``catch_warnings`` restores the filters on exit.
-    """
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="Solution may be inaccurate",
-                                category=UserWarning)
-        return solve(problem, solver, **options)
-
-
 def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
                      solver_options) -> PassivityResult:
     """The LMI route of :func:`passivity_certificate` (any jump system).
@@ -626,98 +451,62 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
             return PassivityResult(False, float(ifp_index), None, refutation,
                                    INFEASIBLE, ofp_index=np.nan)
     fixed = free is None
-    plan = [(scale, backoff, solver) for scale, backoff in
-            (LEVEL_ATTEMPTS if fixed else INDEX_ATTEMPTS)]
-    if fallback_solver(solver):
-        plan.append(((None if fixed else 1.0), None, fallback_solver(solver)))
-    attempts, best, refuted = [], None, False
-    # (report, certificate, reason) of the last attempt that failed
-    last: tuple[SolveReport, Certificate | None, str] | None = None
-    cert: Certificate | None
-    model: AnalysisModel | SupplyModel
-    while plan:
-        scale, backoff, name = plan.pop(0)
-        target = None
-        if backoff is not None:
-            if best is None:
-                continue  # the first solve gave no optimum to back off from
-            target = best - backoff * max(1.0, abs(best))
+    log: list[tuple] = []  # (margin, level, solver, status) per attempt
+
+    def attempt(scale, target, name, left):
         eta = target if free == "eta" else ifp_index
         level_rho = target if free == "rho" else ofp_index
         level = None if scale is None else margin * scale
+        model: AnalysisModel | SupplyModel
         if level_rho == 0.0:
             model = analysis_model(sys, eta, level, decay)
         else:
             # zᵀz needs every mode's output matrices (MATH §6)
             model = supply_model(sys, eta, level_rho, level, decay)
         # the caller's options are for the solver the caller chose
-        report = _solve(model.problem, name,
-                        **(solver_options if name == solver else {}))
-        attempts.append((level, eta if free != "rho" else level_rho,
-                         report.solver, report.status))
-        if len(attempts) == 1:
-            best = report.value
-        if report.infeasible:
-            last = (report, None, INFEASIBLE)
-            if fixed:
-                refuted = True
-                # a larger margin is infeasible too; a smaller one may not be
-                plan = [a for a in plan if a[0] is None]
-                continue
-            if len(attempts) == 1:
-                break
-            continue  # e.g. a backed-off target still above the index
+        report = solve(model.problem, name,
+                       **(solver_options if name == solver else {}))
+        log.append((level, eta if free != "rho" else level_rho,
+                    report.solver, report.status))
         if report.status not in ("optimal", "optimal_inaccurate"):
-            last = (report, None, SOLVER_FAILED)
-            continue
-        if scale is None and report.value is not None and report.value <= 0:
-            # the largest margin is not positive: no strict certificate
-            # (unless another solver's answer verifies after all)
-            last, refuted = (report, None, INFEASIBLE), True
-            continue
-        model._check_current()
-        P = np.array([Pk.value for Pk in model.P])
+            return report, None
+        model.check_current()
+        # the solver's ρ is only where to start: certify_ofp_index
+        # computes the certified level from P (an 'optimal' status comes
+        # with a value, lmi.solve)
+        guess = report.value if target is None else target
+        return report, (np.array([Pk.value for Pk in model.P]), guess)
+
+    def verify(candidate):
+        P, guess = candidate
         if fixed:
-            cert = check_certificate(sys, P, ifp_index, decay=decay,
+            return check_certificate(sys, P, ifp_index, decay=decay,
                                      ofp_index=ofp_index)
-        elif free == "eta":
-            cert = certify_index(sys, P, decay=decay, ofp_index=ofp_index)
-        else:
-            # the solver's ρ is only where to start: certify_ofp_index
-            # computes the certified level from P
-            # an 'optimal' status comes with a value (lmi.solve)
-            guess = cast(float, report.value if target is None else target)
-            cert = certify_ofp_index(sys, P, guess, eta=ifp_index,
-                                     decay=decay)
-        # For a given level the exact check is the proof, whatever the
-        # solver's status; an index also claims optimality, which needs
-        # 'optimal'.
-        if cert.verified and (report.ok or fixed):
-            return PassivityResult(True, cert.eta, cert, report, CERTIFIED,
-                                   ofp_index=cert.ofp_index)
-        last = (report, cert, NOT_VERIFIED if report.ok else INACCURATE)
-    # the first attempt never backs off, so it always records an outcome
-    assert last is not None
-    report, cert, reason = last
-    if refuted:
-        # No certificate with a margin exists, and without one none verified.
-        return PassivityResult(False, float(ifp_index), None, report,
-                               INFEASIBLE, ofp_index=float(ofp_index))
-    if reason == INFEASIBLE and len(attempts) == 1:
-        return PassivityResult(False, np.nan, None, report, INFEASIBLE,
-                               ofp_index=np.nan if free == "rho"
-                               else float(ofp_index))
-    figures = dict(status=report.status, solver=report.solver,
-                   attempts=attempts,
-                   **(cert.figures() if cert is not None else {}))
-    what = {SOLVER_FAILED: "the solver failed",
-            INACCURATE: "the solver's status stayed inaccurate",
-            INFEASIBLE: "a retry was reported infeasible",
-            NOT_VERIFIED: "the solver's answer fails the exact check: "
-            + ("; ".join(cert.failures) if cert is not None else "")}[reason]
+        if free == "eta":
+            return certify_index(sys, P, decay=decay, ofp_index=ofp_index)
+        return certify_ofp_index(sys, P, cast(float, guess), eta=ifp_index,
+                                 decay=decay)
+
+    out = drive(attempt, verify, eta=ifp_index if fixed else None,
+                solver=solver,
+                retries=LEVEL_ATTEMPTS if fixed else INDEX_ATTEMPTS,
+                fallback=(None if fixed else 1.0, 0.0),
+                refute_margins=fixed, spare=False,
+                label=f"passivity LMI ({'level' if fixed else free})")
+    if out.ok:
+        cert = out.certificate
+        return PassivityResult(True, cert.eta, cert, out.report, CERTIFIED,
+                               ofp_index=cert.ofp_index)
+    if out.reason == INFEASIBLE:
+        return PassivityResult(
+            False, np.nan if free == "eta" else float(ifp_index), None,
+            out.report, INFEASIBLE,
+            ofp_index=np.nan if free == "rho" else float(ofp_index))
     raise CertificationError(
-        f"passivity: no certificate could be verified ({what}; attempts "
-        f"(margin, level, solver, status): {attempts})", reason, figures)
+        f"passivity: no certificate could be verified ({out.message}; "
+        f"attempts (margin, level, solver, status): {log})",
+        cast(str, out.reason),
+        dict(out.figures(), attempts=log))
 
 
 def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
@@ -785,7 +574,7 @@ def _index(sys: Any, result: PassivityResult, name: str) -> None:
         raise CertificationError(
             f"{name}: sys is not mean-square stable (ms_radius ≥ 1, or ≥ r² "
             "with a decay bound); no passivity index exists", NOT_MSS,
-            dict(ms_radius=ms_radius(_system(sys))))
+            dict(ms_radius=ms_radius(square_system(sys))))
     if not result.passive:
         # sys is mean-square stable, so for ρ = 0 some η is certifiable
         # (MATH §6: the (1,1) block is Lemma 1); an infeasible LMI here is
@@ -938,7 +727,7 @@ def mean_input_ff_index(sys: Any, **kwargs: Any) -> float:
     >>> round(mean_input_ff_index(sys), 4), round(get_input_ff_index(sys), 4)
     (0.2, 0.1791)
     """
-    sys = _system(sys)
+    sys = square_system(sys)
     return get_input_ff_index(sys.mean(), **kwargs)
 
 
@@ -988,9 +777,9 @@ def frequency_ff_index(sys: Any, omega: Any = None, *,
     0.3333333333
     """
     no_extra_kwargs("frequency_ff_index", kwargs)
-    lti = _system(sys).mean()
+    lti = square_system(sys).mean()
     A, B, C, D = (np.asarray(M, float) for M in (lti.A, lti.B, lti.C, lti.D))
-    resp = kyp._FrequencyResponse(A, B, C, D)
+    resp = kyp.FrequencyResponse(A, B, C, D)
     if resp.radius >= 1:
         raise ValueError("sys: frequency_ff_index needs a Schur-stable system")
     dt = 1.0 if lti.dt is True else float(lti.dt)

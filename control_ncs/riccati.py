@@ -84,18 +84,22 @@ from dataclasses import dataclass
 import numpy as np
 from control.exception import ControlArgument
 
+from scipy.linalg import (LinAlgError, solve_discrete_are,
+                          solve_discrete_lyapunov)
+
 from ._checks import decay_bound, positive_int, positive_real
-from .jump import JumpPlant
-from .exceptions import SynthesisError
+from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE, NOT_MSS,
+                         SOLVER_FAILED, SynthesisError)
+from .jump import JumpPlant, JumpStateSpace
+from .kyp import KYP_POINTS, FrequencyResponse
+from .verify import (certify_index, check_certificate, dissipation_blocks,
+                     feedthrough_bound, ifp_supremum)
 
 __all__ = ["RiccatiResult", "riccati_synthesis",
            "RICCATI_MARGIN"]
 
-#: Default margin ``ε`` of the iteration, relative to the scale of the data
-#: (largest norm of ``C̄z``, ``D̄w + D̄wᵀ``, at least 1): each step adds
-#: ``εI`` to ``r² P_k``. Large enough that the converged certificate clears
-#: the exact check's rounding bound (``~16 n eps ‖Θ‖``) by orders of
-#: magnitude, small enough to cost a negligible part of ``η``.
+#: Margin ``ε`` added at each step, relative to the data's scale: clears the
+#: exact check's rounding bound by orders of magnitude at a negligible cost.
 RICCATI_MARGIN = 1e-6
 
 #: ``P`` larger than this times the data scale counts as divergence.
@@ -139,7 +143,7 @@ class RiccatiResult:
 class _Phase:
     """One phase's data, restricted to live modes and active inputs."""
 
-    def __init__(self, p, A, Bu, Bw, Cz, Du, Dw, active):
+    def __init__(self, p, A, Bu, Bw, Cz, Du, Dw, active, means):
         live = np.flatnonzero(p > 0)
         self.p = p[live]
         self.active = active
@@ -147,9 +151,12 @@ class _Phase:
         # [A Bw Bu] per mode: one batched product gives every quadratic term
         self.F = np.concatenate([A[live], Bw[live], Bu[live][:, :, active]],
                                 axis=2)
-        self.Czb = np.einsum("i,iab->ab", self.p, Cz[live])
-        self.Dub = np.einsum("i,iab->ab", self.p, Du[live])[:, active]
-        Dwb = np.einsum("i,iab->ab", self.p, Dw[live])
+        # per-mode data for the verify kernel (closed loops of a gain)
+        self.A, self.Bw, self.Bu = A[live], Bw[live], Bu[live][:, :, active]
+        self.Cz, self.Du, self.Dw = Cz[live], Du[live][:, :, active], Dw[live]
+        # the phase's means (JumpPlant.mean): C̄z, D̄u, D̄w
+        self.Czb, Dub, Dwb = means
+        self.Dub = Dub[:, active]
         self.Dsym = Dwb + Dwb.T
 
     def quad(self, Pn: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -194,21 +201,20 @@ def _step(d: _Phase, Pn: np.ndarray, eta: float):
     return _sym(G + K.T @ L), K        # G0 + S0 R⁻¹ S0ᵀ − Lᵀ H⁻¹ L
 
 
-def _blocks(d: _Phase, P: np.ndarray, Pn: np.ndarray, K: np.ndarray,
-            decay: float):
-    """``M11``, ``M12`` and ``M22`` at ``η = 0`` of ``Θ_k`` (MATH §6) for a gain."""
-    Qaa, Qaw, Qau, Qww, Qwu, Quu = d.quad(Pn)
-    KQ = K.T @ Qau.T
-    M11 = Qaa + KQ + KQ.T + K.T @ Quu @ K - decay ** 2 * P
-    M12 = Qaw + K.T @ Qwu.T - (d.Czb + d.Dub @ K).T
-    return _sym(M11), M12, _sym(Qww - d.Dsym)
+def _theta0(d: _Phase, P: np.ndarray, Pn: np.ndarray, K: np.ndarray,
+            decay: float) -> np.ndarray:
+    """``Θ_k`` at ``η = 0`` of the loop closed by ``K`` (the verify kernel)."""
+    return dissipation_blocks(d.p, d.A + d.Bu @ K, d.Bw, d.Cz + d.Du @ K,
+                              d.Dw, P, Pn, 0.0, decay=decay)
 
 
 def _residual_ok(d: _Phase, P: np.ndarray, Pn: np.ndarray, K: np.ndarray,
                  eta: float, decay: float, slack: float) -> bool:
     """``Θ_k ≼ -slack·diag(I, 0)`` roughly: ``R ≻ 0`` and
     ``r² P_k − G_k(K; P⁺) ≽ slack·I`` (Cholesky factorisations)."""
-    M11, M12, M22 = _blocks(d, P, Pn, K, decay)
+    theta = _theta0(d, P, Pn, K, decay)
+    n = d.n
+    M11, M12, M22 = theta[:n, :n], theta[:n, n:], theta[n:, n:]
     Lr = _chol(-M22 - 2 * eta * np.eye(d.nw))
     if Lr is None:
         return False
@@ -217,19 +223,12 @@ def _residual_ok(d: _Phase, P: np.ndarray, Pn: np.ndarray, K: np.ndarray,
 
 
 def _certified_sup(data, P, K, decay):
-    """Supremum of the ``η`` that ``(P, K)`` certify (``-inf``: none), by the
-    Schur complement of :func:`control_ncs.verify.certified_index`; used only
-    to move the bisection, never as a verdict."""
-    N, best = len(data), np.inf
-    for k, d in enumerate(data):
-        M11, M12, M22 = _blocks(d, P[k], P[(k + 1) % N], K[k], decay)
-        Lm = _chol(-M11)
-        if Lm is None:
-            return -np.inf
-        W = np.linalg.solve(Lm, M12)
-        S = _sym(M22 + W.T @ W)
-        best = min(best, -np.linalg.eigvalsh(S)[-1] / 2)
-    return float(best)
+    """Supremum of the ``η`` that ``(P, K)`` certify (``-inf``: none), by
+    :func:`control_ncs.verify.ifp_supremum`; used only to move the
+    bisection, never as a verdict."""
+    N = len(data)
+    return min(ifp_supremum(_theta0(d, P[k], P[(k + 1) % N], K[k], decay),
+                            d.n) for k, d in enumerate(data))
 
 
 def _iterate(data, eta, decay, eps, P0, max_sweeps, blowup):
@@ -293,20 +292,20 @@ def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
                 f"riccati: the iteration diverged at eta={eta} (sweep "
                 f"{sweeps}): the LMI with margin {margin} is infeasible, no "
                 "gain has a certificate for this eta and decay",
-                "infeasible", dict(figures, sweeps=sweeps))
+                INFEASIBLE, dict(figures, sweeps=sweeps))
         if status == "blowup":
             raise SynthesisError(
                 f"riccati: inconclusive: P grew beyond {_BLOWUP:g} times the "
                 f"data scale at eta={eta} (sweep {sweeps}): any certificate "
                 "would be too large for double precision to verify; the LMI "
-                "is probably infeasible", "solver_failed",
+                "is probably infeasible", SOLVER_FAILED,
                 dict(figures, sweeps=sweeps))
         if status == "max_sweeps":
             raise SynthesisError(
                 f"riccati: inconclusive: the iteration did not converge in "
                 f"max_sweeps={max_sweeps} sweeps at eta={eta} (nor diverge); "
                 "raise max_sweeps, lower eta, or use an LMI solver",
-                "solver_failed", dict(figures, sweeps=sweeps))
+                SOLVER_FAILED, dict(figures, sweeps=sweeps))
         return P, K, float(eta), sweeps, 0
 
     hi = min(float(np.linalg.eigvalsh(d.Dsym)[0]) for d in data) / 2
@@ -324,20 +323,20 @@ def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
             raise SynthesisError(
                 f"riccati: inconclusive: no convergence in max_sweeps="
                 f"{max_sweeps} sweeps at eta={trial:.6g}",
-                "solver_failed", dict(figures, sweeps=sweeps))
+                SOLVER_FAILED, dict(figures, sweeps=sweeps))
         width *= 8
         if width > 1e8 * max(1.0, abs(hi)):
             if status == "diverged":
                 raise SynthesisError(
                     "riccati: the iteration diverged for every eta down to "
                     f"{trial:.3g}: no gain has a certificate (margin "
-                    f"{margin}, decay {decay})", "infeasible",
+                    f"{margin}, decay {decay})", INFEASIBLE,
                     dict(figures, sweeps=sweeps))
             raise SynthesisError(
                 "riccati: inconclusive: for every eta down to "
                 f"{trial:.3g}, P grew beyond {_BLOWUP:g} times the data "
                 "scale: probably no mean-square stabilising gain exists "
-                f"(margin {margin}, decay {decay})", "solver_failed",
+                f"(margin {margin}, decay {decay})", SOLVER_FAILED,
                 dict(figures, sweeps=sweeps))
     lo = max(lo, min(_certified_sup(data, P, K, decay), hi))
     while hi - lo > rtol * max(1.0, abs(hi)):
@@ -421,9 +420,11 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
                 "plant: the Riccati iteration needs every state known at "
                 "every phase (structure 'full', E_k = I); this plant needs "
                 "the LMI ('block' or 'extended')")
+    _, _, _, Czb, Dub, Dwb = plant.mean()
     data = [_Phase(plant.probabilities[k], plant.A[k], plant.Bu[k],
                    plant.Bw[k], plant.Cz[k], plant.Du[k], plant.Dw[k],
-                   plant.active_inputs(k)) for k in range(N)]
+                   plant.active_inputs(k), (Czb[k], Dub[k], Dwb[k]))
+            for k in range(N)]
     P, K, e, sweeps, bis = _search(data, eta, float(decay), margin, rtol,
                                    int(max_sweeps), int(probe_sweeps))
     gains = np.zeros((N, s["nu"], s["nk"]))
@@ -434,3 +435,179 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
     return RiccatiResult(gains, P, float(e), sweeps, bis,
                          time.perf_counter() - start)
 
+
+# -- deterministic systems: the DARE storage of the certified index ----------
+# The analysis route of control_ncs.passivity_certificate for an LTI system
+# (one mode, period 1): no iteration, one Riccati equation per level.
+
+#: Levels below ν̂ (units of max(1, |ν̂|)) at which the DARE is solved, in
+#: turn; the first leaves room for certify_index's own 1e-6 back-off.
+RICCATI_BACKOFFS = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
+
+#: Strictness ε as a fraction of the largest admissible one (estimated on a
+#: grid that can miss a peak: hence well below 1).
+RICCATI_EPS_FRACTION = 0.25
+
+#: Pencil corrections of ν̂ (a dip of ``λmin`` that the grid missed) before
+#: the Riccati route gives up and, under ``'auto'``, the LMI takes over.
+KYP_CORRECTIONS = 4
+
+def dare_storage(resp: FrequencyResponse, eta: float, eps: float
+                     ) -> np.ndarray | None:
+    """``P ≻ 0`` with ``Θ(P, η) ≺ 0`` from one Riccati equation, or None.
+
+    Derivation. For ``ξ⁺ = Aξ + Bw``, ``z = Cξ + Dw`` (MATH §6 with one
+    mode and ``N = 1``; the matrix of ``verify.dissipation_matrices``)::
+
+        Θ(P, η) = [ AᵀPA - P    AᵀPB - Cᵀ           ] = [ Θ11  L  ]
+                  [ BᵀPA - C    BᵀPB + 2ηI - D - Dᵀ ]   [ Lᵀ   -W ]
+
+    with ``W = D + Dᵀ - 2ηI - BᵀPB``. By a Schur complement on the ``w``
+    block, ``Θ ≺ 0`` iff ``W ≻ 0`` and ``Θ11 + L W⁻¹ Lᵀ ≺ 0``. Ask for
+    the latter with equality and a margin ``ε > 0``::
+
+        AᵀPA - P + (AᵀPB - Cᵀ) W⁻¹ (BᵀPA - C) = -εI.              (*)
+
+    With ``X = -P`` and ``Q = -εI``, ``S = Cᵀ``, ``R = D + Dᵀ - 2ηI``,
+    (*) times -1 is scipy's DARE
+    ``AᵀXA - X - (AᵀXB + S)(R + BᵀXB)⁻¹(BᵀXA + Sᵀ) + Q = 0``
+    (``R + BᵀXB = W``, ``AᵀXB + S = -L``). ``solve_discrete_are`` returns
+    the stabilising solution: the value of the LQ problem
+    ``ξ0ᵀXξ0 = min_w Σ_t (ξᵀQξ + 2ξᵀSw + wᵀRw)
+    = min_w Σ_t (2wᵀz - 2η wᵀw - ε‖ξ‖²)`` (twice the supply rate less
+    ``ε‖ξ‖²``), which exists iff the Popov function
+    ``G + Gᴴ - 2ηI - εFᴴF`` (``F = (e^{jθ}I - A)⁻¹B``) is positive definite
+    on the unit circle: for ``η < ν`` and ``ε‖F‖²_∞ < 2(ν - η)``. Then
+    ``W ≻ 0`` and (*) give ``Θ ≺ 0``; ``w = 0`` gives
+    ``ξ0ᵀXξ0 ≤ -ε‖ξ0‖²``, so ``P = -X ≻ 0`` (up to the ``ε`` term, the
+    available storage, the smallest storage function).
+
+    A decay bound ``r`` (``Θ11 = AᵀPA - r²P``) is the same problem for
+    ``(A/r, B/r)`` and ``r²P``: ``resp`` holds the scaled data, the caller
+    divides by ``r²``. None of this is trusted: the caller checks ``P``
+    exactly.
+    """
+    A, B, C, D = resp.A, resp.B, resp.C, resp.D
+    n, m = B.shape
+    Q, R, S = -eps * np.eye(n), D + D.T - 2 * eta * np.eye(m), C.T
+    try:
+        X = solve_discrete_are(A, B, Q, R, s=S)
+    except (LinAlgError, ValueError):
+        # pencil eigenvalues on (or too close to) the unit circle: η ≥ ν,
+        # or ε too large for this η
+        return None
+
+    def residual(X):
+        K = np.linalg.solve(R + B.T @ X @ B, B.T @ X @ A + S.T)
+        Res = A.T @ X @ A - X - (A.T @ X @ B + S) @ K + Q
+        return 0.5 * (Res + Res.T), A - B @ K
+
+    try:
+        # One Newton step (Hewer 1971): the residual's derivative at X is
+        # N ↦ AcᵀNAc - N, Ac = A - BK, so N solves a Stein equation. The
+        # QZ solution's residual is ~eps·cond·‖X‖, which near a lightly
+        # damped pole exceeds the margin ε (measured: 1 - |pole| = 1e-6,
+        # ‖P‖ = 6e5, residual 3e-5 > ε = 1e-7; after the step 2e-10).
+        Res, Ac = residual(X)
+        step = solve_discrete_lyapunov(Ac.T, Res)
+        if np.linalg.norm(residual(X + step)[0]) < np.linalg.norm(Res):
+            X = X + step
+    except (LinAlgError, ValueError):
+        pass  # keep the QZ solution; the exact check decides
+    P = -0.5 * (X + X.T)
+    return P if np.all(np.isfinite(P)) else None
+
+
+def dare_certificate(sys: JumpStateSpace, mats: tuple, ifp_index: float | None,
+                     decay: float) -> tuple:
+    """The Riccati route of :func:`control_ncs.passivity_certificate`.
+
+    For a deterministic system ``mats = (A, B, C, D)``: the KYP frequency
+    test gives ``ν̂``, one DARE just below it (:func:`dare_storage`) gives
+    ``P``, checked exactly. Returns ``(reason, eta, certificate, report,
+    eta_upper, figures)``: ``reason`` None when no level gave a
+    certificate that passes the exact check (the caller falls back to the
+    LMI or raises), else ``'certified'``, ``'not_mss'``, ``'feedthrough'``
+    or ``'infeasible'`` (KYP refutation); ``report`` is a dict of
+    :class:`control_ncs.lmi.SolveReport`'s fields, or None.
+    """
+    start = time.perf_counter()
+    A, B, C, D = mats
+    # ms_radius of a deterministic system is ρ(A)², the Schur form's
+    # diagonal (decay > 0: checked at the public boundary)
+    resp = FrequencyResponse(A / decay, B / decay, C, D)
+    if not (resp.radius * decay) ** 2 < min(1.0, decay ** 2):
+        return NOT_MSS, np.nan, None, None, np.nan, {}
+    if ifp_index is not None and not feedthrough_bound(
+            sys.modes.probabilities, sys.modes.D)[0] > ifp_index:
+        return FEEDTHROUGH, float(ifp_index), None, None, np.nan, {}
+    level0 = np.nan if ifp_index is None else float(ifp_index)
+    grid = np.linspace(0.0, np.pi, KYP_POINTS)
+    lam, gain = resp.values(grid)
+    upper, theta = resp.minimum(grid, lam)
+    t_freq = time.perf_counter() - start
+
+    def strictness(level: float) -> float:
+        # Φ - εFᴴF ≻ 0 (see dare_storage) at θ where
+        # 2(λmin(θ) - η) > ε‖F(θ)‖²; the grid and θ̂ estimate the worst θ
+        _, at = resp.values(np.array([theta]))
+        norms = np.append(gain, at) ** 2
+        room = 2 * (np.append(lam, upper) - level)
+        ok = norms > 0
+        limit = (room[ok] / norms[ok]).min() if ok.any() else room.min()
+        return RICCATI_EPS_FRACTION * float(limit)
+
+    levels, solves, corrections = [], 0, 0
+    cert, level, eps = None, np.nan, np.nan
+
+    def report(status: str, message: str = "") -> dict:
+        total = time.perf_counter() - start
+        return dict(status=status, solver="scipy.linalg.solve_discrete_are",
+                    compile_time=t_freq, solve_time=total - t_freq,
+                    total_time=total, iterations=solves, value=float(level),
+                    message=message,
+                    options=dict(level=float(level), eps=float(eps)))
+
+    def refuted() -> tuple:
+        # KYP: Θ ≺ 0 needs G + Gᴴ ≻ 2ηI at every frequency
+        return (INFEASIBLE, level0, None,
+                report("infeasible", f"λmin(G + Gᴴ)/2 = {upper:.10g} ≤ η "
+                       f"at θ = {theta:.10g} rad/sample"), upper, {})
+
+    fixed = ifp_index is not None
+    if fixed and not level0 < upper:
+        return refuted()
+    plan = [None] if fixed else list(RICCATI_BACKOFFS)
+    while plan:
+        backoff = plan.pop(0)
+        # backoff is None exactly when the level is fixed
+        step = 0.0 if backoff is None else backoff * max(1.0, abs(upper))
+        level = level0 if fixed else upper - step
+        eps = strictness(level)
+        levels.append(level)
+        solves += 1
+        P = dare_storage(resp, level, eps)
+        if P is not None:
+            P = P[None] / decay ** 2
+            cert = (check_certificate(sys, P, level, decay=decay) if fixed
+                    else certify_index(sys, P, decay=decay))
+            # an index must come with P proving (nearly) the level asked
+            if cert.verified and (fixed or cert.eta_sup >= level - step):
+                return (CERTIFIED, cert.eta, cert, report("optimal"), upper,
+                        {})
+        if corrections < KYP_CORRECTIONS:
+            corrections += 1
+            lower = resp.lower_near_crossings(level)
+            # accept a dip the grid missed only if it takes at least half
+            # the room between level and ν̂ (not a rounding-level change)
+            if lower is not None and lower[0] < 0.5 * (level + upper):
+                upper, theta = lower
+                if fixed:
+                    if not level0 < upper:
+                        return refuted()
+                    plan = [None]
+                else:
+                    plan = list(RICCATI_BACKOFFS)
+    figures = dict(levels=levels, eta_upper=upper, frequency=theta,
+                   **(cert.figures() if cert is not None else {}))
+    return None, np.nan, None, None, upper, figures

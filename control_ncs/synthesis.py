@@ -20,41 +20,27 @@ import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import choice, decay_bound, finite_real, positive_real
-from .gain import ACTUATORS, CONTROLLERS, PeriodicGain
+from .gain import PeriodicGain, actuators, controllers
 from .jump import JumpPlant, JumpStateSpace
 from .driver import RETRIES, drive
 from .lmi import (DEFAULT_MARGIN, SolveReport, check_options, check_solver,
                   data_scale, read_gains, solve, synthesis_model)
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
-from .strategies import build, loop_closes
-from .exceptions import SynthesisError
-from .verify import (Certificate, certify_index,
-                     check_certificate)
+from .strategies import build
+from .exceptions import (CERTIFIED, INFEASIBLE, MESSAGES, NOT_VERIFIED,
+                         SOLVER_FAILED, TIME_LIMIT, SynthesisError)
+from .verify import (Certificate, certify_index, check_certificate,
+                     feedthrough_bound, level_floor)
 
 __all__ = ["passivesyn", "SynthesisResult"]
 
-#: With ``solver=None`` and no solver options, a loop whose structure
-#: resolves to ``'full'`` with more states than this is designed by the
-#: Riccati iteration (``control_ncs.riccati``) instead of the LMI.
-#: Measured (η maximised, passivesyn end to end with the exact checks,
-#: ``benchmarks.common.random_plant(n, N, seed=0)``, one run each on a
-#: shared 2-core machine), Clarabel / Riccati: n=4: 0.05/0.03 s (N=1),
-#: 0.21/0.12 s (N=4); n=6: 0.17/0.05, 1.05/1.16; n=8: 0.19/0.29,
-#: 0.58/0.19; n=10: 0.57/0.37, 6.2/0.49; n=12: 4.3/0.37, 14.1/3.4;
-#: n=16 (N=1): 7.7/3.2. From n = 10 on Riccati wins every case, and
-#: Clarabel starts ending 'optimal_inaccurate' (its retry backs off 1e-3,
-#: so Riccati's η is then higher); at n <= 8 the two are within a factor of
-#: about 3 either way, and on small plants with a wide η range (the random
-#: plants of tests/test_riccati.py, n = 2..5) Clarabel is 10-50x faster and
-#: its η is closer to the supremum (1e-6 against Riccati's bisection
-#: tolerance 1e-4). Hence the LMI up to 8 states.
+#: Above this many states (structure 'full', no solver options) the default
+#: call takes the Riccati iteration: it wins from n = 10 on (benchmarks §2).
 RICCATI_THRESHOLD = 8
 
-#: Largest state dimension at which an automatically chosen Riccati
-#: iteration that runs out of sweeps (inconclusive) is followed by the LMI:
-#: Clarabel still solves n = 16 in seconds to tens of seconds (benchmarks
-#: §1), while at n = 24, N = 4 it already takes minutes.
+#: Up to this many states an inconclusive automatic Riccati iteration is
+#: followed by the LMI, still affordable there (benchmarks §1).
 RICCATI_FALLBACK_MAX = 16
 
 #: Options of the Riccati route (``solver='riccati'``), passed through
@@ -62,25 +48,18 @@ RICCATI_FALLBACK_MAX = 16
 RICCATI_OPTIONS = ("rtol", "max_sweeps", "probe_sweeps")
 
 #: Default time budget of :func:`passivesyn`, seconds.
-TIME_LIMIT = 120.0
+TIME_BUDGET = 120.0
 
-#: The state is rescaled by a diagonal of powers of two (balancing the mode
-#: matrices, :func:`_balancing`) before the LMI when the scales it finds
-#: spread by at least this factor; below it the data are taken as they are.
+#: Balance the state (powers of two, exact) before the LMI only when the
+#: scales found spread by at least this factor.
 BALANCE_FROM = 16.0
 
-#: An ``η`` below ``-ETA_FLOOR`` times the data's scale is not read as an
-#: answer: there ``2ηI`` swamps the rest of the LMI, interior-point solvers
-#: report 'optimal' on problems that are infeasible (measured: Clarabel,
-#: 'optimal' at η = -4.9e12 on a structurally infeasible plant that CVXOPT
-#: proves infeasible, tests/test_synthesis.py) and no certificate there
-#: could be verified in double precision. Such an answer is a solver
-#: failure, not a gain to check.
+#: A maximised η below -ETA_FLOOR × the data's scale is a solver failure:
+#: there 2ηI swamps the LMI and no certificate verifies in double precision.
 ETA_FLOOR = 1e8
 
-#: The fixed-η search of the default call (``_eta_search``): decades
-#: below the feedthrough bound (1e-2 .. 1e7 times its scale) and bisection
-#: steps after the first verified level.
+#: The default call's fixed-η search: decades below the feedthrough bound,
+#: then bisection steps after the first verified level.
 ETA_SEARCH_DECADES = 10
 ETA_SEARCH_STEPS = 12
 
@@ -171,57 +150,124 @@ class SynthesisResult:
     def ms_radius(self) -> float:
         return self.certificate.ms_radius
 
+    @property
+    def verdict(self) -> bool:
+        """Always True: :func:`passivesyn` returns only certified gains."""
+        return True
+
+    @property
+    def status(self) -> str:
+        """``'certified'`` (:mod:`control_ncs.exceptions`)."""
+        return CERTIFIED
+
+    @property
+    def message(self) -> str:
+        """One sentence: what the certificate proves."""
+        return (f"{MESSAGES[CERTIFIED]} (eta = {self.eta:.6g}, ms_radius = "
+                f"{self.ms_radius:.6g}, structure {self.structure})")
+
+    def __repr__(self) -> str:
+        return (f"<SynthesisResult: {self.status}, eta = {self.eta:.6g}, "
+                f"N = {self.gain.period}, controller {self.gain.controller}, "
+                f"actuator {self.gain.actuator}, structure {self.structure}, "
+                f"solver {self.report.solver}: {self.report.status}>")
+
     def summary(self) -> str:
-        """A few lines for humans: the figures that prove the result."""
-        c = self.certificate
-        return (f"passivesyn: controller={self.gain.controller!r}, "
-                f"actuator={self.gain.actuator!r}, N={self.gain.period}, "
-                f"form={self.form}, structure={self.structure}\n"
-                f"  certified eta = {self.eta:.6g} (solver {self.eta_solver:.6g},"
-                f" sup proved by P: {c.eta_sup:.6g})\n"
-                f"  max_k lambda_max(Theta_k) = {c.theta_max.max():.3e} < 0, "
-                f"min_k lambda_min(P_k) = {c.P_min.min():.3e} > 0\n"
-                f"  ms_radius = {c.ms_radius:.6f} < "
-                f"{min(1.0, self.decay ** 2):.6f}\n"
-                f"  solver {self.report.solver}: {self.report.status}, compile "
-                f"{self.report.compile_time:.3f} s, solve "
-                f"{self.report.solve_time:.3f} s, {len(self.attempts)} attempt(s)")
+        """A few lines for humans: the figures that prove the result.
+
+        Returns
+        -------
+        str
+        """
+        r = self.report
+        lines = [f"SynthesisResult: certified ({self.status})",
+                 f"  {self.message}",
+                 f"  controller={self.gain.controller!r}, "
+                 f"actuator={self.gain.actuator!r}, N={self.gain.period}, "
+                 f"form={self.form}, structure={self.structure}",
+                 f"  certified eta = {self.eta:.6g} (solver "
+                 f"{self.eta_solver:.6g})",
+                 f"  solver {r.solver}: {r.status}, compile "
+                 f"{r.compile_time:.3f} s, solve {r.solve_time:.3f} s, "
+                 f"{len(self.attempts)} attempt(s)"]
+        lines += ["  " + line for line in
+                  self.certificate.summary().splitlines()]
+        return "\n".join(lines)
+
+
+def _plant_arrays(plant: JumpPlant) -> None:
+    """ControlDimension unless a JumpPlant's arrays fit together."""
+    N, M = plant.probabilities.shape if plant.probabilities.ndim == 2 \
+        else (None, None)
+    if N is None or plant.A.ndim != 4:
+        raise ControlDimension(
+            f"P: a JumpPlant needs probabilities of shape (N, M) and A of "
+            f"shape (N, M, nx, nx), got {plant.probabilities.shape} and "
+            f"{plant.A.shape}")
+    s = plant.shape
+    nx, nu, nw, nz, nk = s["nx"], s["nu"], s["nw"], s["nz"], s["nk"]
+    want = dict(A=(nx, nx), Bu=(nx, nu), Bw=(nx, nw), Cz=(nz, nx),
+                Du=(nz, nu), Dw=(nz, nw))
+    for name, tail in want.items():
+        got = getattr(plant, name).shape
+        if got != (N, M) + tail:
+            raise ControlDimension(f"P: JumpPlant.{name} must have shape "
+                                   f"{(N, M) + tail}, got {got}")
+    if plant.E.shape != (N, nk, nx) or min(nx, nu) == 0:
+        raise ControlDimension(
+            f"P: JumpPlant.E must have shape (N, nk, nx) = {(N, nk, nx)} "
+            f"with nx, nu > 0, got E {plant.E.shape}, nu = {nu}")
+    p = plant.probabilities
+    if not (np.all(np.isfinite(p)) and np.all(p >= 0)
+            and np.allclose(p.sum(axis=1), 1.0)):
+        raise ValueError("P: JumpPlant.probabilities must be nonnegative "
+                         "with rows summing to 1")
+    if not all(np.all(np.isfinite(getattr(plant, f))) for f in want):
+        raise ValueError("P: JumpPlant matrices must be finite")
 
 
 def _checks(P, eta, decay, controller, actuator, form, structure, plant):
-    if not isinstance(P, NetworkedStateSpace):
-        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
-                              f"got {type(P).__name__}")
-    m1, p1 = P.B1.shape[1], P.C1.shape[0]
+    if isinstance(P, JumpPlant):
+        _plant_arrays(plant)
+        if not plant.is_selection():
+            raise ControlArgument(
+                "P: synthesis needs each E_k to be a coordinate selection "
+                "(what the controller knows of the state, MATH §10)")
+    elif not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()) "
+                              f"or a JumpPlant (see build()), got "
+                              f"{type(P).__name__}")
+    else:
+        n = P.nstates
+        if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)):
+            raise ControlArgument(
+                f"P: synthesis needs the state measured, y = x (C2 = I, "
+                f"{n}x{n}), got C2 of shape {P.C2.shape}")
+    m1, p1 = plant.shape["nw"], plant.shape["nz"]
     if m1 != p1 or m1 == 0:
         raise ControlDimension(
             f"P: passivity needs w and z of equal, nonzero size (paper eq. 1 "
             f"with m1 = p1), got {m1} disturbance inputs and {p1} performance "
             "outputs")
-    n = P.nstates
-    if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)):
-        raise ControlArgument(
-            f"P: synthesis needs the state measured, y = x (C2 = I, {n}x{n}), "
-            f"got C2 of shape {P.C2.shape}")
     eta = finite_real(eta, "eta", allow_none=True)
     if eta is not None:
-        D = P.D11
-        low = float(np.linalg.eigvalsh(D + D.T).min())
-        if not low > 2 * eta:
+        bound, _ = feedthrough_bound(plant.probabilities, plant.Dw)
+        if not bound > eta:
             raise ValueError(
                 f"eta: D11 + D11ᵀ ≻ 2·eta·I is necessary (paper's Assumption 1, "
-                f"MATH §6), but λmin(D11 + D11ᵀ) = {low:.6g} ≤ 2·eta = "
-                f"{2 * eta:.6g}")
+                f"MATH §6), but λmin(D11 + D11ᵀ)/2 = {bound:.6g} ≤ eta = "
+                f"{eta:.6g}")
     decay = decay_bound(decay)
-    choice(controller, "controller", CONTROLLERS)
-    choice(actuator, "actuator", ACTUATORS)
     choice(form, "form", FORMS)
     choice(structure, "structure", STRUCTURES)
-    if controller == "static" and not loop_closes(P):
+    # the loop closes where some phase knows a coordinate and can act
+    if not any(plant.known_coordinates(k).size and plant.active_inputs(k).size
+               for k in range(plant.period)):
         raise ValueError(
-            "P: a memoryless (static) gain never closes this loop: no phase "
-            "schedules a sensor and an actuator together (MATH §4). Use "
-            "controller='predictor'.")
+            "P: the gain never closes this loop: no phase schedules a sensor "
+            "and an actuator together (MATH §4)"
+            + (". Use controller='predictor'." if controller == "static"
+               else ""))
     structured = any(plant.known_coordinates(k).size < plant.shape["nx"]
                      for k in range(plant.period))
     if structure == "auto":
@@ -234,12 +280,12 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant):
     return eta, decay, structure
 
 
-def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
+def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                decay: float | None = None, controller: str = "static",
                actuator: str = "zero", form: str = "merged",
                structure: str = "auto", solver: str | None = None,
                margin: float = DEFAULT_MARGIN,
-               time_limit: float | None = TIME_LIMIT, **solver_options: Any
+               time_limit: float | None = TIME_BUDGET, **solver_options: Any
                ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """Periodic state feedback making a networked loop strictly passive.
 
@@ -268,12 +314,20 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
 
     Parameters
     ----------
-    P : NetworkedStateSpace
-        Plant with its network; needs ``y = x`` and ``dim w = dim z``.
+    P : NetworkedStateSpace or JumpPlant
+        Plant with its network; needs ``y = x`` and ``dim w = dim z``. Or
+        the open-loop jump system a strategy built
+        (:func:`control_ncs.build`, or one made by hand with selection
+        matrices ``E_k``): then ``controller`` and ``actuator`` only label
+        the gain (its ``info`` names them, if it does).
     eta : float, optional
         Dissipation to achieve; None maximises it. Maximising drives the
         mean-square margin towards zero (``ms_radius → 1``); bound it with
-        ``decay``.
+        ``decay``. A level below :func:`control_ncs.verify.level_floor`
+        (``verify.LEVEL_FLOOR`` data scales below the feedthrough bound) is
+        solved and checked at that floor ``η0``: as ``Θ(η) ≼ Θ(η0)``, the
+        certificate at ``η0`` (``K.result.certificate.eta``) certifies the
+        requested ``η`` exactly, and ``η`` is returned.
     decay : float in (0, 1], optional
         Mean-square decay bound ``r``: ``E‖x_t‖²`` decays at least like
         ``r^(2t)``, i.e. ``ms_radius < r²``.
@@ -304,7 +358,7 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         Relative strictness margin of the LMIs (for the Riccati iteration:
         the ``εI`` added at each step, relative to the data's scale).
     time_limit : float or None, optional
-        Time budget in seconds (default ``TIME_LIMIT`` = 120 s; None: no
+        Time budget in seconds (default ``TIME_BUDGET`` = 120 s; None: no
         limit). The remaining time is passed to Clarabel
         (``time_limit``); the budget is checked between attempts. A
         Riccati iteration already running is not interrupted.
@@ -377,8 +431,21 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     >>> bool(ms_radius(CL) < 1)
     True
     """
-    plant = build(P, controller, actuator) if isinstance(
-        P, NetworkedStateSpace) else None
+    choice(controller, "controller", controllers())
+    choice(actuator, "actuator", actuators())
+    if isinstance(P, JumpPlant):
+        # the gain's labels: the strategy that built the plant, if named
+        controller = P.info.get("controller", controller)
+        actuator = P.info.get("actuator", actuator)
+        plant = JumpPlant(P.A, P.Bu, P.Bw, P.Cz, P.Du, P.Dw, P.E,
+                          P.probabilities, P.dt, nominal=P.nominal,
+                          inputs=P.inputs, outputs=P.outputs,
+                          states=P.states, info=dict(
+                              P.info, controller=controller,
+                              actuator=actuator))
+    else:
+        plant = build(P, controller, actuator) if isinstance(
+            P, NetworkedStateSpace) else None
     eta, decay, structure0 = _checks(P, eta, decay, controller, actuator,
                                      form, structure, plant)
     margin = positive_real(margin, "margin")
@@ -397,6 +464,32 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
     else:
         check_options(check_solver(solver), solver_options)
     _open_loop_bound(plant, decay)
+    requested = eta
+    if eta is not None:
+        bound, _ = feedthrough_bound(plant.probabilities, plant.Dw)
+        eta = max(eta, level_floor(bound, plant.A, plant.Bu, plant.Bw,
+                                   plant.Cz, plant.Du, plant.Dw))
+    try:
+        K, CL, got = _routes(plant, eta, decay, margin, structure,
+                             structure0, form, solver, solver_options,
+                             deadline, riccati)
+    except SynthesisError as err:
+        if requested == eta or err.reason != INFEASIBLE:
+            raise
+        # infeasible at the floor proves nothing about the level asked
+        raise SynthesisError(
+            f"{err} (at the floor eta0 = {eta:.6g}, verify.level_floor; "
+            f"nothing is proven for eta = {requested:.6g})", SOLVER_FAILED,
+            err.figures) from err
+    if requested != eta:
+        # Θ(η) ≼ Θ(η0) for η ≤ η0: the certificate at η0 proves η exactly
+        K.result.eta = K.result.eta_solver = got = float(requested)
+    return K, CL, got
+
+
+def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
+            solver_options, deadline, riccati):
+    """The solve-and-verify routes of :func:`passivesyn` (checked input)."""
     if riccati:
         return _riccati(plant, eta, decay, margin, solver_options)
     chosen = (solver is None and not solver_options and structure0 == "full"
@@ -409,7 +502,7 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
             # (out of sweeps, e.g. a tight decay bound) falls back to the LMI
             # while the LMI is still affordable; a divergence is a proof of
             # infeasibility and stands.
-            if (err.reason != "solver_failed"
+            if (err.reason != SOLVER_FAILED
                     or plant.shape["nx"] > RICCATI_FALLBACK_MAX):
                 raise
     # Under structure='auto' the sufficient 'extended' LMI is followed by
@@ -428,19 +521,19 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         if out.ok:
             return finish()
         first = first or (out, struct)
-        if out.reason == "time_limit":
+        if out.reason == TIME_LIMIT:
             break
     assert first is not None  # the loop over `order` ran at least once
     out, struct = first
     if (solver is None and eta is None and out.reason not in
-            ("infeasible", "time_limit")):
+            (INFEASIBLE, TIME_LIMIT)):
         for struct2 in order:
             found = _eta_search(plant, decay, margin, struct2, form, solver,
                                 solver_options, deadline)
             if found is not None:
                 return found
     if (solver is None and structure0 == "full" and not chosen
-            and out.reason != "time_limit"
+            and out.reason != TIME_LIMIT
             and (deadline is None or time.perf_counter() < deadline)):
         # The default call: the Riccati iteration solves the same exact
         # condition, and its divergence proves infeasibility, where an
@@ -450,11 +543,11 @@ def passivesyn(P: NetworkedStateSpace, eta: float | None = None, *,
         try:
             return _riccati(plant, eta, decay, margin, {})
         except SynthesisError as err:
-            if err.reason == "infeasible":
+            if err.reason == INFEASIBLE:
                 err.figures.update(lmi_statuses=out.figures()["statuses"])
                 raise
     reason = out.reason
-    if reason == "infeasible":
+    if reason == INFEASIBLE:
         what = (f"{out.message}: no gain of this kind "
                 + ("exists with a certificate" if struct == "full" else
                    f"passes the sufficient '{struct}' condition")
@@ -480,9 +573,7 @@ def _eta_search(plant, decay, margin, structure, form, solver, options,
     (``certify_index``: the returned ``η`` is what its ``P`` proves).
     Returns the result of the best verified level, or None.
     """
-    p = plant.probabilities
-    Dw = np.einsum("km,kmij->kij", p, plant.Dw)
-    u = min(float(np.linalg.eigvalsh(D + D.T).min()) / 2 for D in Dw)
+    u, _ = feedthrough_bound(plant.probabilities, plant.Dw)
     unit = max(1.0, abs(u))
     found = high = None
 
@@ -562,7 +653,7 @@ def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
             f"every closed loop's rate is at least that: no gain makes the "
             f"loop mean-square stable"
             + (f" with decay {decay}" if decay < 1 else ""),
-            "infeasible", dict(ms_radius_without_control=rho, bound=bound,
+            INFEASIBLE, dict(ms_radius_without_control=rho, bound=bound,
                                proof="gain-independent modes"))
 
 
@@ -684,7 +775,7 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
 
 def _variables(model, plant):
     """The LMI's ``X_k`` and ``Y_k`` (zero-padded to ``(N, nu, nx)``)."""
-    model._check_current()
+    model.check_current()
     s = plant.shape
     Y = np.zeros((plant.period, s["nu"], s["nx"]))
     for k, Yv in enumerate(model.Y):
@@ -715,7 +806,7 @@ def _riccati(plant, eta, decay, margin, options):
     if not cert.verified:
         raise SynthesisError(
             "passivesyn: no verified gain (the Riccati gain fails the exact "
-            "check: " + "; ".join(cert.failures) + ")", "not_verified",
+            "check: " + "; ".join(cert.failures) + ")", NOT_VERIFIED,
             dict(status=report.status, solver=report.solver,
                  statuses=[report.status], **cert.figures()))
     s = plant.shape

@@ -33,15 +33,8 @@ __all__ = ["Certificate", "dissipation_matrices", "certified_index",
            "check_certificate", "certify_index", "certify_ofp_index",
            "dissipation_blocks", "ifp_supremum", "feedthrough_bound"]
 
-#: Relative back-offs of ``η`` below the supremum a certificate proves, tried
-#: in turn by :func:`certify_index`. The supremum comes from a Schur
-#: complement, which loses accuracy when ``M11`` is nearly singular (a loop
-#: at the mean-square boundary, ``ms_radius → 1``, which maximising ``η``
-#: produces; measured: 1e-9 below failed the exact check at
-#: ms_radius = 1 - 1e-6). Stepping 1e-6 below also leaves a certificate
-#: margin that a fresh solve can find again: at 1e-9 below, ``ispassive``
-#: could not re-certify passivesyn's η (its most interior certificate has
-#: λmax(Θ) ≈ -1e-10, below Clarabel's accuracy).
+#: Relative back-offs below a certificate's supremum, tried in turn: the Schur
+#: complement loses accuracy near the ms boundary, and a re-check needs room.
 INDEX_BACKOFFS = (1e-6, 1e-5, 1e-4)
 
 
@@ -204,8 +197,44 @@ def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
     return float(lam[k]), k
 
 
+#: Levels further below the feedthrough bound (in data scales) are checked at
+#: that floor: lower ones swamp Θ in double precision (Θ(η) ≼ Θ(η0)).
+LEVEL_FLOOR = 1e6
+
+
+def level_floor(bound: float, *mats: np.ndarray) -> float:
+    """The lowest level ``η0`` solved and checked for a requested ``η``.
+
+    ``Θ(η) = Θ(η0) + 2(η - η0) diag(0, I) ≼ Θ(η0)`` for ``η ≤ η0``: a
+    certificate at ``η0`` certifies every lower ``η`` exactly (MATH §6).
+    Callers solve at ``max(η, level_floor(...))`` and return ``η``.
+
+    Parameters
+    ----------
+    bound : float
+        The feedthrough bound (:func:`feedthrough_bound`).
+    *mats : ndarray
+        The data; their largest spectral norm (at least 1) is the scale.
+
+    Returns
+    -------
+    float
+        ``bound - LEVEL_FLOOR * max(1, |bound|, scale)``.
+
+    Examples
+    --------
+    >>> from control_ncs.verify import level_floor
+    >>> level_floor(0.5, np.eye(2))
+    -999999.5
+    """
+    scale = max([1.0, abs(bound)] + [
+        float(np.linalg.norm(M.reshape(-1, M.shape[-1]), 2))
+        for M in mats if M.size])
+    return bound - LEVEL_FLOOR * scale
+
+
 # -- public checks --------------------------------------------------------------
-def _system(sys: Any, name: str = "sys") -> JumpStateSpace:
+def square_system(sys: Any, name: str = "sys") -> JumpStateSpace:
     """``sys`` as a square jump system (a TransferFunction via control.ss)."""
     sys = as_jump(sys, name)
     m, p = sys.modes.B.shape[-1], sys.modes.C.shape[-2]
@@ -304,7 +333,7 @@ def dissipation_matrices(sys: Any, P: Any, eta: float, *,
     >>> [T.round(2).tolist() for T in dissipation_matrices(G, [[1.0]], 0.0)]
     [[[-0.75, -0.5], [-0.5, -1.0]]]
     """
-    sys = _system(sys)
+    sys = square_system(sys)
     eta, decay, rho = _levels(eta, decay, ofp_index)
     return _thetas(sys, _certificate_array(P, sys), eta, rho, decay)
 
@@ -345,7 +374,7 @@ def certified_index(sys: Any, P: Any, *, decay: float = 1.0,
     >>> round(certified_index(G, [[1.0]]), 6)  # the index 1/3, at P = 1
     0.333333
     """
-    sys = _system(sys)
+    sys = square_system(sys)
     _, decay, rho = _levels(0.0, decay, ofp_index)
     return _sup(sys, _certificate_array(P, sys), rho, decay)
 
@@ -548,7 +577,7 @@ def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0,
     >>> check_certificate(G, [[1.0]], 0.3).verified
     True
     """
-    sys = _system(sys)
+    sys = square_system(sys)
     eta, decay, rho = _levels(eta, decay, ofp_index)
     return _check(sys, _certificate_array(P, sys), eta, rho, decay)
 
@@ -590,7 +619,7 @@ def certify_index(sys: Any, P: Any, *, decay: float = 1.0,
     >>> cert.verified, round(cert.eta, 5)
     (True, 0.33333)
     """
-    sys = _system(sys)
+    sys = square_system(sys)
     _, decay, rho = _levels(0.0, decay, ofp_index)
     return _certify(sys, _certificate_array(P, sys), rho, decay)
 
@@ -658,7 +687,7 @@ def certify_ofp_index(sys: Any, P: Any, rho: float, *, eta: float = 0.0,
     >>> cert.verified, 0.25 - 1e-5 < cert.ofp_index < 0.25
     (True, True)
     """
-    sys = _system(sys)
+    sys = square_system(sys)
     eta, decay, rho = _levels(eta, decay, rho)
     return _certify_ofp(sys, _certificate_array(P, sys), eta, rho, decay)
 

@@ -370,8 +370,8 @@ def test_feedthrough_bound_is_the_smallest_eigenvalue_over_phases():
 
 
 def test_frequency_machinery_lives_in_kyp():
-    assert not hasattr(passivity, "_FrequencyResponse")
+    assert not hasattr(passivity, "FrequencyResponse")
     G = stable_ss()
-    resp = kyp._FrequencyResponse(G.A, G.B, G.C, G.D)
+    resp = kyp.FrequencyResponse(G.A, G.B, G.C, G.D)
     assert kyp.frequency_minimum(resp) == pytest.approx(1 / 3, abs=1e-12)
     assert cn.frequency_ff_index(G) == kyp.frequency_minimum(resp)

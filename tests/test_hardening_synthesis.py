@@ -339,3 +339,44 @@ def test_auto_structure_falls_back_to_block_and_says_so(monkeypatch):
     K, CL, eta = ncs.passivesyn(P)
     assert K.result.structure == "block"
     verified(P, K, CL, eta)
+
+
+LEVELS = ((1.0, 0.0), (1e2, 0.0), (None, 0.0))
+
+
+def test_driver_refuted_fixed_level_skips_larger_margins_only():
+    calls, attempt, verify = _scripted(["infeasible", "optimal"], [True])
+    out = driver.drive(attempt, verify, eta=0.5, solver="X", retries=LEVELS,
+                       refute_margins=True, spare=False)
+    # the 100x margin is skipped; the margin-maximising LMI still runs
+    assert [c[0] for c in calls] == [1.0, None] and out.ok
+
+
+def test_driver_refuted_fixed_level_is_infeasible_when_nothing_verifies():
+    calls, attempt, verify = _scripted(["infeasible", "optimal"], [False])
+    out = driver.drive(attempt, verify, eta=0.5, solver="X", retries=LEVELS,
+                       refute_margins=True, spare=False)
+    assert out.reason == "infeasible" and len(calls) == 2
+
+
+def test_driver_nonpositive_maximised_margin_refutes_a_fixed_level():
+    def attempt(scale, target, name, left):
+        value = -1.0 if scale is None else None
+        return _report("optimal" if scale is None else "solver_error",
+                       value), (object() if scale is None else None)
+
+    out = driver.drive(attempt, lambda c: _Cert(False), eta=0.5,
+                       solver="X", retries=LEVELS, refute_margins=True)
+    assert out.reason == "infeasible"
+
+
+def test_driver_without_spare_returns_a_verified_level_of_inaccurate_solve():
+    calls, attempt, verify = _scripted(["optimal_inaccurate"], [True])
+    out = driver.drive(attempt, verify, eta=0.5, solver="X", spare=False)
+    assert out.ok and len(calls) == 1
+
+
+def test_driver_without_spare_refuses_an_inaccurate_index():
+    calls, attempt, verify = _scripted(["optimal_inaccurate"], [True] * 9)
+    out = driver.drive(attempt, verify, eta=None, solver="X", spare=False)
+    assert out.reason == "inaccurate"

@@ -20,9 +20,9 @@ REL = 1e-6
 
 @pytest.fixture(autouse=True)
 def empty_cache():
-    lmi._cache_clear()
+    lmi.cache_clear()
     yield
-    lmi._cache_clear()
+    lmi.cache_clear()
 
 
 def plants(seeds, **network):
@@ -49,7 +49,7 @@ def max_eta(plant, structure="full", form="merged"):
 
 def fresh(fn, *args, **kwargs):
     """``fn`` on an empty cache: a problem built and compiled anew."""
-    lmi._cache_clear()
+    lmi.cache_clear()
     return fn(*args, **kwargs)
 
 
@@ -87,7 +87,7 @@ def test_analysis_problem_is_dpp(eta, margin):
 def test_reused_synthesis_problem_gives_the_fresh_optimum(structure, network):
     group = plants([1, 2, 3], **network)
     reused = [max_eta(plant, structure) for plant in group]
-    assert lmi._cache_info()["misses"] == 1
+    assert lmi.cache_info()["misses"] == 1
     for plant, (value, gains) in zip(group, reused):
         value0, gains0 = fresh(max_eta, plant, structure)
         assert close(value, value0)
@@ -109,7 +109,7 @@ def test_reused_synthesis_problem_follows_an_eta_sweep():
         return out
 
     swept = statuses()
-    assert lmi._cache_info()["hits"] == 3
+    assert lmi.cache_info()["hits"] == 3
     assert swept == ["optimal", "optimal", "infeasible", "optimal"]
     assert fresh(statuses) == swept
 
@@ -127,7 +127,7 @@ def test_reused_analysis_problem_gives_the_fresh_optimum(eta, margin):
     if eta is not None:
         cases += [(cases[0][0], level) for level in (-0.5, -1.0)]
     reused = [solve(sys, level) for sys, level in cases]
-    assert lmi._cache_info() == dict(hits=len(cases) - 1, misses=1, size=1,
+    assert lmi.cache_info() == dict(hits=len(cases) - 1, misses=1, size=1,
                                      maxsize=lmi.CACHE_SIZE)
     for (sys, level), value in zip(cases, reused):
         assert close(value, fresh(solve, sys, level))
@@ -144,7 +144,7 @@ def test_decay_and_margin_are_data_not_shape():
 
     settings = [(1.0, 1e-7), (0.95, 1e-7), (1.0, 1e-5)]
     reused = [solve(*setting) for setting in settings]
-    assert lmi._cache_info()["misses"] == 1
+    assert lmi.cache_info()["misses"] == 1
     for setting, value in zip(settings, reused):
         assert close(value, fresh(solve, *setting))
     assert reused[1] < reused[0]  # a decay bound costs η
@@ -156,7 +156,7 @@ def test_same_shape_reuses_the_compiled_problem():
     first = lmi.synthesis_model(a, None, 1.0, 1e-7, "full", "merged")
     second = lmi.synthesis_model(b, None, 1.0, 1e-7, "full", "merged")
     assert second.problem is first.problem
-    assert lmi._cache_info() == dict(hits=1, misses=1, size=1,
+    assert lmi.cache_info() == dict(hits=1, misses=1, size=1,
                                      maxsize=lmi.CACHE_SIZE)
 
 
@@ -173,7 +173,7 @@ def test_a_different_shape_builds_its_own_problem(change):
         "extended" if change == "network" else "full",
         "paper" if change == "form" else "merged")
     assert second.problem is not first.problem
-    assert (lmi._cache_info()["misses"], lmi._cache_info()["hits"]) == (2, 0)
+    assert (lmi.cache_info()["misses"], lmi.cache_info()["hits"]) == (2, 0)
 
 
 def test_the_cache_stays_bounded_and_drops_the_least_recent():
@@ -181,13 +181,13 @@ def test_the_cache_stays_bounded_and_drops_the_least_recent():
                            radius=0.5) for n in range(1, lmi.CACHE_SIZE + 3)]
     for sys in systems:
         lmi.analysis_model(sys, None, 1e-7)
-        assert lmi._cache_info()["size"] <= lmi.CACHE_SIZE
-    assert lmi._cache_info()["size"] == lmi.CACHE_SIZE
-    misses = lmi._cache_info()["misses"]
+        assert lmi.cache_info()["size"] <= lmi.CACHE_SIZE
+    assert lmi.cache_info()["size"] == lmi.CACHE_SIZE
+    misses = lmi.cache_info()["misses"]
     lmi.analysis_model(systems[-1], None, 1e-7)  # recent: kept
-    assert lmi._cache_info()["misses"] == misses
+    assert lmi.cache_info()["misses"] == misses
     lmi.analysis_model(systems[0], None, 1e-7)   # oldest: dropped
-    assert lmi._cache_info()["misses"] == misses + 1
+    assert lmi.cache_info()["misses"] == misses + 1
 
 
 def test_each_model_solves_its_own_data():
@@ -255,7 +255,7 @@ def test_threads_never_share_a_problem():
                 report = lmi.solve(model.problem)
                 lmi.read_gains(model, group[index])
                 out.append(report.value)
-            results[index] = (out, lmi._cache_info())
+            results[index] = (out, lmi.cache_info())
         except BaseException as err:  # reported in the main thread
             errors.append(err)
             barrier.abort()
@@ -285,3 +285,27 @@ def test_clarabel_stall_at_its_default_accuracy_is_optimal():
     strict = lmi.solve(model.problem, "CLARABEL", tol_gap_abs=1e-9,
                        tol_gap_rel=1e-9, tol_feas=1e-9)
     assert strict.status == "optimal_inaccurate"
+
+
+def test_solver_accuracy_warning_never_reaches_the_caller():
+    """The strict solve above ends 'optimal_inaccurate', on which cvxpy
+    warns "Solution may be inaccurate"; the status says it already."""
+    import warnings
+    sys, = loops([6])
+    model = lmi.analysis_model(sys, None, 1e-7, 1.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        report = lmi.solve(model.problem, "CLARABEL", tol_gap_abs=1e-9,
+                           tol_gap_rel=1e-9, tol_feas=1e-9)
+    assert report.status == "optimal_inaccurate"
+    assert [str(w.message) for w in caught] == []
+
+
+def test_index_analysis_through_an_inaccurate_first_solve_emits_no_warning():
+    import warnings
+    from control_ncs import get_input_ff_index
+    sys, = loops([6])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        get_input_ff_index(sys)
+    assert [str(w.message) for w in caught] == []

@@ -14,7 +14,7 @@ from hypothesis import given, settings, strategies as st
 
 import control_ncs as cn
 import control_ncs.kyp as kyp
-import control_ncs.passivity as passivity
+import control_ncs.riccati as riccati
 from control_ncs import (CertificationError, feedback, frequency_ff_index,
                          get_input_ff_index, ispassive, jss,
                          mean_input_ff_index, nss, passivesyn,
@@ -378,7 +378,7 @@ def test_riccati_route_finds_a_dip_the_frequency_grid_misses(monkeypatch):
 
 
 def test_auto_falls_back_to_the_lmi_when_riccati_cannot_certify(monkeypatch):
-    monkeypatch.setattr(passivity, "_riccati_storage", lambda *a: None)
+    monkeypatch.setattr(riccati, "dare_storage", lambda *a: None)
     G = random_stable_ss(1)
     result = passivity_certificate(G)
     assert result.passive and result.method == "lmi"
@@ -434,3 +434,24 @@ def test_vectorised_frequency_test_equals_pointwise_evaluation():
         values.append(np.linalg.eigvalsh(0.5 * (Gz + Gz.conj().T)).min())
     assert frequency_ff_index(G, omega=omega) == pytest.approx(min(values),
                                                                abs=1e-12)
+
+
+@pytest.mark.parametrize("level", [-1e200, -1e12])
+def test_very_negative_level_is_certified_for_a_stable_system(level):
+    G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    assert ispassive(G, ifp_index=level)
+    result = cn.passivity_certificate(G, level, method="lmi")
+    assert result.passive and result.eta == level
+    # the certificate is checked at a floor above the level: Θ(η) ≼ Θ(η0)
+    assert result.certificate.verified and result.certificate.eta >= level
+
+
+def test_very_negative_level_is_certified_for_a_lossy_loop():
+    _, CL, _ = scalar_lossy_loop()
+    assert ispassive(CL, ifp_index=-1e200)
+
+
+def test_very_negative_level_is_refused_for_an_unstable_system():
+    G = ct.ss([[1.5]], [[1.0]], [[1.0]], [[1.0]], True)
+    assert not ispassive(G, ifp_index=-1e200)
+    assert cn.passivity_certificate(G, -1e200).reason == "not_mss"

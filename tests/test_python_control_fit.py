@@ -484,10 +484,6 @@ def test_transfer_function_is_accepted_where_a_system_is():
     np.testing.assert_allclose(paths.outputs[0, 0], want, atol=1e-12)
 
 
-@pytest.mark.xfail(strict=True, reason="synthesis.py and gain.py belong to "
-                   "the integrator: SynthesisResult needs a short __repr__ "
-                   "and verdict/status/message like PassivityResult; remove "
-                   "this mark when they have them")
 def test_synthesis_result_prints_like_the_other_results():
     K, CL, eta = cn.passivesyn(plant(sensor_schedule=[1, 2]))
     assert CL.name == "reactor (closed loop)"

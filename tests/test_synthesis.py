@@ -658,3 +658,82 @@ def test_result_carries_certificate_report_and_gain_for_feedback():
     again = feedback(P, K)
     np.testing.assert_allclose(again.modes.A, CL.modes.A)
     assert "certified eta" in res.summary()
+
+
+def test_synthesis_emits_no_warning(plant):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        passivesyn(plant)
+    assert [str(w.message) for w in caught] == []
+
+
+def test_synthesis_result_has_verdict_status_message_and_a_one_line_repr(
+        plant):
+    K, _, eta = passivesyn(plant)
+    res = K.result
+    assert res.verdict is True and res.status == "certified"
+    assert "certified" in res.message
+    text = repr(res)
+    assert "\n" not in text and text.startswith("<SynthesisResult: certified")
+    assert f"N = {K.period}" in text and "solver" in text
+    assert res.certificate.summary().splitlines()[0] in res.summary()
+
+
+def test_periodic_gain_repr_gives_the_shape_above_64_entries():
+    big = control_ncs.PeriodicGain(np.zeros((2, 4, 9)))
+    assert "shape=(2, 4, 9)" in repr(big) and "\n" not in repr(big)
+    small = control_ncs.PeriodicGain(np.ones((1, 2)))
+    assert "[[1. 1.]]" in repr(small)
+
+
+@pytest.mark.parametrize("shape", [(0, 2, 2), (1, 0, 2), (2, 0)])
+def test_periodic_gain_refuses_an_empty_dimension(shape):
+    with pytest.raises(ControlDimension, match="gains"):
+        control_ncs.PeriodicGain(np.zeros(shape))
+
+
+@pytest.mark.parametrize("level", [-1e200, -1e12])
+@pytest.mark.parametrize("solver", [None, "riccati"])
+def test_very_negative_fixed_eta_gives_a_verified_gain(plant, level, solver):
+    K, CL, eta = passivesyn(plant, eta=level, solver=solver)
+    cert = K.result.certificate
+    assert eta == level and K.result.eta == level
+    # checked at a floor above the level: Θ(η) ≼ Θ(η0) for η ≤ η0
+    assert cert.verified and cert.eta >= level
+    assert control_ncs.check_certificate(CL, cert.P, cert.eta).verified
+
+
+def test_synthesis_on_a_built_jump_plant_equals_synthesis_on_its_plant(plant):
+    K1, CL1, eta1 = passivesyn(plant, decay=0.95)
+    K2, CL2, eta2 = passivesyn(control_ncs.build(plant), decay=0.95)
+    assert eta1 == eta2 and K1 == K2
+    assert K2.result.certificate.verified
+
+
+def test_synthesis_on_a_hand_made_jump_plant_gives_a_verified_gain():
+    # x⁺ = 2x + w + u, z = x + w; the actuator message lost w.p. 0.1
+    A = [[[[2.0]], [[2.0]]]]
+    Bu = [[[[1.0]], [[0.0]]]]
+    same = dict(Bw=[[[[1.0]], [[1.0]]]], Cz=[[[[1.0]], [[1.0]]]],
+                Du=[[[[0.0]], [[0.0]]]], Dw=[[[[1.0]], [[1.0]]]])
+    hand = control_ncs.JumpPlant(A, Bu, E=[[[1.0]]],
+                                 probabilities=[[0.9, 0.1]], **same)
+    K, CL, eta = passivesyn(hand, eta=0.0, decay=0.9)
+    assert K.result.certificate.verified and eta == 0.0
+    assert control_ncs.ms_radius(CL) < 0.81
+    assert control_ncs.ispassive(CL)
+
+
+def test_jump_plant_with_mismatched_arrays_raises_control_dimension(plant):
+    built = control_ncs.build(plant)
+    built.Bw = built.Bw[..., :1, :]
+    with pytest.raises(ControlDimension, match="Bw"):
+        passivesyn(built)
+
+
+def test_jump_plant_whose_gain_never_acts_is_refused():
+    hand = control_ncs.JumpPlant(
+        [[[[0.5]]]], [[[[1.0]]]], [[[[1.0]]]], [[[[1.0]]]], [[[[0.0]]]],
+        [[[[1.0]]]], E=np.zeros((1, 1, 1)), probabilities=[[1.0]])
+    with pytest.raises(ValueError, match="never closes"):
+        passivesyn(hand)
