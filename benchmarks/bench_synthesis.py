@@ -42,12 +42,12 @@ def _syn(P, eta, form="merged", **kw):
 def _timed_syn(P, eta, form, repeats, budget, **kw):
     """Median over repeats of total, with compile/solve of the median run.
 
-    The first run starts from an empty model cache (``lmi._cache_clear``):
+    The first run starts from an empty model cache (``lmi.cache_clear``):
     ``cold`` holds it. Later runs reuse the compiled problem, as any second
     call with a plant of the same shape does; with ``repeats > 1`` the median
     is taken over those warm runs only."""
-    from control_ncs.lmi import _cache_clear
-    _cache_clear()
+    from control_ncs.lmi import cache_clear
+    cache_clear()
     runs = []
 
     def once():
@@ -433,12 +433,12 @@ def routes(quick: bool, riccati_ref: dict | None = None) -> Section:
 def _sweep(calls, reuse: bool):
     """Run ``calls`` (each returning a list of SolveReports); clear the model
     cache before each call unless ``reuse``. Returns (total, compile, solve)."""
-    from control_ncs.lmi import _cache_clear
+    from control_ncs.lmi import cache_clear
     total = comp = sol = 0.0
-    _cache_clear()
+    cache_clear()
     for call in calls:
         if not reuse:
-            _cache_clear()
+            cache_clear()
         t = time.perf_counter()
         reports = call()
         total += time.perf_counter() - t
@@ -496,7 +496,7 @@ def compile_reduction(quick: bool) -> Section:
     sec.add("The package builds every LMI from cvxpy Parameters (DPP) and "
             "keeps the compiled problem of each shape (`lmi.CACHE_SIZE` per "
             "thread). Three sweeps of five calls each, run twice: with the "
-            "cache cleared before every call (`lmi._cache_clear()`: every "
+            "cache cleared before every call (`lmi.cache_clear()`: every "
             "call compiles, as before this change) and with reuse (only the "
             "first call compiles). Cells: total time (cvxpy compile time, "
             "its share); best of two interleaved rounds. Fixed η, the LMI "

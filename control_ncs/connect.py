@@ -394,7 +394,7 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
     name = kwargs.pop("name", None)
 
     def mode(k: int, i: int) -> ct.StateSpace:
-        mode_sys = J._mode_system(k, i)
+        mode_sys = J.mode_system(k, i)
         return ct.interconnect([mode_sys if s is None else s for s in others],
                                connections, inplist, outlist, **kwargs)
 

@@ -783,8 +783,27 @@ class JumpStateSpace(ct.StateSpace):
     # same probabilities: exact, because ``G`` has no modes and the mode at
     # time t is the same draw on both sides (an algebraic loop is closed
     # inside the mode, as in control_ncs.jump_feedback).
-    def _mode_system(self, k: int, i: int) -> ct.StateSpace:
-        """Mode ``i`` of phase ``k`` as a StateSpace at the base rate."""
+    def mode_system(self, k: int, i: int) -> ct.StateSpace:
+        """Mode ``i`` of phase ``k`` as a StateSpace at the base rate.
+
+        Parameters
+        ----------
+        k : int
+            Time step or phase; taken modulo the period.
+        i : int
+            Mode index, ``0 <= i < nmodes``.
+
+        Returns
+        -------
+        control.StateSpace
+            With the jump system's signal names and its base sampling time.
+
+        Examples
+        --------
+        >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+        >>> sys.mode_system(0, 1).A.tolist()
+        [[0.9]]
+        """
         return ct.StateSpace(*self.mode(k, i), self.dt_step,
                              inputs=self.jump_inputs,
                              outputs=self.jump_outputs,
@@ -871,14 +890,14 @@ class JumpStateSpace(ct.StateSpace):
         """The jump system whose mode (k, i) is ``op`` of mode (k, i)."""
         N, M = self.period, self.nmodes
         try:
-            first = op(self._mode_system(0, 0))
+            first = op(self.mode_system(0, 0))
         except ValueError as err:
             # python-control's message names neither side's sizes
             raise ControlDimension(
                 f"{what}: {err} (the jump system has "
                 f"{len(self.jump_inputs)} inputs and "
                 f"{len(self.jump_outputs)} outputs per step)") from err
-        done = [[first if k == i == 0 else op(self._mode_system(k, i))
+        done = [[first if k == i == 0 else op(self.mode_system(k, i))
                  for i in range(M)] for k in range(N)]
         A, B, C, D = (np.array([[getattr(S, X) for S in row] for row in done],
                                dtype=float) for X in "ABCD")
@@ -962,7 +981,7 @@ class JumpStateSpace(ct.StateSpace):
     def __getitem__(self, key: Any) -> "JumpStateSpace":
         # indices and names refer to the per-step signals z (rows) and w
         # (columns) for any N, not to the lifted face's stacked ones
-        first = self._mode_system(0, 0)[key]
+        first = self.mode_system(0, 0)[key]
         return self._modewise(lambda S: S[key], f"sys[{key!r}]",
                               name=first.name)
 

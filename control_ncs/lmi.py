@@ -803,5 +803,3 @@ def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
     return SupplyModel(cp.Problem(objective, cons), P, e, r, t)
 
 
-# the names the benchmarks (benchmarks/bench_synthesis.py) still import
-_cache_clear, _cache_info = cache_clear, cache_info

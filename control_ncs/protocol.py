@@ -55,6 +55,7 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["simulate_protocol"]
 
+# its own list, not the package registry: the reference stays independent
 _CONTROLLERS = ("static", "predictor")
 _ACTUATORS = ("zero", "hold")
 

@@ -379,8 +379,13 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         gains = K.gains
     else:
         # validate here so that messages name the argument K, not 'gains'
-        gains = PeriodicGain(real_array(K, "K", ndim=(2, 3)),
-                             controller or "static", actuator or "zero").gains
+        arr = real_array(K, "K", ndim=(2, 3))
+        if 0 in arr.shape:
+            raise ControlDimension(f"K: expected a non-empty gain (at least "
+                                   f"one phase, one row, one column), got "
+                                   f"shape {arr.shape}")
+        gains = PeriodicGain(arr, controller or "static",
+                             actuator or "zero").gains
     if 0 in gains.shape:
         raise ControlDimension(f"K: expected a non-empty gain (at least one "
                                f"phase, one row, one column), got shape "

@@ -59,6 +59,8 @@ PBH_RTOL = 1e-9
 #: (``n!`` permutations are tried, each checked exactly).
 RELABEL_MAX_STATES = 8
 
+# the controllers whose exact pruning tests are written here (not the whole
+# strategies registry: a new controller needs its own pruning first)
 _CONTROLLERS = ("static", "predictor")
 _ACTUATORS = ("zero", "hold")
 _OBJECTIVES = ("eta", "rate")
@@ -653,7 +655,10 @@ def _prune(P: NetworkedStateSpace, s1: np.ndarray, s2: np.ndarray,
     n, N = A.shape[0], s1.shape[0]
     sensing: np.ndarray = np.any(s1, axis=1)
     acting: np.ndarray = np.any(s2, axis=1)
-    if controller == "static" and not _loop_closes(sensing, acting):
+    # passivesyn's own test on the JumpPlant: some phase knows a
+    # coordinate and can act (the predictor always knows x̂)
+    if not acting.any() or (controller == "static"
+                            and not _loop_closes(sensing, acting)):
         return LOOP_OPEN
     # inputs that can act at phase k: a static gain only where a sensor
     # reports too; with 'hold' a held value acts at every phase (a
@@ -955,13 +960,14 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     permutation ``Ω`` of ``w`` and ``z`` together (it keeps the supply rate),
     ``Π A Πᵀ = A``, ``Π B1 Ωᵀ = B1``, ``Π B2 Σᵀ = B2``, ``Ω C1 Πᵀ = C1``,
     ``Ω D11 Ωᵀ = D11``, ``Ω D12 Σᵀ = D12`` hold in exact arithmetic
-    (searched up to ``RELABEL_MAX_STATES`` states, ``n!`` permutations). One representative is kept per orbit:
-    its lexicographically smallest word.
+    (searched up to ``RELABEL_MAX_STATES`` states, ``n!`` permutations).
+    One representative is kept per orbit: its lexicographically smallest
+    word.
 
     **Pruning** (exact, before any LMI; the reason is kept per schedule):
-    ``'loop_open'``: a static gain with no phase where a sensor and an
-    actuator are both scheduled (every shared-channel schedule: only the
-    predictor closes such loops); ``'not_stabilisable'``: the loss-free
+    ``'loop_open'``: no actuator is ever scheduled, or a static gain with
+    no phase where a sensor and an actuator are both scheduled (every
+    shared-channel schedule: only the predictor closes such loops); ``'not_stabilisable'``: the loss-free
     lifted pair ``(A^N, [A^(N-1-k) B2 Σ2,k])`` fails the PBH test on an
     eigenvalue ``|λ| ≥ 1`` (static gain: only phases where a sensor also
     reports act; ``actuator='hold'``: every actuator ever scheduled acts
@@ -1030,7 +1036,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     >>> res = schedule_search(P, 2, shared_channel=True, controller='predictor',
     ...                       decay=0.98, progress=False)
     >>> res.explored, res.pruned_counts
-    (6, {'not_stabilisable': 3, 'not_detectable': 2})
+    (6, {'loop_open': 3, 'not_detectable': 2})
     >>> res.ranking[0].sensor_schedule, res.ranking[0].actuator_schedule
     ((0, 1), (1, 0))
     """

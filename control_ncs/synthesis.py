@@ -21,7 +21,7 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import choice, decay_bound, finite_real, positive_real
 from .gain import PeriodicGain, actuators, controllers
-from .jump import JumpPlant, JumpStateSpace
+from .jump import JumpPlant, JumpStateSpace, require_iid
 from .driver import RETRIES, drive
 from .lmi import (DEFAULT_MARGIN, SolveReport, check_options, check_solver,
                   data_scale, read_gains, solve, synthesis_model)
@@ -180,7 +180,7 @@ class SynthesisResult:
         str
         """
         r = self.report
-        lines = [f"SynthesisResult: certified ({self.status})",
+        lines = [f"SynthesisResult: {self.status}",
                  f"  {self.message}",
                  f"  controller={self.gain.controller!r}, "
                  f"actuator={self.gain.actuator!r}, N={self.gain.period}, "
@@ -446,6 +446,11 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     else:
         plant = build(P, controller, actuator) if isinstance(
             P, NetworkedStateSpace) else None
+    if plant is not None:
+        # MATH §8 is written for i.i.d. modes; on a chain it would design
+        # for the stationary marginals (§11's K_{k,ℓ} synthesis: not yet)
+        require_iid(P if isinstance(P, JumpPlant) else plant, "passivesyn",
+                    "P")
     eta, decay, structure0 = _checks(P, eta, decay, controller, actuator,
                                      form, structure, plant)
     margin = positive_real(margin, "margin")

@@ -26,7 +26,7 @@ from control.exception import ControlDimension
 
 from ._checks import decay_bound, finite_real, real_array
 from .exceptions import CERTIFIED, NOT_VERIFIED
-from .jump import JumpStateSpace, as_jump
+from .jump import JumpStateSpace, as_jump, require_iid
 from .stability import ms_radius
 
 __all__ = ["Certificate", "dissipation_matrices", "certified_index",
@@ -234,9 +234,18 @@ def level_floor(bound: float, *mats: np.ndarray) -> float:
 
 
 # -- public checks --------------------------------------------------------------
-def square_system(sys: Any, name: str = "sys") -> JumpStateSpace:
-    """``sys`` as a square jump system (a TransferFunction via control.ss)."""
+def square_system(sys: Any, name: str = "sys", *, markov: bool = False
+                  ) -> JumpStateSpace:
+    """``sys`` as a square jump system (a TransferFunction via control.ss).
+
+    Markov modes are refused unless ``markov`` is True: the dissipation
+    inequality here is MATH §6's for i.i.d. modes; with a chain it is
+    ``Θ_{k,ℓ}`` of MATH §11, not written yet, and the i.i.d. one on the
+    stationary marginals would be a wrong answer, not an approximation.
+    """
     sys = as_jump(sys, name)
+    if not markov:
+        require_iid(sys, "passivity analysis", name)
     m, p = sys.modes.B.shape[-1], sys.modes.C.shape[-2]
     if m != p:
         raise ControlDimension(f"{name}: passivity needs as many inputs as "

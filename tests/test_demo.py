@@ -23,7 +23,7 @@ def test_demo_command_exits_0_and_writes_png_files(tmp_path):
         data = p.read_bytes()
         assert data.startswith(PNG_SIGNATURE) and len(data) > 5000, p.name
     # the printed report carries the verification figures
-    assert "lambda_max(Theta_k)" in proc.stdout
+    assert "λmax(Θ_k)" in proc.stdout
     assert "ms_radius" in proc.stdout
 
 

@@ -458,3 +458,42 @@ def test_schedule_search_refuses_markov_links_without_explicit_losses():
                 actuator_loss=link)
     with pytest.raises(ControlArgument, match="Markov"):
         ncs.schedule_search(P, 2)
+
+
+def _bursty_loop():
+    link = ncs.gilbert_elliott(fail=0.05, recover=0.74)
+    P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+                actuator_loss=link)
+    return P, ncs.feedback(P, [[-1.0]])
+
+
+@pytest.mark.parametrize("call", [
+    lambda CL: ncs.ispassive(CL),
+    lambda CL: ncs.get_input_ff_index(CL),
+    lambda CL: ncs.get_output_fb_index(CL),
+    lambda CL: ncs.passivity_certificate(CL),
+    lambda CL: ncs.certified_index(CL, [[1.0]]),
+    lambda CL: ncs.check_certificate(CL, [[1.0]], 0.0),
+    lambda CL: ncs.certify_index(CL, [[1.0]]),
+    lambda CL: ncs.dissipation_matrices(CL, [[1.0]], 0.0),
+], ids=["ispassive", "ifp", "ofp", "certificate", "certified_index",
+        "check_certificate", "certify_index", "dissipation_matrices"])
+def test_iid_only_passivity_refuses_markov_modes_instead_of_a_wrong_answer(call):
+    _, CL = _bursty_loop()
+    with pytest.raises(ControlArgument, match="Markov"):
+        call(CL)
+
+
+def test_passivesyn_refuses_markov_links_and_markov_jump_plants():
+    P, _ = _bursty_loop()
+    with pytest.raises(ControlArgument, match="Markov"):
+        ncs.passivesyn(P)
+    with pytest.raises(ControlArgument, match="Markov"):
+        ncs.passivesyn(ncs.build(P, "static", "zero"))
+
+
+def test_mean_system_index_is_exact_for_markov_modes_too():
+    _, CL = _bursty_loop()
+    lti = CL.mean()
+    assert ncs.mean_input_ff_index(CL) == ncs.get_input_ff_index(lti)
