@@ -127,8 +127,9 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     built: dict = {}
     fields = []
     for k in range(N):
-        key = (s1[k % P.period].tobytes(), s1[(k + 1) % P.period].tobytes(),
-               s2[k % P.period].tobytes())
+        key: tuple = (s1[k % P.period].tobytes(),
+                      s1[(k + 1) % P.period].tobytes(),
+                      s2[k % P.period].tobytes())
         if "L" in opts:
             key += (opts["L"][(k + 1) % opts["L"].shape[0]].tobytes(),)
         if key not in built:
@@ -215,8 +216,8 @@ def require_state_measured(P: NetworkedStateSpace, controller: str) -> None:
     """
     if controller in ("static", "predictor") and not _measures_state(P):
         raise ControlArgument(
-            f"controller={controller!r}: static gains need y = x (C2 = I, "
-            f"got C2 of shape {P.C2.shape}); use controller='estimator'")
+            f"controller={controller!r}: static gains need y = x; use "
+            f"controller='estimator' (got C2 of shape {P.C2.shape}, not I)")
 
 
 def _measures_state(P: NetworkedStateSpace) -> bool:
