@@ -20,6 +20,7 @@ from __future__ import annotations
 import sys
 import time
 import warnings
+from functools import partial
 
 import numpy as np
 
@@ -59,11 +60,11 @@ def run(sizes=(4, 8, 16), repeats: int = 3) -> list[dict]:
         P = random_plant(n)
         Po = output_version(P)
         L = estimator_gain(Po)
-        t_est = _median(lambda: estimator_gain(Po), repeats)
+        t_est = _median(partial(estimator_gain, Po), repeats)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            t_pred = _median(lambda: passivesyn(P, ETA, controller="predictor"),
-                             repeats)
+            t_pred = _median(partial(passivesyn, P, ETA,
+                                     controller="predictor"), repeats)
         rows.append(dict(n=n, nmeas=Po.C2.shape[0], estimator=t_est,
                          predictor=t_pred, ratio=t_est / t_pred,
                          error_rate=L.ms_radius))
