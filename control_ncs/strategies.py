@@ -560,7 +560,9 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         The closed loop ``w → z`` (modes merged); ``info`` records the
         controller, actuator and gains. For an LTI controller its state is
         ``[x; xc; ŷ; u⁻]`` (plant, controller, received measurements of the
-        sensors some phase schedules, held inputs).
+        sensors some phase schedules, held inputs); ``ŷ`` at step 0 is what
+        arrived then (e.g. ``C2 x0`` for a first message that got through,
+        0 for one that was lost).
 
     Raises
     ------
