@@ -15,10 +15,11 @@ reference simulator (``protocol``) export nothing here.
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from . import (connect, exceptions, gain, jump, meancov, network, passivity,
-               plant, plots, responses, stability, strategies, sweeps,
-               synthesis, verify)
+from . import (connect, estimator, exceptions, gain, jump, meancov, network,
+               passivity, plant, plots, responses, stability, strategies,
+               sweeps, synthesis, verify)
 from .connect import *  # noqa: F403
+from .estimator import *  # noqa: F403
 from .exceptions import *  # noqa: F403
 from .gain import *  # noqa: F403
 from .jump import *  # noqa: F403
@@ -36,7 +37,8 @@ from .verify import *  # noqa: F403
 
 __all__ = [name for module in (
     network, jump, plant, gain, strategies, stability, meancov, exceptions,
-    verify, passivity, synthesis, responses, plots, connect, sweeps)
+    verify, passivity, synthesis, estimator, responses, plots, connect,
+    sweeps)
     for name in module.__all__]
 
 try:

@@ -803,3 +803,76 @@ def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
     return SupplyModel(cp.Problem(objective, cons), P, e, r, t)
 
 
+# -- estimator gain (MATH §12) ------------------------------------------------
+# Appended by the output-feedback work (issue 14); the models above are left
+# as they are.
+@dataclass
+class EstimatorModel:
+    """The estimator LMI of MATH §12 over one period, before its solve.
+
+    Attributes
+    ----------
+    problem : cvxpy.Problem
+    P, Z : list of cvxpy.Variable
+        ``P_k`` (n × n, symmetric) and ``Z_k = P_k L_k`` (n × p2), per phase.
+    """
+
+    problem: cp.Problem
+    P: list
+    Z: list
+
+
+def estimator_model(A: np.ndarray, C2: np.ndarray, S1: np.ndarray,
+                    loss: float, decay: float = 1.0,
+                    margin: float = 1e-6) -> EstimatorModel:
+    """Mean-square detectability LMI of the lossy, scheduled sensor link.
+
+    For every phase ``k`` (``j = k + 1 mod N``), with ``Mθ = (I - θ L_j Σ1,j
+    C2) A`` and ``Z_j = P_j L_j``, ``Σ_θ p_θ Mθᵀ P_j Mθ ≺ r² P_k`` is, by a
+    Schur complement, ``[[r² P_k, *, *], [√α1 P_j A, P_j, 0],
+    [√(1-α1) (P_j - Z_j Σ1,j C2) A, 0, P_j]] ≻ 0`` (MATH §12). The LMI is
+    homogeneous in ``(P, Z)``: it is normalised by ``P_k ⪰ I`` and imposed
+    with the margin ``margin · s`` (``s`` the scale of ``A``); the objective
+    ``t ⪰ P_k`` keeps the certificate well conditioned.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+    C2 : ndarray, shape (p2, n)
+    S1 : ndarray, shape (N, p2, p2)
+        Sensor selections ``Σ1,k`` per phase.
+    loss : float
+        ``α1``, the sensor link's loss probability (Bernoulli).
+    decay : float
+        ``r`` in ``(0, 1]``.
+    margin : float
+        Relative strictness margin.
+
+    Returns
+    -------
+    EstimatorModel
+    """
+    n, N = A.shape[0], S1.shape[0]
+    p2 = C2.shape[0]
+    P = [cp.Variable((n, n), symmetric=True) for _ in range(N)]
+    Z = [cp.Variable((n, p2)) for _ in range(N)]
+    t = cp.Variable()
+    eps = margin * max(1.0, float(np.linalg.norm(A, 2)) ** 2)
+    cons = []
+    for k in range(N):
+        j = (k + 1) % N
+        rows = []
+        if loss > 0:
+            rows.append(np.sqrt(loss) * (P[j] @ A))
+        if loss < 1:
+            rows.append(np.sqrt(1 - loss) * ((P[j] - Z[j] @ S1[j] @ C2) @ A))
+        size = len(rows)
+        blocks = [[decay ** 2 * P[k]] + [r.T for r in rows]]
+        for i, r in enumerate(rows):
+            blocks.append([r] + [P[j] if i == c else np.zeros((n, n))
+                                 for c in range(size)])
+        M = cp.bmat(blocks)
+        # cvxpy needs the symmetry said out loud
+        cons.append(0.5 * (M + M.T) >> eps * np.eye(n * (size + 1)))
+        cons += [P[k] >> np.eye(n), P[k] << t * np.eye(n)]
+    return EstimatorModel(cp.Problem(cp.Minimize(t), cons), P, Z)

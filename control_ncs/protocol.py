@@ -15,11 +15,17 @@ independent of that formulation.
 
 Model
 -----
-Plant (discrete time, full-state measurement, sensor ``i`` measures state
-``i``)::
+Plant (discrete time; sensor ``i`` measures ``y_i = (C2 x)_i``, by default
+``C2 = I``: sensor ``i`` measures state ``i``)::
 
     x(k+1) = A x(k) + B1 w(k) + B2 u(k)
     z(k)   = C1 x(k) + D11 w(k) + D12 u(k)
+    y(k)   = C2 x(k)
+
+Controllers: a static gain on the received measurement, the model-based
+predictor (MATH §8b), the estimator (MATH §12: the predictor corrected by
+``L_k (y - C2 xhat)``) and any discrete-time LTI controller fed with the
+received measurements (a lost one is 0 or the last received value).
 
 Network with period ``N``: ``S1[k mod N, i] = 1`` if sensor ``i`` may send at
 step ``k`` (one packet carries all scheduled sensors), ``S2[k mod N, j] = 1``
@@ -56,7 +62,8 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = ["simulate_protocol"]
 
 # its own list, not the package registry: the reference stays independent
-_CONTROLLERS = ("static", "predictor")
+_CONTROLLERS = ("static", "predictor", "estimator", "lti")
+_SENSORS = ("zero", "hold")
 _ACTUATORS = ("zero", "hold")
 
 
@@ -171,6 +178,11 @@ def simulate_protocol(
     initial_estimate: ArrayLike | None = None,
     trials: int = 1,
     rng: np.random.Generator | None = None,
+    C2: ArrayLike | None = None,
+    estimator_gains: ArrayLike | None = None,
+    controller_system: tuple | None = None,
+    sensor: str = "zero",
+    initial_controller_state: ArrayLike | None = None,
 ) -> dict[str, NDArray[Any]]:
     """Simulate a scheduled, lossy networked control loop event by event.
 
@@ -191,9 +203,10 @@ def simulate_protocol(
         Disturbance feedthrough to the performance output.
     D12 : array_like, shape (p1, m2)
         Control feedthrough to the performance output.
-    sensor_schedule : array_like, shape (N, n)
+    sensor_schedule : array_like, shape (N, p2)
         0/1 array; ``sensor_schedule[k mod N, i] == 1`` if sensor ``i`` may
         send at step ``k``. Its first dimension defines the period ``N``.
+        ``p2`` is the number of rows of ``C2`` (``n`` by default).
     actuator_schedule : array_like, shape (N, m2)
         0/1 array; ``actuator_schedule[k mod N, j] == 1`` if actuator ``j``
         is addressed at step ``k``.
@@ -204,16 +217,22 @@ def simulate_protocol(
     actuator_loss : float, 2x2 array or Gilbert-Elliott link
         ``alpha2 = P(theta2_k = 0)``, likewise for the actuator packets.
     gains : array_like, shape (N, m2, nk)
-        Periodic gains; step ``k`` uses ``gains[k mod N]``. ``nk = n`` except
-        for ``controller='predictor'`` with ``actuator='hold'``, where
-        ``nk = n + m2`` and the gain acts on ``[xhat; u_{k-1}]``.
+        Periodic gains; step ``k`` uses ``gains[k mod N]``. ``nk = p2``
+        (static) or ``n`` (predictor, estimator), except for the predictor
+        and the estimator with ``actuator='hold'``, where ``nk = n + m2``
+        and the gain acts on ``[xhat; u_{k-1}]``. Ignored (pass ``None``)
+        for ``controller='lti'``.
     steps : int
         Number of time steps to simulate (>= 0).
-    controller : {'static', 'predictor'}, optional
-        ``'static'``: ``v_k = K_k theta1_k diag(S1[k]) x_k``.
-        ``'predictor'``: model-based estimate ``xhat`` corrected by received
-        measurements and propagated with ``A xhat + B2 u`` (the applied
-        ``u`` is known through acknowledgements).
+    controller : {'static', 'predictor', 'estimator', 'lti'}, optional
+        ``'static'``: ``v_k = K_k theta1_k diag(S1[k]) y_k``.
+        ``'predictor'``: model-based estimate ``xhat`` overwritten by the
+        received measurements (``C2 = I``) and propagated with
+        ``A xhat + B2 u`` (the applied ``u`` is known through
+        acknowledgements). ``'estimator'``: the same estimate corrected by
+        ``xhat += L_k (theta1_k diag(S1[k]) (y_k - C2 xhat))``.
+        ``'lti'``: ``controller_system`` driven by the received
+        measurements, ``v_k`` its output.
     actuator : {'zero', 'hold'}, optional
         ``'zero'``: unaddressed or lost actuators apply 0.
         ``'hold'``: unaddressed or lost actuators keep their previous value
@@ -224,13 +243,28 @@ def simulate_protocol(
         Plant initial state ``x_0`` shared by all trials; zeros if omitted.
     initial_estimate : array_like, shape (n,), optional
         Predictor estimate before the first sensor update at ``k = 0``;
-        zeros if omitted. Only allowed with ``controller='predictor'``.
+        zeros if omitted. Only allowed with ``controller='predictor'`` or
+        ``'estimator'``.
     trials : int, optional
         Number of independent Monte Carlo trials (>= 1).
     rng : numpy.random.Generator, optional
         Source of randomness. If omitted a fresh, unseeded generator is used
         (results are then not reproducible). The global NumPy RNG is never
         used.
+    C2 : array_like, shape (p2, n), optional
+        Measurement matrix; identity if omitted (only the estimator, the
+        static gain and the LTI controller accept another one).
+    estimator_gains : array_like, shape (N, n, p2), optional
+        ``L_k`` of ``controller='estimator'`` (required there).
+    controller_system : tuple of 4 array_like, optional
+        ``(Ac, Bc, Cc, Dc)`` of ``controller='lti'`` (required there):
+        ``xc(k+1) = Ac xc + Bc yrcv``, ``v = Cc xc + Dc yrcv``, where
+        ``yrcv`` is what the controller received at step ``k``.
+    sensor : {'zero', 'hold'}, optional
+        ``controller='lti'`` only: a lost or unscheduled measurement is
+        received as 0, or as the last received value (initially 0).
+    initial_controller_state : array_like, shape (nc,), optional
+        ``xc_0`` of ``controller='lti'``; zeros if omitted.
 
     Returns
     -------
@@ -243,8 +277,10 @@ def simulate_protocol(
             Applied control inputs.
         ``'theta1'``, ``'theta2'`` : ndarray of bool, shape (trials, steps)
             Packet-success indicators drawn at each step.
+        ``'xc'`` : ndarray, shape (trials, nc, steps + 1)
+            Only for ``controller='lti'``: controller states.
         ``'xhat'`` : ndarray, shape (trials, n, steps + 1)
-            Only for ``controller='predictor'``. ``xhat[:, :, k]`` is the
+            Only for ``controller='predictor'`` or ``'estimator'``. ``xhat[:, :, k]`` is the
             estimate after the sensor update at step ``k``; the last column
             is the prediction ``A xhat + B2 u`` made at the final step,
             before any further update.
@@ -299,7 +335,20 @@ def simulate_protocol(
     D12 = _matrix(D12, "D12")
     _expect_shape(D12, (p1, m2), "D12")
 
-    S1 = _schedule(sensor_schedule, "sensor_schedule", n)
+    if not isinstance(sensor, str) or sensor not in _SENSORS:
+        raise ValueError(f"sensor must be one of {_SENSORS}, got {sensor!r}")
+    if sensor != "zero" and controller != "lti":
+        raise ValueError("sensor='hold' is only modelled for controller='lti'")
+    if C2 is None:
+        C2m = np.eye(n)
+    else:
+        C2m = _matrix(C2, "C2")
+        if C2m.shape[1] != n:
+            raise ValueError(f"C2 must have {n} columns, got {C2m.shape}")
+        if controller == "predictor" and not np.array_equal(C2m, np.eye(n)):
+            raise ValueError("controller='predictor' needs C2 = I")
+    p2 = C2m.shape[0]
+    S1 = _schedule(sensor_schedule, "sensor_schedule", p2)
     N = S1.shape[0]
     S2 = _schedule(actuator_schedule, "actuator_schedule", m2)
     if S2.shape[0] != N:
@@ -311,9 +360,32 @@ def simulate_protocol(
     link1 = _link(sensor_loss, "sensor_loss")
     link2 = _link(actuator_loss, "actuator_loss")
 
-    predictor = controller == "predictor"
+    predictor = controller in ("predictor", "estimator")
+    estimator = controller == "estimator"
+    lti = controller == "lti"
     hold = actuator == "hold"
-    nk = n + m2 if (predictor and hold) else n
+    nk = n + m2 if (predictor and hold) else (n if predictor else p2)
+    if lti:
+        if controller_system is None or len(controller_system) != 4:
+            raise ValueError("controller='lti' needs controller_system = "
+                             "(Ac, Bc, Cc, Dc)")
+        Ac, Bc, Cc, Dc = (np.asarray(X, dtype=float).reshape(np.shape(X))
+                          for X in controller_system)
+        nc = Ac.shape[0] if Ac.ndim == 2 else 0
+        Ac = Ac.reshape(nc, nc)
+        Bc, Cc, Dc = Bc.reshape(nc, p2), Cc.reshape(m2, nc), Dc.reshape(m2, p2)
+        gains = np.zeros((N, m2, nk))
+    elif controller_system is not None:
+        raise ValueError("controller_system is only for controller='lti'")
+    if estimator:
+        if estimator_gains is None:
+            raise ValueError("controller='estimator' needs estimator_gains")
+        L = np.asarray(estimator_gains, dtype=float)
+        if L.shape != (N, n, p2):
+            raise ValueError(f"estimator_gains must have shape ({N}, {n}, "
+                             f"{p2}), got {L.shape}")
+    elif estimator_gains is not None:
+        raise ValueError("estimator_gains is only for controller='estimator'")
     try:
         K = np.asarray(gains, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -344,7 +416,8 @@ def simulate_protocol(
     )
     if initial_estimate is not None and not predictor:
         raise ValueError(
-            "initial_estimate is only meaningful for controller='predictor'"
+            "initial_estimate is only meaningful for controller='predictor' "
+            "or 'estimator'"
         )
     xhat0 = np.zeros(n) if initial_estimate is None else _vector(
         initial_estimate, "initial_estimate", n
@@ -363,6 +436,17 @@ def simulate_protocol(
     x = np.tile(x0, (trials, 1))
     xhat = np.tile(xhat0, (trials, 1))
     u_prev = np.zeros((trials, m2))
+    if lti:
+        xc0 = (np.zeros(nc) if initial_controller_state is None
+               else _vector(initial_controller_state,
+                            "initial_controller_state", nc))
+        xc = np.tile(xc0, (trials, 1))
+        xc_hist = np.empty((trials, nc, steps + 1))
+        xc_hist[:, :, 0] = xc
+        y_rcv = np.zeros((trials, p2))
+    elif initial_controller_state is not None:
+        raise ValueError("initial_controller_state is only for "
+                         "controller='lti'")
 
     x_hist = np.empty((trials, n, steps + 1))
     z_hist = np.empty((trials, p1, steps))
@@ -396,13 +480,25 @@ def simulate_protocol(
         Kk = K[phase]
         w = W[:, k]
 
-        if predictor:
+        y = x @ C2m.T
+        if estimator:
+            xhat = xhat + (recv1 * (y - xhat @ C2m.T)) @ L[phase].T
+        elif predictor:
             xhat = xhat + recv1 * (x - xhat)
+        if predictor:
             xhat_hist[:, :, k] = xhat
             feedback = np.concatenate([xhat, u_prev], axis=1) if hold else xhat
+            v = feedback @ Kk.T
+        elif lti:
+            if sensor == "hold":
+                y_rcv = y_rcv + recv1 * (y - y_rcv)
+            else:
+                y_rcv = recv1 * y
+            v = xc @ Cc.T + y_rcv @ Dc.T
+            xc = xc @ Ac.T + y_rcv @ Bc.T
+            xc_hist[:, :, k + 1] = xc
         else:
-            feedback = recv1 * x
-        v = feedback @ Kk.T
+            v = (recv1 * y) @ Kk.T
 
         if hold:
             u = u_prev + recv2 * (v - u_prev)
@@ -430,4 +526,6 @@ def simulate_protocol(
     if predictor:
         xhat_hist[:, :, steps] = xhat
         result["xhat"] = xhat_hist
+    if lti:
+        result["xc"] = xc_hist
     return result

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from functools import partial
 from typing import Any, Callable
 
+import control as ct
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
@@ -22,33 +23,49 @@ from .gain import PeriodicGain
 from .jump import JumpPlant, JumpStateSpace, check_lifted_size
 from .plant import NetworkedStateSpace
 
-__all__ = ["build", "feedback", "loop_closes"]
+__all__ = ["build", "feedback", "loop_closes", "require_state_measured"]
 
 MODES = ((0, 0), (1, 0), (0, 1), (1, 1))
 
 
 def build(P: NetworkedStateSpace, controller: str = "static",
-          actuator: str = "zero", *, period: int | None = None) -> JumpPlant:
+          actuator: str = "zero", *, period: int | None = None,
+          sensor: str = "zero", controller_order: int = 0,
+          estimator_gain: Any = None) -> JumpPlant:
     """The networked loop of ``P`` as a :class:`JumpPlant`, before the gain.
 
     The gain the plant is closed with (:meth:`JumpPlant.close`,
     :func:`control_ncs.passivesyn`) acts in positive feedback, as it is:
     ``v_k = K_k E_k ξ`` (``u = K y`` for the static controller, ``u = K x̂``
-    for the predictor). Negate a gain designed for ``u = -K x``.
+    for the predictor and the estimator; for an LTI controller the "gain"
+    is its realisation, see below). Negate a gain designed for
+    ``u = -K x``, such as :func:`control.dlqr`'s.
 
     Parameters
     ----------
     P : NetworkedStateSpace
         Plant with its network.
-    controller : {'static', 'predictor'}
+    controller : {'static', 'predictor', 'estimator', 'lti'}
         ``'static'``: ``v = K_k ŷ`` with ``ŷ = θ1 Σ1 y`` (paper eq. 2-3,
         MATH §4). ``'predictor'``: the model-based controller of MATH §8b,
-        ``v = K_k x̂`` (needs ``y = x``).
+        ``v = K_k x̂`` (needs ``y = x``). ``'estimator'``: MATH §12, the
+        predictor corrected through ``estimator_gain`` ``L_k`` for any
+        ``y = C2 x``; ``v = K_k x̂``. ``'lti'``: a discrete-time LTI
+        controller ``xc⁺ = Ac xc + Bc ŷ``, ``v = Cc xc + Dc ŷ`` of order
+        ``controller_order``; its gain is ``[[Dc, Cc], [Bc, Ac]]`` acting
+        on ``[ŷ; xc]`` (use :func:`feedback` with the controller itself).
     actuator : {'zero', 'hold'}
         What an actuator applies when its message is lost or not scheduled.
     period : int, optional
         Build over this many phases (a multiple of ``P.period``), e.g. to
         match a gain sequence.
+    sensor : {'zero', 'hold'}
+        LTI controller only: what it receives for a lost or unscheduled
+        measurement, 0 (the paper's eq. 2) or the last received value.
+    controller_order : int
+        LTI controller only: its number of states ``nc``.
+    estimator_gain : array_like, shape (n, nmeas) or (N_L, n, nmeas)
+        Estimator only (required): the correction gains ``L_k``.
 
     Returns
     -------
@@ -59,8 +76,12 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     Raises
     ------
     ControlArgument
-        If ``P`` is not a :class:`NetworkedStateSpace`, the controller or
-        actuator is unknown, or the predictor is asked for without ``y = x``.
+        If ``P`` is not a :class:`NetworkedStateSpace`, the controller,
+        actuator or sensor strategy is unknown, the predictor is asked for
+        without ``y = x``, or an option is given to a controller that does
+        not take it.
+    ControlDimension
+        If ``estimator_gain`` has the wrong shape.
     ValueError
         If ``period`` is not a multiple of ``P.period`` or its lifted face
         would be too large.
@@ -83,10 +104,14 @@ def build(P: NetworkedStateSpace, controller: str = "static",
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
     strategy = _strategy(controller, actuator)
+    opts = _options(P, controller, sensor, controller_order, estimator_gain)
     N = P.period if period is None else int(period)
-    if N % P.period:
-        raise ValueError(f"period: {N} is not a multiple of the plant's network "
-                         f"period {P.period}")
+    for what, NL in (("network", P.period),
+                     ("estimator gain", opts["L"].shape[0] if "L" in opts
+                      else 1)):
+        if N % NL:
+            raise ValueError(f"period: {N} is not a multiple of the {what} "
+                             f"period {NL}")
     # the state has at least n entries: refuse a hopeless period before the
     # per-phase work, not after it
     check_lifted_size(P.nstates, len(P.disturbance_labels),
@@ -102,10 +127,14 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     built: dict = {}
     fields = []
     for k in range(N):
-        key = (s1[k % P.period].tobytes(), s1[(k + 1) % P.period].tobytes(),
-               s2[k % P.period].tobytes())
+        key: tuple = (s1[k % P.period].tobytes(),
+                      s1[(k + 1) % P.period].tobytes(),
+                      s2[k % P.period].tobytes())
+        if "L" in opts:
+            key += (opts["L"][(k + 1) % opts["L"].shape[0]].tobytes(),)
         if key not in built:
-            built[key] = [strategy.phase(P, k, t1, t2) for (t1, t2) in MODES]
+            built[key] = [strategy.phase(P, k, t1, t2, **opts)
+                          for (t1, t2) in MODES]
         fields.extend(built[key])
     stacked = {f: np.array([m[f] for m in fields]).reshape(
         (N, 4) + fields[0][f].shape) for f in fields[0] if f != "E"}
@@ -122,11 +151,80 @@ def build(P: NetworkedStateSpace, controller: str = "static",
                 actuator_loss=a2, plant_period=P.period, plant=P.name)
     if T is not None:
         info.update(sensor_link=P.sensor_link, actuator_link=P.actuator_link)
+    if controller == "lti":
+        info["sensor"] = sensor
+    if "L" in opts:
+        info["estimator_gain"] = opts["L"]
     return JumpPlant(stacked["A"], stacked["Bu"], stacked["Bw"], stacked["Cz"],
                      stacked["Du"], stacked["Dw"], E, p, P.dt,
                      transition=transition, nominal=np.full(N, 3), inputs=P.disturbance_labels,
                      outputs=P.performance_labels,
-                     states=strategy.states(P), info=info)
+                     states=strategy.states(P, **opts), info=info)
+
+
+def _options(P: NetworkedStateSpace, controller: str, sensor: Any,
+             controller_order: Any, estimator_gain: Any) -> dict:
+    """The builder options a controller takes, checked; refused elsewhere."""
+    choice(sensor, "sensor", ("zero", "hold"))
+    if controller == "lti":
+        nc = controller_order
+        if isinstance(nc, bool) or not isinstance(nc, (int, np.integer)) \
+                or nc < 0:
+            raise ValueError(f"controller_order: expected an integer >= 0, "
+                             f"got {nc!r}")
+        if estimator_gain is not None:
+            raise ControlArgument("estimator_gain: only controller='estimator'"
+                                  " takes an estimator gain")
+        return dict(sensor=sensor, nc=int(nc))
+    if sensor != "zero" or controller_order:
+        raise ControlArgument(
+            f"sensor, controller_order: only an LTI controller "
+            f"(controller='lti') takes them, got controller={controller!r}")
+    if controller != "estimator":
+        if estimator_gain is not None:
+            raise ControlArgument(
+                f"estimator_gain: only controller='estimator' takes an "
+                f"estimator gain, got controller={controller!r}")
+        return {}
+    if estimator_gain is None:
+        raise ControlArgument("estimator_gain: controller='estimator' needs "
+                              "the estimator gains L_k (see estimator_gain())")
+    L = real_array(estimator_gain, "estimator_gain", ndim=(2, 3))
+    L = L[None] if L.ndim == 2 else L
+    want = (P.nstates, P.C2.shape[0])
+    if L.shape[1:] != want or L.shape[0] == 0:
+        raise ControlDimension(
+            f"estimator_gain: expected L_k of shape {want} (n, nmeas), or a "
+            f"stack (N_L, {want[0]}, {want[1]}), got {L.shape}")
+    return dict(L=L)
+
+
+def require_state_measured(P: NetworkedStateSpace, controller: str) -> None:
+    """Refuse a state-feedback design for a plant that does not measure x.
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+        Plant with its network.
+    controller : str
+        The controller kind asked for.
+
+    Raises
+    ------
+    ControlArgument
+        If ``controller`` is ``'static'`` or ``'predictor'`` and ``C2 ≠ I``.
+
+    Examples
+    --------
+    >>> P = nss([[2.0, 1.0], [0.0, 0.5]], [[0.0, 1.0], [1.0, 0.0]],
+    ...         [[1.0, 0.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 0.0]],
+    ...         nmeas=1, ncon=1)
+    >>> require_state_measured(P, "estimator")       # any C2 will do
+    """
+    if controller in ("static", "predictor") and not _measures_state(P):
+        raise ControlArgument(
+            f"controller={controller!r}: static gains need y = x; use "
+            f"controller='estimator' (got C2 of shape {P.C2.shape}, not I)")
 
 
 def _measures_state(P: NetworkedStateSpace) -> bool:
@@ -135,7 +233,7 @@ def _measures_state(P: NetworkedStateSpace) -> bool:
 
 
 def _static_phase(P: NetworkedStateSpace, k: int, t1: int, t2: int, *,
-                  actuator: str) -> dict:
+                  actuator: str, **_: Any) -> dict:
     """Memoryless gain, MATH §4: ``u = θ2 Σ2 K θ1 Σ1 y``."""
     n, m2 = P.nstates, P.ncon
     S1 = P.sensor_schedule.selection(k)
@@ -173,16 +271,20 @@ def _held(P: NetworkedStateSpace) -> np.ndarray:
 
 
 def _predictor_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int,
-                     *, actuator: str) -> dict:
+                     *, actuator: str, L: np.ndarray | None = None) -> dict:
     """Model-based controller, MATH §8b; the mode is ``(θ1,k+1, θ2,k)``.
 
     State ``[x̂; e]`` (zero actuator) or ``[x̂; u⁻; e]`` (hold; ``u⁻`` the
     last inputs of the actuators some phase addresses), with ``x̂`` the
-    estimate after the sensor update and ``e = x - x̂``.
+    estimate after the sensor update and ``e = x - x̂``. With estimator
+    gains ``L`` (MATH §12) the correction is ``R = θ1 L_{k+1} Σ1 C2``
+    instead of §8b's ``θ1 Σ1`` (which is ``C2 = I``, ``L = I``).
     """
     n, m2 = P.nstates, P.ncon
     S2 = P.actuator_schedule.selection(k)
     R = t1_next * P.sensor_schedule.selection(k + 1)
+    if L is not None:
+        R = L[(k + 1) % L.shape[0]] @ R @ P.C2
     A, B1, B2, C1, D11, D12 = P.A, P.B1, P.B2, P.C1, P.D11, P.D12
     I, Z = np.eye(n), np.zeros
     m1 = B1.shape[1]
@@ -211,7 +313,7 @@ def _predictor_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int,
         E=E)
 
 
-def _plant_states(P: NetworkedStateSpace) -> list[str]:
+def _plant_states(P: NetworkedStateSpace, **_: Any) -> list[str]:
     return list(P.state_labels)
 
 
@@ -221,10 +323,94 @@ def _held_names(P: NetworkedStateSpace) -> list[str]:
             for i in np.flatnonzero(P.actuator_schedule.pattern.any(axis=0))]
 
 
-def _predictor_states(P: NetworkedStateSpace, hold: bool) -> list[str]:
+def _predictor_states(P: NetworkedStateSpace, hold: bool, **_: Any
+                      ) -> list[str]:
     x = list(P.state_labels)
     return ([f"{s}_hat" for s in x] + (_held_names(P) if hold else [])
             + [f"{s}_err" for s in x])
+
+
+def _heard(P: NetworkedStateSpace) -> np.ndarray:
+    """Selector of the sensors some phase schedules (cf. :func:`_held`).
+
+    A never-scheduled sensor delivers nothing; its held value would be a
+    constant 0 with an eigenvalue 1 in every mode, so it is left out.
+    """
+    idx = np.flatnonzero(P.sensor_schedule.pattern.any(axis=0))
+    H = np.zeros((idx.size, P.C2.shape[0]))
+    H[np.arange(idx.size), idx] = 1.0
+    return H
+
+
+def _lti_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int, *,
+               actuator: str, sensor: str, nc: int) -> dict:
+    """A discrete-time LTI controller in the loop (issue 14, part 1).
+
+    State ``ξ = [x; xc; ŷ; u⁻]``: plant, controller, the measurements the
+    controller received at this step (sensors some phase schedules), and
+    with a hold actuator the last applied inputs. The received value
+    ``ŷ_k = θ1,k Σ1,k y_k`` (+ ``(I - θ1,k Σ1,k) ŷ_{k-1}`` with a hold
+    sensor) is carried in the state so that the loss ``θ1`` acts on the
+    controller's input while the controller itself stays a gain
+    ``[[Dc, Cc], [Bc, Ac]]`` on ``E ξ = [ŷ; xc]``, with outputs
+    ``[v; xc⁺]``. As for the predictor the transition ``k → k+1`` depends
+    on ``(θ2,k, θ1,k+1)``; ``y = C2 x`` (``D21 = D22 = 0``).
+    """
+    n, m2 = P.nstates, P.ncon
+    A, B1, B2, C1, D11, D12 = P.A, P.B1, P.B2, P.C1, P.D11, P.D12
+    m1 = B1.shape[1]
+    Hs = _heard(P)
+    Hu = _held(P) if actuator == "hold" else np.zeros((0, m2))
+    hs, hu = Hs.shape[0], Hu.shape[0]
+    nx = n + nc + hs + hu
+    ix, ic, iy, iu = (slice(0, n), slice(n, n + nc),
+                      slice(n + nc, n + nc + hs), slice(n + nc + hs, nx))
+    S2 = P.actuator_schedule.selection(k)
+    S1n = P.sensor_schedule.selection(k + 1)
+    # applied input u = Ux ξ + Uv v: the held part (hold actuator) and the
+    # delivered part of the controller's message
+    Ux = np.zeros((m2, nx))
+    if actuator == "hold":
+        Ux[:, iu] = (np.eye(m2) - t2 * S2) @ Hu.T
+    Uv = t2 * S2
+    # x⁺ = A x + B1 w + B2 u, without the gain's part B2 Uv v
+    Ax = np.zeros((n, nx))
+    Ax[:, ix] = A
+    Ax += B2 @ Ux
+    Bv = B2 @ Uv
+    # what arrives at k+1: θ1 Σ1 C2 x⁺ (+ the held rest)
+    Rn = t1_next * Hs @ S1n @ P.C2
+    Amat = np.zeros((nx, nx))
+    Bu = np.zeros((nx, m2 + nc))
+    Amat[ix] = Ax
+    Bu[ix, :m2] = Bv
+    Bu[ic, m2:] = np.eye(nc)
+    Amat[iy] = Rn @ Ax
+    if sensor == "hold":
+        Amat[iy, iy] += Hs @ (np.eye(Hs.shape[1]) - t1_next * S1n) @ Hs.T
+    Bu[iy, :m2] = Rn @ Bv
+    Amat[iu] = Hu @ Ux
+    Bu[iu, :m2] = Hu @ Uv
+    Bw = np.zeros((nx, m1))
+    Bw[ix] = B1
+    Bw[iy] = Rn @ B1
+    Cz = D12 @ Ux
+    Cz[:, ix] += C1
+    E = np.zeros((Hs.shape[1] + nc, nx))
+    E[:Hs.shape[1], iy] = Hs.T
+    E[Hs.shape[1]:, ic] = np.eye(nc)
+    return dict(A=Amat, Bu=Bu, Bw=Bw, Cz=Cz,
+                Du=np.hstack([D12 @ Uv, np.zeros((C1.shape[0], nc))]),
+                Dw=D11, E=E)
+
+
+def _lti_states(P: NetworkedStateSpace, hold: bool, nc: int, **_: Any
+                ) -> list[str]:
+    ys = P.output_labels[len(P.performance_labels):]
+    return (list(P.state_labels) + [f"xc[{i}]" for i in range(nc)]
+            + [f"{ys[i]}_rcv" for i in np.flatnonzero(
+                P.sensor_schedule.pattern.any(axis=0))]
+            + (_held_names(P) if hold else []))
 
 
 @dataclass(frozen=True)
@@ -234,10 +420,12 @@ class Strategy:
     Attributes
     ----------
     phase : callable
-        ``phase(P, k, t1, t2)`` -> dict of ``A, Bu, Bw, Cz, Du, Dw, E`` of the
-        network mode ``(t1, t2)`` at phase ``k``.
+        ``phase(P, k, t1, t2, **options)`` -> dict of ``A, Bu, Bw, Cz, Du,
+        Dw, E`` of the network mode ``(t1, t2)`` at phase ``k``; the options
+        are the controller's (:func:`build`: ``L`` for the estimator,
+        ``sensor`` and ``nc`` for an LTI controller).
     states : callable
-        ``states(P)`` -> names of the state ``ξ``.
+        ``states(P, **options)`` -> names of the state ``ξ``.
     memoryless : bool
         The controller keeps nothing between messages, so it acts only at
         phases that schedule a sensor and an actuator together (MATH §4).
@@ -260,7 +448,7 @@ STRATEGIES: dict[tuple[str, str], Strategy] = {
         memoryless=True, needs_state=False),
     ("static", "hold"): Strategy(
         partial(_static_phase, actuator="hold"),
-        lambda P: _plant_states(P) + _held_names(P),
+        lambda P, **_: _plant_states(P) + _held_names(P),
         memoryless=True, needs_state=False),
     ("predictor", "zero"): Strategy(
         partial(_predictor_phase, actuator="zero"),
@@ -270,6 +458,22 @@ STRATEGIES: dict[tuple[str, str], Strategy] = {
         partial(_predictor_phase, actuator="hold"),
         partial(_predictor_states, hold=True),
         memoryless=False, needs_state=True),
+    ("estimator", "zero"): Strategy(
+        partial(_predictor_phase, actuator="zero"),
+        partial(_predictor_states, hold=False),
+        memoryless=False, needs_state=False),
+    ("estimator", "hold"): Strategy(
+        partial(_predictor_phase, actuator="hold"),
+        partial(_predictor_states, hold=True),
+        memoryless=False, needs_state=False),
+    ("lti", "zero"): Strategy(
+        partial(_lti_phase, actuator="zero"),
+        partial(_lti_states, hold=False),
+        memoryless=False, needs_state=False),
+    ("lti", "hold"): Strategy(
+        partial(_lti_phase, actuator="hold"),
+        partial(_lti_states, hold=True),
+        memoryless=False, needs_state=False),
 }
 
 
@@ -313,29 +517,47 @@ def loop_closes(P: NetworkedStateSpace) -> bool:
 
 
 def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
-             actuator: str | None = None, **kwargs: Any) -> JumpStateSpace:
-    """Close the networked loop of ``P`` with a (periodic) gain.
+             actuator: str | None = None, sensor: str | None = None,
+             estimator_gain: Any = None, **kwargs: Any) -> JumpStateSpace:
+    """Close the networked loop of ``P`` with a gain or an LTI controller.
 
-    The gain is applied as it is, in positive feedback: the controller sends
-    ``v_k = K_k ŷ_k`` (static: ``u = K y`` when every message arrives, so
-    ``u = K x`` for ``y = x``) or ``v_k = K_k x̂_k`` (predictor: ``u = K x̂``).
-    A gain designed for ``u = -K x``, as :func:`control.dlqr` returns, must be
-    negated (see the Examples).
+    Sign convention ``u = K y``: the gain or controller is applied as it
+    is, in positive feedback. The controller sends ``v_k = K_k ŷ_k``
+    (static: ``u = K y`` when every message arrives, so ``u = K x`` for
+    ``y = x``), ``v_k = K_k x̂_k`` (predictor and estimator: ``u = K x̂``),
+    or the output of the LTI system ``K`` driven by the received
+    measurements ``ŷ``. A gain designed for ``u = -K x``, as
+    :func:`control.dlqr` returns, must be negated (see the Examples); so
+    must a controller designed for negative feedback.
 
     Parameters
     ----------
     P : NetworkedStateSpace
         Plant with its network.
-    K : PeriodicGain or array_like
+    K : PeriodicGain, array_like, control.StateSpace or TransferFunction
         A gain from :func:`control_ncs.passivesyn`, or gains of shape
         ``(m2, nk)`` (constant) or ``(N_K, m2, nk)`` (periodic; the loop's
-        period is the least common multiple of ``N_K`` and ``P.period``).
-        ``nk`` is ``nmeas`` for the static controller, ``n`` for the
-        predictor, plus ``m2`` for the predictor with a hold actuator.
-    controller : {'static', 'predictor'}, optional
-        Default: the gain's own kind, else ``'static'``.
+        period is the least common multiple of ``N_K``, ``P.period`` and
+        the estimator gain's period). ``nk`` is ``nmeas`` for the static
+        controller, ``n`` for the predictor and the estimator, plus ``m2``
+        for those with a hold actuator. Or a discrete-time LTI controller
+        with the plant's ``dt``, ``nmeas`` inputs (the received
+        measurements) and ``ncon`` outputs (the controls it sends); it runs
+        at every step.
+    controller : {'static', 'predictor', 'estimator', 'lti'}, optional
+        Default: ``'lti'`` for a system ``K``, else the gain's own kind,
+        else ``'estimator'`` when an estimator gain is given, else
+        ``'static'``.
     actuator : {'zero', 'hold'}, optional
         Default: the gain's own strategy, else ``'zero'``.
+    sensor : {'zero', 'hold'}, optional
+        LTI controller only: what it receives for a lost or unscheduled
+        measurement, 0 (default, the paper's eq. 2) or the last received
+        value.
+    estimator_gain : array_like, shape (n, nmeas) or (N_L, n, nmeas), optional
+        The estimator's ``L_k`` (MATH §12), e.g. from
+        :func:`control_ncs.estimator_gain` or ``ct.dlqe``'s gain (see its
+        notes); default ``K.estimator_gain`` when ``K`` carries one.
     **kwargs
         None are accepted: an unknown keyword raises ``TypeError``.
 
@@ -343,7 +565,11 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     -------
     JumpStateSpace
         The closed loop ``w → z`` (modes merged); ``info`` records the
-        controller, actuator and gains.
+        controller, actuator and gains. For an LTI controller its state is
+        ``[x; xc; ŷ; u⁻]`` (plant, controller, received measurements of the
+        sensors some phase schedules, held inputs); ``ŷ`` at step 0 is what
+        arrived then (e.g. ``C2 x0`` for a first message that got through,
+        0 for one that was lost).
 
     Raises
     ------
@@ -352,7 +578,11 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         a sensor and an actuator together (e.g. a shared channel, MATH §4),
         or if ``K`` has non-finite entries.
     ControlDimension
-        If the gain has the wrong shape.
+        If the gain, the estimator gain or the controller has the wrong
+        shape.
+    ControlArgument
+        If an LTI controller is continuous-time or has another ``dt`` than
+        the plant, or an option does not fit the controller.
 
     Examples
     --------
@@ -371,30 +601,50 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     >>> CL = feedback(P, -K)
     >>> bool(ms_radius(CL) < 1)
     True
+
+    A PI controller ``u = -(2 y + 0.1 Σ y)`` (an LTI system, ``u = K y``
+    with the sign inside it):
+
+    >>> C = ct.ss([[1.0]], [[1.0]], [[-0.1]], [[-2.0]], True)
+    >>> CL = feedback(P, C)
+    >>> CL.jump_states
+    ['x[0]', 'xc[0]', 'y[0]_rcv']
+    >>> bool(ms_radius(CL) < 1)
+    True
     """
     no_extra_kwargs("feedback", kwargs)
+    if not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
+                              f"got {type(P).__name__}")
+    if isinstance(K, (ct.StateSpace, ct.TransferFunction)):
+        return _feedback_lti(P, K, controller, actuator, sensor,
+                             estimator_gain)
+    if sensor is not None:
+        raise ControlArgument("sensor: only an LTI controller (K a "
+                              "control.StateSpace or TransferFunction) takes "
+                              "a sensor strategy")
     if isinstance(K, PeriodicGain):
         controller = controller or K.controller
         actuator = actuator or K.actuator
+        if estimator_gain is None:
+            estimator_gain = getattr(K, "estimator_gain", None)
         gains = K.gains
     else:
         # validate here so that messages name the argument K, not 'gains'
-        arr = real_array(K, "K", ndim=(2, 3))
-        if 0 in arr.shape:
-            raise ControlDimension(f"K: expected a non-empty gain (at least "
-                                   f"one phase, one row, one column), got "
-                                   f"shape {arr.shape}")
-        gains = PeriodicGain(arr, controller or "static",
-                             actuator or "zero").gains
+        gains = real_array(K, "K", ndim=(2, 3))
+        gains = gains[None] if gains.ndim == 2 else gains
     if 0 in gains.shape:
         raise ControlDimension(f"K: expected a non-empty gain (at least one "
                                f"phase, one row, one column), got shape "
                                f"{gains.shape}")
-    controller, actuator = controller or "static", actuator or "zero"
+    if controller is None:
+        controller = "static" if estimator_gain is None else "estimator"
+    actuator = actuator or "zero"
     strategy = _strategy(controller, actuator)
-    if not isinstance(P, NetworkedStateSpace):
-        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
-                              f"got {type(P).__name__}")
+    if controller == "lti":
+        raise ControlArgument("K: controller='lti' needs K as a discrete-time "
+                              "control.StateSpace or TransferFunction, got "
+                              f"{type(K).__name__}")
     if strategy.memoryless and not loop_closes(P):
         raise ValueError(
             "K: a memoryless (static) gain never closes this loop: no phase "
@@ -402,8 +652,12 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
             "forces this, MATH §4), so F_k = Σ2 K Σ1 = 0 and the plant runs "
             "open loop. Use controller='predictor', which keeps a model-based "
             "estimate between messages.")
-    N = math.lcm(P.period, gains.shape[0])
-    plant = build(P, controller, actuator, period=N)
+    NL = 1
+    if controller == "estimator" and estimator_gain is not None:
+        NL = np.shape(estimator_gain)[0] if np.ndim(estimator_gain) == 3 else 1
+    N = math.lcm(P.period, gains.shape[0], NL)
+    plant = build(P, controller, actuator, period=N,
+                  estimator_gain=estimator_gain)
     want = plant.gain_shape()[1:]
     if gains.shape[1:] != want:
         raise ControlDimension(
@@ -412,3 +666,41 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
             f"actuator={actuator!r}, got {gains.shape[1:]}")
     gains = np.tile(gains, (N // gains.shape[0], 1, 1))
     return plant.close(gains)
+
+
+def _feedback_lti(P: NetworkedStateSpace, K: Any, controller: str | None,
+                  actuator: str | None, sensor: str | None,
+                  estimator_gain: Any) -> JumpStateSpace:
+    """:func:`feedback` with an LTI controller: checks, then build + close."""
+    from .jump import JumpStateSpace as _JSS
+    if isinstance(K, (_JSS, NetworkedStateSpace)):
+        raise ControlArgument(
+            f"K: expected a deterministic LTI controller (control.StateSpace "
+            f"or TransferFunction), got a {type(K).__name__}")
+    if controller not in (None, "lti"):
+        raise ControlArgument(f"controller: a system K is an LTI controller "
+                              f"(controller='lti'), got {controller!r}")
+    if estimator_gain is not None:
+        raise ControlArgument("estimator_gain: an LTI controller takes no "
+                              "estimator gain")
+    if K.dt is None or K.dt == 0:
+        raise ControlArgument(
+            "K: a continuous-time controller (dt = 0); the loop is discrete "
+            f"time: discretise it first, e.g. K.sample({P.dt!r})")
+    if P.dt is not True and K.dt is not True and K.dt != P.dt:
+        raise ControlArgument(f"K: its dt = {K.dt!r} differs from the "
+                              f"plant's dt = {P.dt!r}")
+    Kss = ct.ss(K)
+    nmeas, ncon = P.C2.shape[0], P.ncon
+    if (Kss.ninputs, Kss.noutputs) != (nmeas, ncon):
+        raise ControlDimension(
+            f"K: expected a controller with {nmeas} inputs (the received "
+            f"measurements) and {ncon} outputs (the controls), got "
+            f"{Kss.ninputs} inputs and {Kss.noutputs} outputs")
+    realisation = np.block([[Kss.D, Kss.C], [Kss.B, Kss.A]])
+    if not np.all(np.isfinite(realisation)):
+        raise ValueError("K: the controller's matrices must be finite")
+    plant = build(P, "lti", actuator or "zero", sensor=sensor or "zero",
+                  controller_order=Kss.nstates)
+    gains = np.tile(realisation, (P.period, 1, 1))
+    return plant.close(gains, controller_system=Kss)

@@ -19,6 +19,7 @@ EXPECTED = [
     "04_shared_channel_predictor.ipynb",
     "05_why_passivity.ipynb",
     "06_choosing_a_schedule.ipynb",
+    "07_output_feedback.ipynb",
     "08_bursts_matter.ipynb",
 ]
 

@@ -1,0 +1,280 @@
+"""The estimator gain of output feedback over a lossy network (MATH §12).
+
+When the controller measures ``y = C2 x`` and not the state, it keeps an
+estimate ``x̂`` corrected by what arrives, ``x̂ ← x̂ + θ1 L_k Σ1,k (y - C2
+x̂)``, and sends ``K_k x̂`` (``controller='estimator'`` in
+:func:`control_ncs.feedback`). The loop separates: it is mean-square stable
+exactly when the estimation-error loop (:func:`estimation_error_loop`, a
+property of ``L``, the sensor schedule and ``α1`` alone) and the ``x̂`` loop
+(``K``) both are. :func:`estimator_gain` finds ``L_k`` from the exact LMI of
+MATH §12 and verifies it with the exact ``ms_radius``.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from typing import Any
+
+import numpy as np
+from control.exception import ControlArgument
+
+from ._checks import decay_bound, real_array
+from .exceptions import INFEASIBLE, NOT_VERIFIED, SOLVER_FAILED, SynthesisError
+from .jump import JumpStateSpace
+from .plant import NetworkedStateSpace
+from .stability import ms_radius
+
+__all__ = ["EstimatorGain", "estimator_gain", "estimation_error_loop"]
+
+
+class EstimatorGain:
+    """Verified estimator gains ``L_k`` (MATH §12).
+
+    Parameters
+    ----------
+    gains : ndarray, shape (N, n, nmeas)
+        ``L_k`` per phase; the correction at step ``k`` uses ``L_{k mod N}``.
+    ms_radius : float
+        Exact per-step mean-square rate of the estimation-error loop.
+    lyapunov : ndarray, shape (N, n, n)
+        The certificate ``P_k`` of the LMI.
+    report : object
+        What the solver said (:class:`control_ncs.lmi.SolveReport`).
+
+    Attributes
+    ----------
+    gains, ms_radius, lyapunov, report
+        As above.
+
+    Notes
+    -----
+    ``numpy.asarray(L)`` is the ``(n, nmeas)`` matrix when ``N = 1`` and the
+    stack otherwise, so ``L`` can be passed as ``estimator_gain`` to
+    :func:`control_ncs.feedback`.
+
+    Examples
+    --------
+    ``x⁺ = 1.2 x + w + u`` measured through a sensor that loses 20 % of its
+    packets (the error loop's rate is at least ``0.2 · 1.2² = 0.288``):
+
+    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...         nmeas=1, ncon=1, sensor_loss=0.2)
+    >>> L = estimator_gain(P)
+    >>> L.gains.shape, round(L.ms_radius, 4)
+    ((1, 1, 1), 0.288)
+    """
+
+    def __init__(self, gains: np.ndarray, ms_radius: float,
+                 lyapunov: np.ndarray, report: Any = None):
+        self.gains = np.asarray(gains, float)
+        self.gains.flags.writeable = False
+        self.ms_radius = float(ms_radius)
+        self.lyapunov = lyapunov
+        self.report = report
+
+    @property
+    def period(self) -> int:
+        return self.gains.shape[0]
+
+    def __array__(self, dtype=None, copy=None):
+        out = self.gains[0] if self.period == 1 else self.gains
+        return np.array(out, dtype=dtype)
+
+    def __repr__(self) -> str:
+        return (f"<EstimatorGain: period {self.period}, L of shape "
+                f"{self.gains.shape[1:]}, error-loop ms_radius "
+                f"{self.ms_radius:.4g}>")
+
+
+def _check_plant(P: Any) -> NetworkedStateSpace:
+    if not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
+                              f"got {type(P).__name__}")
+    return P
+
+
+def _gains(P: NetworkedStateSpace, L: Any) -> np.ndarray:
+    L = real_array(L, "L", ndim=(2, 3))
+    L = L[None] if L.ndim == 2 else L
+    want = (P.nstates, P.C2.shape[0])
+    if L.shape[1:] != want or L.shape[0] == 0:
+        from control.exception import ControlDimension
+        raise ControlDimension(f"L: expected gains of shape {want} (n, nmeas) "
+                               f"or (N_L, {want[0]}, {want[1]}), got {L.shape}")
+    return L
+
+
+def estimation_error_loop(P: NetworkedStateSpace, L: Any) -> JumpStateSpace:
+    """The estimation-error loop ``e⁺ = (I - R_{k+1})(A e + B1 w)`` (MATH §12).
+
+    ``R_k = θ1,k L_k Σ1,k C2``: ``e = x - x̂`` after the correction. Its
+    mean-square stability, with that of the ``x̂`` loop, is the loop's
+    (separation).
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+        Plant with its network (Bernoulli sensor losses).
+    L : array_like, shape (n, nmeas) or (N_L, n, nmeas)
+        Estimator gains.
+
+    Returns
+    -------
+    JumpStateSpace
+        ``w → e``, period ``lcm(P.period, N_L)``, two modes per phase
+        (measurement lost, arrived).
+
+    Examples
+    --------
+    The scalar ``x⁺ = 2x`` measured directly, losing 20 % of the messages:
+    with ``L = 1`` an arrived message resets the error, so the rate is
+    ``α1 · 2² = 0.8``.
+
+    >>> P = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]],
+    ...         nmeas=1, ncon=1, sensor_loss=0.2)
+    >>> round(ms_radius(estimation_error_loop(P, [[1.0]])), 12)
+    0.8
+    """
+    P = _check_plant(P)
+    Lk = _gains(P, L)
+    N = math.lcm(P.period, Lk.shape[0])
+    n = P.nstates
+    a1 = float(P.sensor_loss)
+    A = np.empty((N, 2, n, n))
+    B = np.empty((N, 2, n, P.B1.shape[1]))
+    for k in range(N):
+        j = k + 1
+        R = Lk[j % Lk.shape[0]] @ P.sensor_schedule.selection(j) @ P.C2
+        for theta in (0, 1):
+            keep = np.eye(n) - theta * R
+            A[k, theta] = keep @ P.A
+            B[k, theta] = keep @ P.B1
+    C = np.broadcast_to(np.eye(n), (N, 2, n, n))
+    D = np.zeros((N, 2, n, P.B1.shape[1]))
+    return JumpStateSpace(A, B, C, D, np.tile([a1, 1 - a1], (N, 1)), P.dt,
+                          nominal=np.ones(N, int),
+                          states=[f"{s}_err" for s in P.state_labels],
+                          outputs=[f"{s}_err" for s in P.state_labels],
+                          inputs=P.disturbance_labels,
+                          name=f"{P.name} (estimation error)")
+
+
+def _undetected_modes(P: NetworkedStateSpace) -> list:
+    """Eigenvalues ``|λ| ≥ 1`` of the monodromy ``A^N`` that no scheduled
+    sensor sees over a period (PBH test of the lifted pair)."""
+    N, n = P.period, P.nstates
+    rows, Ak = [], np.eye(n)
+    for k in range(N):
+        rows.append(P.sensor_schedule.selection(k) @ P.C2 @ Ak)
+        Ak = P.A @ Ak
+    Phi, O = Ak, np.vstack(rows)
+    scale = max(1.0, float(np.linalg.norm(Phi, 2)), float(np.linalg.norm(O, 2)))
+    bad = []
+    for lam in np.linalg.eigvals(Phi):
+        if abs(lam) < 1 - 1e-12:
+            continue
+        s = np.linalg.svd(np.vstack([lam * np.eye(n) - Phi, O]),
+                          compute_uv=False)
+        if s[-1] <= 1e-10 * scale:
+            bad.append(complex(lam))
+    return bad
+
+
+def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
+                   solver: str | None = None) -> EstimatorGain:
+    """Estimator gains ``L_k`` with a mean-square stable error loop (MATH §12).
+
+    Solves the exact LMI of MATH §12 (feasible if and only if the lossy,
+    scheduled sensor link is mean-square detectable) and verifies the answer
+    with the exact ``ms_radius`` of :func:`estimation_error_loop`, never the
+    solver's word.
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+        Plant ``y = C2 x`` (any ``C2``) with its network; Bernoulli sensor
+        losses.
+    decay : float in (0, 1], optional
+        Ask for an error loop with ``ms_radius < decay²``.
+    solver : str, optional
+        cvxpy solver (default Clarabel).
+
+    Returns
+    -------
+    EstimatorGain
+        ``gains`` of shape ``(P.period, n, nmeas)``; pass it as
+        ``estimator_gain`` to :func:`control_ncs.feedback`.
+
+    Raises
+    ------
+    ValueError
+        Before solving, if ``(A, C2)`` is not detectable through the sensor
+        schedule (an unstable mode that no scheduled sensor sees), or
+        ``decay`` is not in ``(0, 1]``.
+    SynthesisError
+        ``reason='infeasible'`` with a proof when the losses alone forbid
+        it: losing every message of a period, probability ``α1^h`` (``h``
+        phases schedule a sensor), leaves ``e⁺ = A^N e``, so the rate is at
+        least ``(α1^h ρ(A)^{2N})^{1/N}``; ``'solver_failed'`` or
+        ``'not_verified'`` when the solver found nothing that passes the
+        exact check (nothing is proven then).
+
+    Examples
+    --------
+    ``x⁺ = 2x`` seen by ``y = x`` over a link losing 20 %: the error rate
+    must be below 1 (it is at least ``α1 · 4 = 0.8``).
+
+    >>> P = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]],
+    ...         nmeas=1, ncon=1, sensor_loss=0.2)
+    >>> L = estimator_gain(P)
+    >>> bool(0.8 - 1e-9 <= L.ms_radius < 1)
+    True
+    """
+    from . import lmi
+    P = _check_plant(P)
+    r = decay_bound(decay)
+    N = P.period
+    missed = _undetected_modes(P)
+    if missed:
+        raise ValueError(
+            f"P: (A, C2) is not detectable through the sensor schedule: the "
+            f"mode(s) with eigenvalue {', '.join(f'{m:.4g}' for m in missed)}"
+            f"{' of the monodromy A^N' if N > 1 else ''} "
+            f"are never seen by a scheduled sensor; no estimator gain "
+            f"exists (add a sensor, or schedule one that sees them)")
+    a1 = float(P.sensor_loss)
+    heard = int(P.sensor_schedule.pattern.any(axis=1).sum())
+    rho_A = max(abs(np.linalg.eigvals(P.A)))
+    bound = (a1 ** heard * rho_A ** (2 * N)) ** (1.0 / N)
+    if bound >= r ** 2:
+        raise SynthesisError(
+            f"P: no estimator gain exists: losing all {heard} sensor "
+            f"message(s) of a period (probability α1^{heard}) leaves the "
+            f"error uncorrected, so its mean-square rate is at least "
+            f"{bound:.6g} ≥ {r ** 2:.6g}", INFEASIBLE, {"lower_bound": bound})
+    S1 = np.array([P.sensor_schedule.selection(k) for k in range(N)])
+    model = lmi.estimator_model(P.A, P.C2, S1, a1, r)
+    # the status is kept on the report and the gain is checked exactly, so
+    # cvxpy's "may be inaccurate" warning is noise (as in passivity.py);
+    # catch_warnings restores the filters on exit
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Solution may be inaccurate",
+                                category=UserWarning)
+        report = lmi.solve(model.problem, solver)
+    if model.P[0].value is None:
+        raise SynthesisError(
+            f"estimator_gain: the solver found no estimator gain (status "
+            f"{report.status!r}); nothing is proven either way",
+            SOLVER_FAILED, {"status": report.status})
+    Pk = np.array([0.5 * (X.value + X.value.T) for X in model.P])
+    L = np.array([np.linalg.solve(Pk[k], model.Z[k].value) @ S1[k]
+                  for k in range(N)])
+    rate = ms_radius(estimation_error_loop(P, L))
+    if not rate < r ** 2:
+        raise SynthesisError(
+            f"estimator_gain: the solver's gain fails the exact check: the "
+            f"error loop's ms_radius is {rate:.6g}, not below {r ** 2:.6g} "
+            f"(solver status {report.status!r}); nothing is proven",
+            NOT_VERIFIED, {"ms_radius": rate, "status": report.status})
+    return EstimatorGain(L, rate, Pk, report)

@@ -1,0 +1,242 @@
+"""Output feedback through an estimator at the controller (MATH §12, issue 14).
+
+The builder ``controller='estimator'`` (gains ``K_k`` on ``x̂``, estimator
+gains ``L_k``), its separation property and closed forms, the event-level
+protocol, and ``estimator_gain`` (the exact LMI, verified exactly).
+"""
+
+import control as ct
+import numpy as np
+import pytest
+from control.exception import ControlArgument, ControlDimension
+
+from control_ncs import (ScheduleWarning, SynthesisError, feedback, jss, moments, ms_radius,
+                         nss, require_state_measured)
+from control_ncs.estimator import estimation_error_loop, estimator_gain
+from control_ncs.protocol import simulate_protocol
+
+from helpers import (assert_mean_within, fourth_moment_rate,
+                     plant_state_selector, random_plant)
+
+
+def two_state(lam, a1=0.0, a2=0.0, **network):
+    """x⁺ = diag(λ, 0.5) x + [1; 1] u (+ w), y = x1: one unstable
+    eigenvalue λ, seen by the single output, reached by the single input."""
+    return nss(np.diag([lam, 0.5]), [[1.0, 1.0], [0.3, 1.0]],
+               [[1.0, 1.0], [1.0, 0.0]], np.zeros((2, 2)), True, nmeas=1,
+               ncon=1, sensor_loss=a1, actuator_loss=a2, **network)
+
+
+def output_plant(rng, **network):
+    """Three states, two sensors y = C2 x (C2 random), two actuators."""
+    A = rng.standard_normal((3, 3))
+    A *= 1.1 / max(abs(np.linalg.eigvals(A)))
+    B = rng.standard_normal((3, 3))
+    C = rng.standard_normal((3, 3))
+    D = np.zeros((3, 3))
+    D[0, 0] = 0.5
+    return nss(A, B, C, D, True, nmeas=2, ncon=2, **network)
+
+
+def hat_loop(P, K):
+    """x̂⁺ = (A + θ2,k B2 Σ2,k K) x̂, written from MATH §12 directly."""
+    N = P.period
+    A = np.array([[P.A + t2 * P.B2 @ P.actuator_schedule.selection(k) @ K
+                   for t2 in (0, 1)] for k in range(N)])
+    a2 = P.actuator_loss
+    return jss(A, np.ones((3, 1)), np.ones((1, 3)), 0,
+               np.tile([a2, 1 - a2], (N, 1)))
+
+
+# -- the builder -------------------------------------------------------------
+@pytest.mark.parametrize("actuator", ["zero", "hold"])
+def test_identity_measurement_and_gain_reproduce_the_predictor(actuator):
+    P = random_plant(np.random.default_rng(0), n=2,
+                     sensor_schedule=[1, 2, 0], actuator_schedule=[0, 0, 1],
+                     sensor_loss=0.2, actuator_loss=0.3)
+    K = [[-0.5, 0.2, 0.1]] if actuator == "hold" else [[-0.5, 0.2]]
+    pred = feedback(P, K, controller="predictor", actuator=actuator)
+    est = feedback(P, K, controller="estimator", actuator=actuator,
+                   estimator_gain=np.eye(2))
+    assert est.modes == pred.modes
+    assert est.jump_states == pred.jump_states
+
+
+def test_loop_rate_is_the_larger_of_the_error_and_estimate_loops():
+    """Separation (MATH §12), with sensor and actuator schedules, any L, K."""
+    rng = np.random.default_rng(5)
+    P = output_plant(rng, sensor_schedule=[[1, 0], [0, 1]],
+                     actuator_schedule=[[1, 1], [0, 1]], sensor_loss=0.15,
+                     actuator_loss=0.25)
+    for _ in range(3):
+        L = 0.4 * rng.standard_normal((3, 2))
+        K = 0.4 * rng.standard_normal((2, 3))
+        CL = feedback(P, K, controller="estimator", estimator_gain=L)
+        e = ms_radius(estimation_error_loop(P, L))
+        hat = ms_radius(hat_loop(P, K))
+        assert ms_radius(CL) == pytest.approx(max(e, hat), rel=1e-9)
+
+
+@pytest.mark.parametrize("lam, a1, a2", [
+    (2.0, 0.24, 0.10), (2.0, 0.10, 0.24), (2.0, 0.26, 0.10),
+    (2.0, 0.10, 0.26), (1.5, 0.43, 0.43), (1.5, 0.45, 0.2)])
+def test_explicit_gains_attain_max_of_alpha1_and_alpha2_lambda2(lam, a1, a2):
+    """L = [1; 0], K = [-λ, 0] cancel λ on arrival: both loops are
+    triangular, rate max(α1 λ², α2 λ², 0.5²). Near α λ² = 1 on both sides."""
+    CL = feedback(two_state(lam, a1, a2), [[-lam, 0.0]],
+                  controller="estimator", estimator_gain=[[1.0], [0.0]])
+    rate = max(a1 * lam**2, a2 * lam**2, 0.25)
+    assert ms_radius(CL) == pytest.approx(rate, rel=1e-10)
+    assert (ms_radius(CL) < 1) == (a1 * lam**2 < 1 and a2 * lam**2 < 1)
+
+
+def test_no_gains_beat_max_of_alpha1_and_alpha2_lambda2():
+    """E e1⁺² ≥ α1 λ² e1² whatever L, E x̂1⁺² ≥ α2 λ² x̂1² whatever K: over a
+    grid of gains the rate never drops below max(α1, α2) λ² = 1.04."""
+    lam, a1, a2 = 2.0, 0.26, 0.2
+    P = two_state(lam, a1, a2)
+    rates = [ms_radius(feedback(P, [[-k, c]], controller="estimator",
+                                estimator_gain=[[l], [0.3]]))
+             for k in np.linspace(1, 3, 9) for l in np.linspace(0.5, 1.5, 9)
+             for c in (0.0, 0.2)]
+    assert min(rates) >= a1 * lam**2 * (1 - 1e-12)
+    assert min(rates) == pytest.approx(a1 * lam**2, rel=1e-10)
+
+
+# -- against the event-level protocol ----------------------------------------
+def protocol_case(actuator):
+    """Zero actuator: three states, two sensors y = C2 x over a period-3
+    schedule. Hold actuator (its state has n + m2 + n coordinates, and the
+    fourth-moment check costs O(n⁸)): the two-state plant without schedule,
+    gains whose fourth moment stays close to the second's square."""
+    if actuator == "zero":
+        P = output_plant(np.random.default_rng(6),
+                         sensor_schedule=[[1, 0], [0, 1], [1, 1]],
+                         actuator_schedule=[[1, 0], [0, 1], [0, 0]],
+                         sensor_loss=0.1, actuator_loss=0.1)
+        K = -ct.dlqr(P.A, P.B2, np.eye(3), np.eye(2))[0]
+        return P, K, estimator_gain(P).gains
+    P = two_state(1.3, 0.1, 0.1)
+    return P, np.array([[-0.4, 0.0, 0.0]]), estimator_gain(P).gains
+
+
+@pytest.mark.parametrize("actuator", ["zero", "hold"])
+def test_exact_moments_match_the_event_level_simulation(actuator):
+    P, K, L = protocol_case(actuator)
+    n = P.nstates
+    CL = feedback(P, K, controller="estimator", actuator=actuator,
+                  estimator_gain=L)
+    steps = 20
+    assert ms_radius(CL) < 1
+    assert (fourth_moment_rate(CL) / ms_radius(CL) ** 2) ** steps < 10
+    x0 = np.array([1.0, -0.5, 0.3])[:n]
+    xi0 = np.zeros(len(CL.jump_states))
+    xi0[[i for i, s in enumerate(CL.jump_states) if s.endswith("_hat")]] = x0
+    w = np.sin(0.4 * np.arange(steps + 1))[None]
+    mom = moments(CL, steps + 1, inputs=w, initial_state=xi0)
+    sim = simulate_protocol(
+        P.A, P.B1, P.B2, P.C1, P.D11, P.D12, P.sensor_schedule.pattern,
+        P.actuator_schedule.pattern, 0.1, 0.1,
+        np.tile(K, (P.period, 1, 1)), steps,
+        controller="estimator", actuator=actuator, C2=P.C2,
+        estimator_gains=L, inputs=w[:, :steps], initial_state=x0,
+        initial_estimate=x0, trials=20000, rng=np.random.default_rng(8))
+    S = plant_state_selector(CL, n)
+    x = sim["x"]
+    assert_mean_within(x, S @ mom.states_mean, 5)
+    assert_mean_within(np.einsum("sit,sjt->sijt", x, x),
+                       np.einsum("ia,abt,jb->ijt", S,
+                                 mom.states_second_moment, S), 5)
+    assert_mean_within(sim["z"], mom.outputs_mean[:, :steps], 5)
+
+
+# -- estimator_gain -------------------------------------------------------------
+@pytest.mark.parametrize("a1", [0.1, 0.24])
+def test_estimator_gain_is_verified_by_the_exact_error_rate(a1):
+    P = two_state(2.0, a1)
+    L = estimator_gain(P)
+    assert L.ms_radius == pytest.approx(ms_radius(estimation_error_loop(P, L)),
+                                        rel=1e-12)
+    assert a1 * 4 * (1 - 1e-9) <= L.ms_radius < 1
+
+
+def test_estimator_gain_respects_the_decay_bound():
+    P = two_state(2.0, 0.1)
+    L = estimator_gain(P, decay=0.8)
+    assert ms_radius(estimation_error_loop(P, L)) < 0.64
+
+
+def test_estimator_gain_works_through_a_sensor_schedule():
+    P = output_plant(np.random.default_rng(6), sensor_schedule=[[1, 0],
+                                                                [0, 1]],
+                     sensor_loss=0.2)
+    L = estimator_gain(P)
+    assert L.gains.shape == (2, 3, 2)
+    assert ms_radius(estimation_error_loop(P, L)) < 1
+    # a silent sensor is never used: the gain's column for it is zero
+    assert np.all(L.gains[0][:, 1] == 0) and np.all(L.gains[1][:, 0] == 0)
+
+
+def test_loss_beyond_alpha1_lambda2_is_proven_infeasible():
+    with pytest.raises(SynthesisError, match="at least 1.04") as err:
+        estimator_gain(two_state(2.0, 0.26))
+    assert err.value.reason == "infeasible"
+
+
+def test_undetectable_plant_is_refused_before_solving():
+    """The unstable state 1 is not measured by y = x2, and does not reach
+    it: no estimator can see it."""
+    P = nss(np.diag([2.0, 0.5]), [[1.0, 1.0], [1.0, 1.0]],
+            [[1.0, 1.0], [0.0, 1.0]], np.zeros((2, 2)), True, nmeas=1, ncon=1)
+    with pytest.raises(ValueError, match="not detectable through the sensor "
+                       r"schedule.*eigenvalue 2"):
+        estimator_gain(P)
+
+
+def test_a_sensor_never_scheduled_makes_the_plant_undetectable():
+    with pytest.warns(ScheduleWarning):
+        P = output_plant(np.random.default_rng(6), sensor_schedule=[[0, 0]])
+    with pytest.raises(ValueError, match="not detectable"):
+        estimator_gain(P)
+
+
+def test_estimator_gain_with_a_negated_lqr_gain_closes_a_stable_loop():
+    P = output_plant(np.random.default_rng(7), sensor_loss=0.1,
+                     actuator_loss=0.1)
+    L = estimator_gain(P)
+    Klqr, _, _ = ct.dlqr(P.A, P.B2, np.eye(3), np.eye(2))
+    CL = feedback(P, -Klqr, estimator_gain=L)     # u = -Klqr x̂
+    assert CL.info["controller"] == "estimator"
+    assert ms_radius(CL) < 1
+
+
+# -- bad input ----------------------------------------------------------------
+def test_estimator_without_its_gain_is_refused():
+    with pytest.raises(ControlArgument, match="estimator_gain: controller="
+                       "'estimator' needs"):
+        feedback(two_state(2.0), [[-2.0, 0.0]], controller="estimator")
+
+
+def test_estimator_gain_of_the_wrong_shape_is_refused():
+    with pytest.raises(ControlDimension, match=r"estimator_gain: expected "
+                       r"L_k of shape \(2, 1\)"):
+        feedback(two_state(2.0), [[-2.0, 0.0]], estimator_gain=np.eye(2))
+
+
+def test_estimator_gain_is_refused_for_a_static_controller():
+    with pytest.raises(ControlArgument, match="only controller='estimator'"):
+        feedback(two_state(2.0), [[-2.0]], controller="static",
+                 estimator_gain=[[1.0], [0.0]])
+
+
+@pytest.mark.parametrize("controller", ["static", "predictor"])
+def test_state_feedback_design_without_y_equal_x_says_use_the_estimator(
+        controller):
+    with pytest.raises(ControlArgument, match="static gains need y = x; use "
+                       "controller='estimator'"):
+        require_state_measured(two_state(2.0), controller)
+
+
+def test_continuous_time_plant_estimator_gain_input_is_checked():
+    with pytest.raises(ControlArgument, match="P: expected a NetworkedState"):
+        estimator_gain(ct.ss([[1.0]], [[1.0]], [[1.0]], [[0.0]], True))
