@@ -53,3 +53,19 @@ def test_notebook_tells_its_story_in_markdown(name):
     cells = _read(name).cells
     assert cells[0].cell_type == "markdown" and cells[0].source.startswith("# ")
     assert any(c.cell_type == "markdown" for c in cells[1:])
+
+
+@pytest.mark.slow  # executes a notebook (about 15 s); still run in CI
+def test_no_solver_warning_reaches_a_notebook(tmp_path):
+    """Notebook 4 once silenced cvxpy's 'Solution may be inaccurate' itself;
+    the package now turns it into a status, so its outputs carry none."""
+    from nbclient import NotebookClient
+    nb = _read("04_shared_channel_predictor.ipynb")
+    NotebookClient(nb, timeout=600, kernel_name="python3",
+                   resources={"metadata": {"path": str(tmp_path)}}).execute()
+    text = "".join(
+        out.get("text", "") + "".join(map(str, out.get("data", {}).values()))
+        for cell in nb.cells if cell.cell_type == "code"
+        for out in cell.get("outputs", []))
+    assert "Solution may be inaccurate" not in text
+    assert "Warning" not in text
