@@ -149,14 +149,14 @@ class PeriodicGain:
         return np.array(out, dtype=dtype)
 
     def __eq__(self, other: object) -> bool:
-        return (isinstance(other, PeriodicGain)
-                and np.array_equal(self.gains, other.gains)
+        if not isinstance(other, PeriodicGain):
+            return False
+        L, M = self.estimator_gain, other.estimator_gain
+        same_L = (L is None and M is None) or (
+            L is not None and M is not None and np.array_equal(L, M))
+        return (np.array_equal(self.gains, other.gains)
                 and self.controller == other.controller
-                and self.actuator == other.actuator
-                and (self.estimator_gain is None) == (
-                    other.estimator_gain is None)
-                and (self.estimator_gain is None or np.array_equal(
-                    self.estimator_gain, other.estimator_gain)))
+                and self.actuator == other.actuator and same_L)
 
     __hash__ = None  # type: ignore[assignment]  # value equality, mutable arrays
 
