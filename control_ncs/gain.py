@@ -128,11 +128,13 @@ class PeriodicGain:
             if 0 in L.shape:
                 raise ControlDimension(f"estimator_gain: expected nonzero "
                                        f"dimensions, got shape {L.shape}")
-            if L.shape[1] != self.gains.shape[2] and self.actuator == "zero":
+            # K_k multiplies x̂ ('zero') or [x̂; u⁻] ('hold')
+            m2, nk = self.gains.shape[1:]
+            n = nk if self.actuator == "zero" else nk - m2
+            if L.shape[1] != n:
                 raise ControlDimension(
-                    f"estimator_gain: expected L_k with {self.gains.shape[2]} "
-                    f"rows (the state the gains multiply), got shape "
-                    f"{L.shape}")
+                    f"estimator_gain: expected L_k with {n} rows (the "
+                    f"estimate x̂ the gains act on), got shape {L.shape}")
             L.flags.writeable = False
         self.estimator_gain = L
 

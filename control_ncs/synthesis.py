@@ -193,6 +193,10 @@ class SynthesisResult:
                  f"  solver {r.solver}: {r.status}, compile "
                  f"{r.compile_time:.3f} s, solve {r.solve_time:.3f} s, "
                  f"{len(self.attempts)} attempt(s)"]
+        if self.gain.estimator_gain is not None:
+            # MATH §12: the loop's rate is the larger of these two loops'
+            lines.append(f"  estimator gain L_k of shape "
+                         f"{self.gain.estimator_gain.shape} (N_L, n, nmeas)")
         lines += ["  " + line for line in
                   self.certificate.summary().splitlines()]
         return "\n".join(lines)

@@ -438,3 +438,26 @@ def test_passivesyn_refuses_the_lti_controller_by_name():
     with pytest.raises(ControlArgument, match="controller: passivesyn "
                        "designs gains"):
         passivesyn(two_state(2.0), controller="lti")
+
+
+@pytest.mark.parametrize("actuator, gains", [
+    ("zero", [[-1.0, 0.2]]), ("hold", [[-1.0, 0.2, 0.1]])])
+def test_periodic_gain_refuses_an_estimator_gain_of_another_state_size(
+        actuator, gains):
+    with pytest.raises(ControlDimension, match="estimator_gain: expected L_k "
+                       "with 2 rows"):
+        PeriodicGain(gains, "estimator", actuator, estimator_gain=[[1.0]])
+
+
+def test_estimator_design_summary_names_the_estimator_gain():
+    K, _, _ = passivesyn(measured_first(), controller="estimator",
+                         decay=0.99)
+    assert "estimator gain L_k of shape (1, 2, 1)" in K.result.summary()
+
+
+def test_estimator_design_with_hold_actuators_closes_the_same_loop():
+    P = measured_first()
+    K, CL, _ = passivesyn(P, controller="estimator", actuator="hold",
+                          decay=0.99)
+    assert K.result.certificate.verified and K.gains.shape == (1, 1, 3)
+    assert feedback(P, K).modes == CL.modes
