@@ -473,6 +473,12 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             "estimator_gain: only controller='estimator' on a "
             "NetworkedStateSpace takes an estimator gain (a JumpPlant "
             "already holds it)")
+    # cheap checks first: the estimator design solves an LMI before the
+    # plant exists, and its time counts against the budget
+    margin = positive_real(margin, "margin")
+    if time_limit is not None:
+        time_limit = positive_real(time_limit, "time_limit")
+    deadline = None if time_limit is None else time.perf_counter() + time_limit
     if isinstance(P, JumpPlant):
         # the gain's labels: the strategy that built the plant, if named
         controller = P.info.get("controller", controller)
@@ -504,10 +510,6 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                     "P")
     eta, decay, structure0 = _checks(P, eta, decay, controller, actuator,
                                      form, structure, plant)
-    margin = positive_real(margin, "margin")
-    if time_limit is not None:
-        time_limit = positive_real(time_limit, "time_limit")
-    deadline = None if time_limit is None else time.perf_counter() + time_limit
     riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
     if riccati and structure0 != "full":
         raise ValueError(
@@ -569,9 +571,9 @@ def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
             f"{' of the monodromy A^N' if N > 1 else ''} are never reached "
             f"by a scheduled actuator; no controller stabilises the loop")
     if L is None:
-        L = estimator_gain(P, decay=decay,
-                           solver=None if solver is None
-                           or str(solver).upper() == "RICCATI" else solver)
+        riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
+        L = estimator_gain(P, decay=decay, solver=None if solver is None
+                           or riccati else check_solver(solver))
     if isinstance(L, EstimatorGain):
         L = L.gains
     L = real_array(L, "estimator_gain", ndim=(2, 3))

@@ -461,3 +461,19 @@ def test_estimator_design_with_hold_actuators_closes_the_same_loop():
                           decay=0.99)
     assert K.result.certificate.verified and K.gains.shape == (1, 1, 3)
     assert feedback(P, K).modes == CL.modes
+
+
+@pytest.mark.parametrize("kwargs, error, words", [
+    (dict(margin=-1.0), ValueError, "margin"),
+    (dict(time_limit=0.0), ValueError, "time_limit"),
+    (dict(solver="NOSUCHSOLVER"), ControlArgument, "solver: 'NOSUCHSOLVER'")])
+def test_estimator_design_checks_its_options_before_solving(monkeypatch,
+                                                            kwargs, error,
+                                                            words):
+    import control_ncs.lmi as lmi
+
+    def never(*args, **kw):
+        raise AssertionError("solved")
+    monkeypatch.setattr(lmi, "solve", never)
+    with pytest.raises(error, match=words):
+        passivesyn(measured_first(), controller="estimator", **kwargs)
