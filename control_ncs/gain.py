@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from control.exception import ControlDimension
+from control.exception import ControlArgument, ControlDimension
 
 from ._checks import choice, real_array
 
@@ -68,15 +68,21 @@ class PeriodicGain:
         actuator), the estimate ``x̂`` (``'predictor'`` with a ``'zero'``
         actuator), or ``[x̂; u⁻]``, the estimate and the last applied input
         (``'predictor'`` with a ``'hold'`` actuator).
-    controller : {'static', 'predictor'}
+    controller : {'static', 'predictor', 'estimator'}
     actuator : {'zero', 'hold'}
     result : object, optional
         The synthesis result that produced the gain (certificate and
         verification figures), if any.
+    estimator_gain : array_like, shape (n, nmeas) or (N_L, n, nmeas), optional
+        The estimator's ``L_k`` (MATH §12) that ``controller='estimator'``
+        gains belong to (an :class:`control_ncs.estimator.EstimatorGain` is
+        accepted); :func:`control_ncs.feedback` closes the loop with it.
 
     Attributes
     ----------
     gains : ndarray, shape (N, m2, nk)
+    estimator_gain : ndarray, shape (N_L, n, nmeas), or None
+        Read-only.
     period : int
 
     Notes
@@ -97,7 +103,8 @@ class PeriodicGain:
     """
 
     def __init__(self, gains: Any, controller: str = "static",
-                 actuator: str = "zero", result: Any = None):
+                 actuator: str = "zero", result: Any = None,
+                 estimator_gain: Any = None):
         K = real_array(gains, "gains", ndim=(2, 3))
         if 0 in K.shape:
             raise ControlDimension(f"gains: expected nonzero dimensions, got "
@@ -107,6 +114,29 @@ class PeriodicGain:
         self.controller = choice(controller, "controller", controllers())
         self.actuator = choice(actuator, "actuator", actuators())
         self.result = result
+        L = None
+        if estimator_gain is not None:
+            if self.controller != "estimator":
+                raise ControlArgument(
+                    f"estimator_gain: only controller='estimator' gains carry "
+                    f"an estimator gain, got controller={self.controller!r}")
+            # an EstimatorGain exposes its stack; np.asarray would drop the
+            # phase axis when N_L = 1
+            L = real_array(getattr(estimator_gain, "gains", estimator_gain),
+                           "estimator_gain", ndim=(2, 3))
+            L = np.array(L[None] if L.ndim == 2 else L)
+            if 0 in L.shape:
+                raise ControlDimension(f"estimator_gain: expected nonzero "
+                                       f"dimensions, got shape {L.shape}")
+            # K_k multiplies x̂ ('zero') or [x̂; u⁻] ('hold')
+            m2, nk = self.gains.shape[1:]
+            n = nk if self.actuator == "zero" else nk - m2
+            if L.shape[1] != n:
+                raise ControlDimension(
+                    f"estimator_gain: expected L_k with {n} rows (the "
+                    f"estimate x̂ the gains act on), got shape {L.shape}")
+            L.flags.writeable = False
+        self.estimator_gain = L
 
     @property
     def period(self) -> int:
@@ -121,20 +151,28 @@ class PeriodicGain:
         return np.array(out, dtype=dtype)
 
     def __eq__(self, other: object) -> bool:
-        return (isinstance(other, PeriodicGain)
-                and np.array_equal(self.gains, other.gains)
+        if not isinstance(other, PeriodicGain):
+            return False
+        L, M = self.estimator_gain, other.estimator_gain
+        same_L = (L is None and M is None) or (
+            L is not None and M is not None and np.array_equal(L, M))
+        return (np.array_equal(self.gains, other.gains)
                 and self.controller == other.controller
-                and self.actuator == other.actuator)
+                and self.actuator == other.actuator and same_L)
 
     __hash__ = None  # type: ignore[assignment]  # value equality, mutable arrays
 
     def __reduce__(self):
+        L = None if self.estimator_gain is None else np.array(
+            self.estimator_gain)
         return (PeriodicGain, (np.array(self.gains), self.controller,
-                               self.actuator, self.result))
+                               self.actuator, self.result, L))
 
     def __repr__(self) -> str:
         head = (f"PeriodicGain(controller={self.controller!r}, "
                 f"actuator={self.actuator!r}, period={self.period}")
+        if self.estimator_gain is not None:
+            head += f", estimator_gain shape={self.estimator_gain.shape}"
         if self.gains.size > REPR_ENTRIES:
             return f"{head}, shape={self.gains.shape})"
         g = np.array2string(np.asarray(self), precision=4)

@@ -12,6 +12,7 @@ checks.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -19,7 +20,9 @@ from typing import Any
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import choice, decay_bound, finite_real, positive_real
+from ._checks import (choice, decay_bound, finite_real, positive_real,
+                      real_array)
+from .stability import ms_radius
 from .gain import PeriodicGain, actuators, controllers
 from .jump import JumpPlant, JumpStateSpace, require_iid
 from .driver import RETRIES, drive
@@ -27,7 +30,7 @@ from .lmi import (DEFAULT_MARGIN, SolveReport, check_options, check_solver,
                   data_scale, read_gains, solve, synthesis_model)
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
-from .strategies import build
+from .strategies import build, require_state_measured
 from .exceptions import (CERTIFIED, INFEASIBLE, MESSAGES, NOT_VERIFIED,
                          SOLVER_FAILED, TIME_LIMIT, SynthesisError)
 from .verify import (Certificate, certify_index, check_certificate,
@@ -190,6 +193,10 @@ class SynthesisResult:
                  f"  solver {r.solver}: {r.status}, compile "
                  f"{r.compile_time:.3f} s, solve {r.solve_time:.3f} s, "
                  f"{len(self.attempts)} attempt(s)"]
+        if self.gain.estimator_gain is not None:
+            # MATH §12: the loop's rate is the larger of these two loops'
+            lines.append(f"  estimator gain L_k of shape "
+                         f"{self.gain.estimator_gain.shape} (N_L, n, nmeas)")
         lines += ["  " + line for line in
                   self.certificate.summary().splitlines()]
         return "\n".join(lines)
@@ -237,12 +244,6 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()) "
                               f"or a JumpPlant (see build()), got "
                               f"{type(P).__name__}")
-    else:
-        n = P.nstates
-        if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)):
-            raise ControlArgument(
-                f"P: synthesis needs the state measured, y = x (C2 = I, "
-                f"{n}x{n}), got C2 of shape {P.C2.shape}")
     m1, p1 = plant.shape["nw"], plant.shape["nz"]
     if m1 != p1 or m1 == 0:
         raise ControlDimension(
@@ -285,7 +286,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                actuator: str = "zero", form: str = "merged",
                structure: str = "auto", solver: str | None = None,
                margin: float = DEFAULT_MARGIN,
-               time_limit: float | None = TIME_BUDGET, **solver_options: Any
+               time_limit: float | None = TIME_BUDGET,
+               estimator_gain: Any = None, **solver_options: Any
                ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """Periodic state feedback making a networked loop strictly passive.
 
@@ -315,7 +317,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     Parameters
     ----------
     P : NetworkedStateSpace or JumpPlant
-        Plant with its network; needs ``y = x`` and ``dim w = dim z``. Or
+        Plant with its network; needs ``dim w = dim z`` and, except for
+        ``controller='estimator'``, ``y = x``. Or
         the open-loop jump system a strategy built
         (:func:`control_ncs.build`, or one made by hand with selection
         matrices ``E_k``): then ``controller`` and ``actuator`` only label
@@ -331,9 +334,13 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     decay : float in (0, 1], optional
         Mean-square decay bound ``r``: ``E‖x_t‖²`` decays at least like
         ``r^(2t)``, i.e. ``ms_radius < r²``.
-    controller : {'static', 'predictor'}
-        The paper's memoryless gain, or the model-based predictor of
-        MATH §8b (needed under a shared channel).
+    controller : {'static', 'predictor', 'estimator'}
+        The paper's memoryless gain, the model-based predictor of
+        MATH §8b (needed under a shared channel), or the estimator-based
+        controller of MATH §12 for ``y = C2 x`` with any ``C2`` (the
+        predictor corrected through ``L_k``; ``K.estimator_gain`` holds
+        ``L_k`` and :func:`control_ncs.feedback` closes the same loop).
+        ``'static'`` and ``'predictor'`` need ``y = x``.
     actuator : {'zero', 'hold'}
         What actuators apply when their message is lost or not addressed.
     form : {'merged', 'paper'}
@@ -362,6 +369,11 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         limit). The remaining time is passed to Clarabel
         (``time_limit``); the budget is checked between attempts. A
         Riccati iteration already running is not interrupted.
+    estimator_gain : array_like or EstimatorGain, optional
+        ``controller='estimator'`` only: ``L_k`` of shape ``(n, nmeas)`` or
+        ``(N_L, n, nmeas)`` (e.g. from :func:`control.dlqe`); default
+        :func:`control_ncs.estimator_gain` ``(P, decay=decay)`` with the
+        LMI ``solver`` if one is named.
     **solver_options
         Passed to the solver, checked first: an option Clarabel (its
         ``DefaultSettings``), SCS or CVXOPT does not know raises
@@ -393,14 +405,20 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``'inaccurate'``, ``'not_verified'`` after the retries
         (``RETRIES``), the fallback solver and, for the default call, the
         fallbacks above; ``'time_limit'`` when ``time_limit`` ran out.
-        Riccati route: ``'infeasible'`` when some ``R_k`` loses positive
+        ``'infeasible'`` also when a given ``estimator_gain``'s error loop
+        is not mean-square stable (within ``r²``): by separation no ``K``
+        helps (MATH §12). Riccati route: ``'infeasible'`` when some ``R_k`` loses positive
         definiteness (a proof that the LMI with its margin is infeasible),
         ``'solver_failed'`` when it runs out of sweeps or ``P`` grows beyond
         what double precision can certify (inconclusive),
         ``'not_verified'`` when its gain fails the exact checks (no retries).
     ValueError, ControlDimension, ControlArgument
         The pre-solve checks: ``dim w ≠ dim z``, ``D11 + D11ᵀ ⊁ 2ηI``,
-        ``y ≠ x``, a static gain that can never close the loop,
+        ``y ≠ x`` (``'static'``, ``'predictor'``), a static gain that can
+        never close the loop; for ``'estimator'``: ``(A, B2)`` not
+        stabilisable through the actuator schedule or ``(A, C2)`` not
+        detectable through the sensor schedule (lifted PBH tests),
+        Markov links, ``estimator_gain`` given to another controller;
         ``solver='riccati'`` for a loop whose structure is not ``'full'``.
     TypeError
         A solver option the chosen solver (or the Riccati iteration) does
@@ -430,9 +448,37 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     >>> CL = ncs.feedback(P, ncs.PeriodicGain(-Klqr))
     >>> bool(ms_radius(CL) < 1)
     True
+
+    Only ``x[0]`` measured (``C2 = [1 0]``): the estimator-based design.
+
+    >>> P2 = nss([[1.2, 1.0], [0.0, 0.5]], [[1.0, 0.0], [0.0, 1.0]],
+    ...          [[1.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...          nmeas=1, ncon=1, sensor_loss=0.1)
+    >>> K, CL, eta = passivesyn(P2, controller='estimator', decay=0.99)
+    >>> K.estimator_gain.shape, K.result.certificate.verified
+    ((1, 2, 1), True)
+    >>> bool(ms_radius(ncs.feedback(P2, K)) == ms_radius(CL))
+    True
     """
+    if controller == "lti":
+        raise ControlArgument(
+            "controller: passivesyn designs gains ('static', 'predictor', "
+            "'estimator'); an LTI controller ('lti') is given, not designed: "
+            "analyse it with feedback(P, K)")
     choice(controller, "controller", controllers())
     choice(actuator, "actuator", actuators())
+    if estimator_gain is not None and (controller != "estimator"
+                                       or isinstance(P, JumpPlant)):
+        raise ControlArgument(
+            "estimator_gain: only controller='estimator' on a "
+            "NetworkedStateSpace takes an estimator gain (a JumpPlant "
+            "already holds it)")
+    # cheap checks first: the estimator design solves an LMI before the
+    # plant exists, and its time counts against the budget
+    margin = positive_real(margin, "margin")
+    if time_limit is not None:
+        time_limit = positive_real(time_limit, "time_limit")
+    deadline = None if time_limit is None else time.perf_counter() + time_limit
     if isinstance(P, JumpPlant):
         # the gain's labels: the strategy that built the plant, if named
         controller = P.info.get("controller", controller)
@@ -443,9 +489,20 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                           states=P.states, info=dict(
                               P.info, controller=controller,
                               actuator=actuator))
+    elif isinstance(P, NetworkedStateSpace):
+        if controller == "estimator":
+            plant = _estimator_plant(P, actuator, estimator_gain, decay,
+                                     solver)
+        else:
+            try:
+                require_state_measured(P, controller)
+            except ControlArgument as err:
+                raise ControlArgument(
+                    f"P: {err}; passivesyn's state-feedback designs need "
+                    f"C2 = I") from None
+            plant = build(P, controller, actuator)
     else:
-        plant = build(P, controller, actuator) if isinstance(
-            P, NetworkedStateSpace) else None
+        plant = None
     if plant is not None:
         # MATH §8 is written for i.i.d. modes; on a chain it would design
         # for the stationary marginals (§11's K_{k,ℓ} synthesis: not yet)
@@ -453,10 +510,6 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                     "P")
     eta, decay, structure0 = _checks(P, eta, decay, controller, actuator,
                                      form, structure, plant)
-    margin = positive_real(margin, "margin")
-    if time_limit is not None:
-        time_limit = positive_real(time_limit, "time_limit")
-    deadline = None if time_limit is None else time.perf_counter() + time_limit
     riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
     if riccati and structure0 != "full":
         raise ValueError(
@@ -490,6 +543,55 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         # Θ(η) ≼ Θ(η0) for η ≤ η0: the certificate at η0 proves η exactly
         K.result.eta = K.result.eta_solver = got = float(requested)
     return K, CL, got
+
+
+def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
+                     decay: Any, solver: Any) -> JumpPlant:
+    """The open loop of MATH §12 with ``L_k`` given or designed, after the
+    pre-solve refusals (Markov links, unstabilisable or undetectable modes,
+    a given ``L`` whose error loop alone is too slow)."""
+    from .estimator import (EstimatorGain, estimation_error_loop,
+                            estimator_gain, unobservable_modes)
+    if P.mode_transition() is not None:
+        raise ControlArgument(
+            "passivesyn: P has Markov (bursty) links; the estimator design "
+            "is written for i.i.d. losses only and would answer for the "
+            "stationary marginals, which is wrong for bursts (MATH §11)")
+    r = decay_bound(decay)
+    N = P.period
+    # dual PBH: what B2 Σ2,k never reaches over a period (lifted pair)
+    missed = unobservable_modes(P.A.T, [
+        (P.B2 @ P.actuator_schedule.selection(N - 1 - j)).T
+        for j in range(N)])
+    if missed:
+        raise ValueError(
+            f"P: (A, B2) is not stabilisable through the actuator schedule: "
+            f"the mode(s) with eigenvalue "
+            f"{', '.join(f'{m:.4g}' for m in missed)}"
+            f"{' of the monodromy A^N' if N > 1 else ''} are never reached "
+            f"by a scheduled actuator; no controller stabilises the loop")
+    if L is None:
+        riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
+        L = estimator_gain(P, decay=decay, solver=None if solver is None
+                           or riccati else check_solver(solver))
+    if isinstance(L, EstimatorGain):
+        L = L.gains
+    L = real_array(L, "estimator_gain", ndim=(2, 3))
+    NL = L.shape[0] if L.ndim == 3 else 1
+    plant = build(P, "estimator", actuator, period=math.lcm(N, NL),
+                  estimator_gain=L)
+    # separation (MATH §12): the loop's rate is at least the error loop's,
+    # whatever K is: a proof of infeasibility, before any solve
+    rate = ms_radius(estimation_error_loop(P, plant.info["estimator_gain"]))
+    if not rate < r ** 2:
+        raise SynthesisError(
+            f"estimator_gain: the estimation-error loop of the given L has "
+            f"ms_radius {rate:.6g} >= {r ** 2:.6g}; by separation (MATH §12) "
+            f"no gain K makes the loop mean-square stable"
+            + (f" with decay {r}" if r < 1 else ""),
+            INFEASIBLE, dict(error_loop_ms_radius=rate, bound=r ** 2,
+                             proof="separation"))
+    return plant
 
 
 def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
@@ -827,7 +929,8 @@ def _riccati(plant, eta, decay, margin, options):
 def _finish(plant, X, Y, gains, CL, cert, eta_ok, eta_solver, decay, form,
             structure, width, report, attempts):
     info = plant.info
-    K = PeriodicGain(gains, info["controller"], info["actuator"])
+    K = PeriodicGain(gains, info["controller"], info["actuator"],
+                     estimator_gain=info.get("estimator_gain"))
     result = SynthesisResult(
         K, float(eta_ok), float(eta_solver), decay, cert,
         X, Y, form, structure, width, report, attempts, plant)

@@ -5,13 +5,16 @@ gains ``L_k``), its separation property and closed forms, the event-level
 protocol, and ``estimator_gain`` (the exact LMI, verified exactly).
 """
 
+import pickle
+
 import control as ct
 import numpy as np
 import pytest
 from control.exception import ControlArgument, ControlDimension
 
-from control_ncs import (ScheduleWarning, SynthesisError, feedback, jss, moments, ms_radius,
-                         nss, require_state_measured)
+from control_ncs import (PeriodicGain, ScheduleWarning, SynthesisError,
+                         feedback, jss, moments, ms_radius, nss, passivesyn,
+                         require_state_measured)
 from control_ncs.estimator import estimation_error_loop, estimator_gain
 from control_ncs.protocol import simulate_protocol
 
@@ -240,3 +243,237 @@ def test_state_feedback_design_without_y_equal_x_says_use_the_estimator(
 def test_continuous_time_plant_estimator_gain_input_is_checked():
     with pytest.raises(ControlArgument, match="P: expected a NetworkedState"):
         estimator_gain(ct.ss([[1.0]], [[1.0]], [[1.0]], [[0.0]], True))
+
+
+# -- passivesyn(controller='estimator') -----------------------------------------
+def measured_first(a1=0.1, a2=0.1, **network):
+    """x⁺ = [[1.2, 1], [0, 0.5]] x + w + u, z = x1 + w, y = x1 (C2 = [1 0]):
+    the unstable state is measured, the input reaches it through x2."""
+    return nss([[1.2, 1.0], [0.0, 0.5]], [[1.0, 0.0], [0.3, 1.0]],
+               [[1.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [0.0, 0.0]], True,
+               nmeas=1, ncon=1, sensor_loss=a1, actuator_loss=a2, **network)
+
+
+def estimate_loop(P, K):
+    """x̂⁺ = (A + θ2,k B2 Σ2,k K_k) x̂ (zero actuator), from MATH §12."""
+    N = K.period
+    A = np.array([[P.A + t2 * P.B2 @ P.actuator_schedule.selection(k) @ K[k]
+                   for t2 in (0, 1)] for k in range(N)])
+    n, a2 = P.nstates, P.actuator_loss
+    return jss(A, np.ones((n, 1)), np.ones((1, n)), 0,
+               np.tile([a2, 1 - a2], (N, 1)))
+
+
+def test_passivesyn_estimator_with_identity_reproduces_the_predictor():
+    P = random_plant(np.random.default_rng(3), n=2, sensor_loss=0.1,
+                     actuator_loss=0.1)
+    Kp, _, eta_p = passivesyn(P, controller="predictor", decay=0.99)
+    Ke, _, eta_e = passivesyn(P, controller="estimator", decay=0.99,
+                              estimator_gain=np.eye(2))
+    assert Ke.controller == "estimator"
+    assert np.array_equal(Ke.estimator_gain, np.eye(2)[None])
+    assert eta_e == pytest.approx(eta_p, abs=1e-6)
+    assert Ke.result.certificate.eta == pytest.approx(
+        Kp.result.certificate.eta, abs=1e-6)
+
+
+def test_passivesyn_designs_a_verified_estimator_controller_for_y_c2_x():
+    P = measured_first()
+    K, CL, eta = passivesyn(P, controller="estimator", decay=0.99)
+    assert K.result.certificate.verified
+    assert K.estimator_gain.shape == (1, 2, 1)
+    assert ms_radius(CL) < 0.99 ** 2
+    # the gain object alone closes the same loop
+    assert ms_radius(feedback(P, K)) == pytest.approx(ms_radius(CL),
+                                                      rel=1e-12)
+    assert feedback(P, K).modes == CL.modes
+
+
+def test_designed_loop_rate_is_the_larger_of_error_and_estimate_loops():
+    P = measured_first(0.15, 0.2)
+    K, CL, _ = passivesyn(P, controller="estimator", decay=0.99)
+    e = ms_radius(estimation_error_loop(P, K.estimator_gain))
+    hat = ms_radius(estimate_loop(P, K))
+    assert ms_radius(CL) == pytest.approx(max(e, hat), rel=1e-9)
+
+
+def test_closed_form_inside_alpha_lambda2_below_one_gets_a_verified_design():
+    """λ = 2, α1 λ² = α2 λ² = 0.8 < 1."""
+    P = two_state(2.0, 0.2, 0.2)
+    K, CL, _ = passivesyn(P, controller="estimator")
+    assert K.result.certificate.verified
+    assert max(0.2, 0.2) * 4 * (1 - 1e-9) <= ms_radius(CL) < 1
+
+
+@pytest.mark.parametrize("a1, a2", [(0.26, 0.1), (0.1, 0.26)])
+def test_closed_form_outside_alpha_lambda2_below_one_is_proven_infeasible(
+        a1, a2):
+    """α1 λ² = 1.04 (no estimator) or α2 λ² = 1.04 (no gain on x̂)."""
+    with pytest.raises(SynthesisError) as err:
+        passivesyn(two_state(2.0, a1, a2), controller="estimator")
+    assert err.value.reason == "infeasible"
+
+
+def test_given_estimator_gain_with_an_unstable_error_loop_is_infeasible():
+    """L = [1; 0] leaves the error rate α1 λ² = 1.04: by separation no K."""
+    with pytest.raises(SynthesisError, match="separation") as err:
+        passivesyn(two_state(2.0, 0.26, 0.1), controller="estimator",
+                   estimator_gain=[[1.0], [0.0]])
+    assert err.value.reason == "infeasible"
+    assert err.value.figures["error_loop_ms_radius"] == pytest.approx(1.04)
+
+
+def test_passivesyn_accepts_an_estimator_gain_object():
+    P = measured_first()
+    L = estimator_gain(P)
+    K, CL, _ = passivesyn(P, controller="estimator", estimator_gain=L)
+    assert np.array_equal(K.estimator_gain, L.gains)
+    assert K.result.certificate.verified
+
+
+def test_estimator_gain_of_another_period_gives_the_common_period():
+    P = measured_first()
+    L = np.array([[[0.9], [0.1]], [[1.0], [0.0]]])
+    K, CL, _ = passivesyn(P, controller="estimator", estimator_gain=L)
+    assert K.period == 2 and np.array_equal(K.estimator_gain, L)
+    assert ms_radius(feedback(P, K)) == pytest.approx(ms_radius(CL),
+                                                      rel=1e-12)
+
+
+def test_unstabilisable_plant_is_refused_before_solving(monkeypatch):
+    """The unstable state 1 is measured but no input reaches it."""
+    import control_ncs.lmi as lmi
+
+    def never(*args, **kwargs):
+        raise AssertionError("solved")
+    monkeypatch.setattr(lmi, "solve", never)
+    P = nss(np.diag([2.0, 0.5]), [[1.0, 0.0], [1.0, 1.0]],
+            [[1.0, 1.0], [1.0, 0.0]], [[1.0, 0.0], [0.0, 0.0]], True,
+            nmeas=1, ncon=1)
+    with pytest.raises(ValueError, match="not stabilisable through the "
+                       r"actuator schedule.*eigenvalue 2"):
+        passivesyn(P, controller="estimator")
+
+
+def test_an_actuator_never_scheduled_makes_the_plant_unstabilisable():
+    with pytest.warns(ScheduleWarning):
+        P = measured_first(actuator_schedule=[[0]])
+    with pytest.raises(ValueError, match="not stabilisable"):
+        passivesyn(P, controller="estimator")
+
+
+def test_undetectable_plant_is_refused_by_passivesyn_before_solving():
+    P = nss(np.diag([2.0, 0.5]), [[1.0, 1.0], [1.0, 1.0]],
+            [[1.0, 1.0], [0.0, 1.0]], [[1.0, 0.0], [0.0, 0.0]], True,
+            nmeas=1, ncon=1)
+    with pytest.raises(ValueError, match="not detectable"):
+        passivesyn(P, controller="estimator")
+
+
+@pytest.mark.parametrize("controller", ["static", "predictor"])
+def test_passivesyn_state_feedback_without_y_equal_x_says_use_the_estimator(
+        controller):
+    with pytest.raises(ControlArgument, match="static gains need y = x; use "
+                       "controller='estimator'"):
+        passivesyn(measured_first(), controller=controller)
+
+
+def test_invertible_non_identity_c2_is_refused_for_static_gains_by_name():
+    P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [2.0]], [[1.0, 0.0], [0.0, 0.0]],
+            True, nmeas=1, ncon=1)
+    with pytest.raises(ControlArgument, match="static gains need y = x"):
+        passivesyn(P)
+
+
+def test_passivesyn_refuses_an_estimator_gain_for_other_controllers():
+    P = random_plant(np.random.default_rng(3), n=2)
+    with pytest.raises(ControlArgument, match="estimator_gain: only "
+                       "controller='estimator'"):
+        passivesyn(P, controller="predictor", estimator_gain=np.eye(2))
+
+
+def test_passivesyn_estimator_gain_of_the_wrong_shape_is_refused():
+    with pytest.raises(ControlDimension, match="estimator_gain: expected"):
+        passivesyn(measured_first(), controller="estimator",
+                   estimator_gain=np.eye(2))
+
+
+# -- PeriodicGain carries the estimator gain ----------------------------------
+def test_periodic_gain_keeps_a_read_only_estimator_gain():
+    K = PeriodicGain([[-1.0, 0.2]], "estimator", estimator_gain=[[1.0], [0.0]])
+    assert K.estimator_gain.shape == (1, 2, 1)
+    with pytest.raises(ValueError):
+        K.estimator_gain[0, 0, 0] = 2.0
+    assert PeriodicGain([[-1.0]]).estimator_gain is None
+
+
+def test_periodic_gain_equality_and_pickling_include_the_estimator_gain():
+    K = PeriodicGain([[-1.0, 0.2]], "estimator", estimator_gain=[[1.0], [0.0]])
+    other = PeriodicGain([[-1.0, 0.2]], "estimator",
+                         estimator_gain=[[0.5], [0.0]])
+    assert K != other
+    assert K != PeriodicGain([[-1.0, 0.2]], "estimator")
+    back = pickle.loads(pickle.dumps(K))
+    assert back == K and not back.estimator_gain.flags.writeable
+    assert "estimator_gain" in repr(K)
+
+
+def test_periodic_gain_refuses_an_estimator_gain_for_other_controllers():
+    with pytest.raises(ControlArgument, match="estimator_gain: only "
+                       "controller='estimator'"):
+        PeriodicGain([[-1.0, 0.2]], "predictor", estimator_gain=[[1.0], [0.0]])
+
+
+def test_feedback_uses_the_estimator_gain_a_periodic_gain_carries():
+    P = two_state(2.0, 0.2, 0.2)
+    L = [[1.0], [0.0]]
+    K = PeriodicGain([[-2.0, 0.0]], "estimator", estimator_gain=L)
+    assert feedback(P, K).modes == feedback(
+        P, [[-2.0, 0.0]], controller="estimator", estimator_gain=L).modes
+
+
+def test_passivesyn_refuses_the_lti_controller_by_name():
+    """An LTI controller is analysed, not designed: before this refusal the
+    call solved an LMI and reported a misleading infeasibility."""
+    with pytest.raises(ControlArgument, match="controller: passivesyn "
+                       "designs gains"):
+        passivesyn(two_state(2.0), controller="lti")
+
+
+@pytest.mark.parametrize("actuator, gains", [
+    ("zero", [[-1.0, 0.2]]), ("hold", [[-1.0, 0.2, 0.1]])])
+def test_periodic_gain_refuses_an_estimator_gain_of_another_state_size(
+        actuator, gains):
+    with pytest.raises(ControlDimension, match="estimator_gain: expected L_k "
+                       "with 2 rows"):
+        PeriodicGain(gains, "estimator", actuator, estimator_gain=[[1.0]])
+
+
+def test_estimator_design_summary_names_the_estimator_gain():
+    K, _, _ = passivesyn(measured_first(), controller="estimator",
+                         decay=0.99)
+    assert "estimator gain L_k of shape (1, 2, 1)" in K.result.summary()
+
+
+def test_estimator_design_with_hold_actuators_closes_the_same_loop():
+    P = measured_first()
+    K, CL, _ = passivesyn(P, controller="estimator", actuator="hold",
+                          decay=0.99)
+    assert K.result.certificate.verified and K.gains.shape == (1, 1, 3)
+    assert feedback(P, K).modes == CL.modes
+
+
+@pytest.mark.parametrize("kwargs, error, words", [
+    (dict(margin=-1.0), ValueError, "margin"),
+    (dict(time_limit=0.0), ValueError, "time_limit"),
+    (dict(solver="NOSUCHSOLVER"), ControlArgument, "solver: 'NOSUCHSOLVER'")])
+def test_estimator_design_checks_its_options_before_solving(monkeypatch,
+                                                            kwargs, error,
+                                                            words):
+    import control_ncs.lmi as lmi
+
+    def never(*args, **kw):
+        raise AssertionError("solved")
+    monkeypatch.setattr(lmi, "solve", never)
+    with pytest.raises(error, match=words):
+        passivesyn(measured_first(), controller="estimator", **kwargs)

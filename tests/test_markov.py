@@ -497,3 +497,76 @@ def test_mean_system_index_is_exact_for_markov_modes_too():
     _, CL = _bursty_loop()
     lti = CL.mean()
     assert ncs.mean_input_ff_index(CL) == ncs.get_input_ff_index(lti)
+
+
+# -- output feedback (LTI controller, estimator) over bursty links ------------
+def output_feedback_case():
+    """Two states, y = x1 (C2 = [1 0]) sent every other step; an
+    observer-based LTI controller and an estimator loop with gains from the
+    loss-free designs (rates below 0.86, so 20000 paths estimate the
+    moments well)."""
+    P = ncs.nss([[0.9, 1.0], [0.0, 0.5]], [[1.0, 0.0], [0.3, 1.0]],
+                [[1.0, 0.0], [1.0, 0.0]], [[0.5, 0.0], [0.0, 0.0]], True,
+                nmeas=1, ncon=1, sensor_schedule=[[1], [0]],
+                sensor_loss=gilbert_elliott(fail=0.1, recover=0.5),
+                actuator_loss=gilbert_elliott(fail=0.05, recover=0.5))
+    Kx = -ct.dlqr(P.A, P.B2, np.eye(2), np.eye(1))[0]
+    L = ct.dlqr(P.A.T, P.C2.T, np.eye(2), np.eye(1))[0].T
+    lti = ct.ss(P.A + P.B2 @ Kx - L @ P.C2, L, Kx, 0, True)
+    # the estimator's L_k corrects x̂ after the update: x̂ += L (y - C2 x̂)
+    Lest = np.linalg.solve(P.A, L)
+    return P, lti, Kx, Lest
+
+
+@pytest.mark.parametrize("controller, actuator", [
+    ("lti", "zero"), ("lti", "hold"), ("estimator", "zero"),
+    ("estimator", "hold")])
+def test_output_feedback_over_markov_links_matches_the_protocol(controller,
+                                                                actuator):
+    """Exact mean and second moment of x (and mean of z) against 20000
+    event-level protocol paths with Gilbert-Elliott sensor and actuator
+    links, within 5 standard errors."""
+    P, lti, Kx, L = output_feedback_case()
+    s1, s2 = P.sensor_link, P.actuator_link
+    steps = 20
+    w = np.sin(0.4 * np.arange(steps + 1))[None]
+    if controller == "lti":
+        CL = feedback(P, lti, actuator=actuator)
+        x0, xc0 = np.zeros(2), np.array([0.5, -1.0])
+        xi0 = np.zeros(len(CL.jump_states))
+        xi0[2:4] = xc0                               # [x; xc; ŷ; u⁻]
+        S = np.eye(2, len(CL.jump_states))
+        extra = dict(controller_system=(lti.A, lti.B, lti.C, lti.D),
+                     initial_controller_state=xc0)
+        gains = None
+    else:
+        K = np.hstack([Kx, [[0.0]]]) if actuator == "hold" else Kx
+        CL = feedback(P, K, controller="estimator", actuator=actuator,
+                      estimator_gain=L)
+        x0 = np.array([1.0, -0.5])
+        xi0 = np.zeros(len(CL.jump_states))
+        xi0[[i for i, s in enumerate(CL.jump_states)
+             if s.endswith("_hat")]] = x0
+        S = plant_state_selector(CL, 2)
+        extra = dict(estimator_gains=np.tile(L, (P.period, 1, 1)),
+                     initial_estimate=x0)
+        gains = np.tile(K, (P.period, 1, 1))
+    assert CL.modes.transition is not None
+    assert ms_radius(CL) < 0.9
+    mom = moments(CL, steps + 1, inputs=w, initial_state=xi0)
+    sim = simulate_protocol(
+        P.A, P.B1, P.B2, P.C1, P.D11, P.D12, P.sensor_schedule.pattern,
+        P.actuator_schedule.pattern, s1, s2, gains, steps,
+        controller=controller, actuator=actuator, C2=P.C2,
+        inputs=w[:, :steps], initial_state=x0, trials=20000,
+        rng=np.random.default_rng(12), **extra)
+    x = sim["x"]
+    assert_mean_within(x, S @ mom.states_mean, 5)
+    assert_mean_within(np.einsum("sit,sjt->sijt", x, x),
+                       np.einsum("ia,abt,jb->ijt", S, mom.states_second_moment,
+                                 S), 5)
+    assert_mean_within(sim["z"], mom.outputs_mean[:, :steps], 5)
+    # the links do burst in the protocol: consecutive losses correlate
+    lost = ~sim["theta1"]
+    both = np.mean(lost[:, 1:] & lost[:, :-1])
+    assert both == pytest.approx(s1.loss * (1 - s1.recover), abs=0.01)
