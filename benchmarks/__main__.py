@@ -30,6 +30,8 @@ SECTIONS = [
     ("bench_simulate", "simulate_section"),
     ("bench_passivity", "passivity_section"),
     ("bench_sweeps", "sweeps_section"),
+    ("bench_markov", "markov_section"),
+    ("bench_estimator", "estimator_section"),
 ]
 
 

@@ -29,7 +29,9 @@ def test_quick_run_writes_report(tmp_path):
     for heading in ("# control_ncs benchmarks", "## Targets",
                     "## 1. passivesyn", "## 1b.", "## 2. The n = 64",
                     "## 2c.", "## 3. ms_radius", "## 3b.", "## 4. simulate",
-                    "## 5. Loss-free passivity", "## 6. Scaling"):
+                    "## 5. Loss-free passivity", "## 6. Scaling",
+                    "## 7. Sweeps", "## 8. Bursty (Markov) losses",
+                    "## 9. Estimator synthesis"):
         assert heading in text, heading
     assert "(failed)" not in text, text[text.find("(failed)") - 200:][:2000]
     for version in ("python", "numpy", "scipy", "cvxpy", "clarabel",
