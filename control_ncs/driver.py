@@ -116,9 +116,9 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
         For a fixed ``eta`` (an analysis): an exact 'infeasible' at any
         margin also rules out every larger one, so the remaining attempts
         with a numeric margin are skipped (those with None, margin
-        maximised, still run), and a maximised margin that is not positive
-        (``report.value <= 0``) refutes too. The reason is 'infeasible'
-        when nothing verifies afterwards. Without it only the problem as
+        maximised, still run). The reason is 'infeasible' when nothing
+        verifies afterwards. A maximised margin that is not positive refutes
+        nothing (it is the solver's number, within its tolerance of 0). Without it only the problem as
         posed (margin 1, the requested ``eta``) proves infeasibility.
     spare : bool
         Keep a verified candidate of an inaccurate solve, returned only
@@ -181,12 +181,9 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
             out.message = (f"the LMI is infeasible (solver {report.solver}, "
                            f"status {report.status!r})")
             return out
-        if (refute and scale is None and report.value is not None
-                and report.value <= 0):
-            # the largest margin is not positive: no strict certificate
-            # (unless another solver's answer verifies after all)
-            refuted = report
-            continue
+        # A maximised margin that comes out <= 0 is the solver's number,
+        # within its tolerance of 0 near the index: no proof (its candidate
+        # is checked like any other below).
         if candidate is None:
             continue
         cert = verify(candidate)

@@ -344,7 +344,11 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
             "system's index is λmin(D + Dᵀ)/2)")
     requested = ifp_index
     if ifp_index is not None:
-        bound, _ = feedthrough_bound(sys.modes.probabilities, sys.modes.D)
+        # the floor sits below the feedthrough bound of the level asked
+        # (with its output-feedback term), so the floor problem is never
+        # refused for feedthrough where the requested one is not
+        bound, _ = feedthrough_bound(sys.modes.probabilities, sys.modes.D,
+                                     ofp_index=ofp_index or 0.0)
         ifp_index = max(ifp_index, level_floor(
             bound, sys.modes.A, sys.modes.B, sys.modes.C, sys.modes.D))
     result = _certificate(sys, ifp_index, ofp_index, decay, method, solver,
@@ -353,7 +357,9 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         return result
     # certified at the floor: every lower level is certified exactly; a
     # refutation at the floor proves nothing about the level asked
-    if result.passive or result.reason != INFEASIBLE:
+    if result.passive or result.reason == NOT_MSS:
+        # passive at the floor holds a fortiori; not mean-square stable
+        # refutes every level
         return replace(result, eta=requested)
     report = result.report
     if report is not None:

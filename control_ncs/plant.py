@@ -368,7 +368,7 @@ class NetworkedStateSpace(ct.StateSpace):
         return net + ct.StateSpace.__str__(
             ct.StateSpace(self.A, self.B, self.C, self.D, self.dt,
                           inputs=self.input_labels, outputs=self.output_labels,
-                          states=self.state_labels))
+                          states=self.state_labels, name=self.name))
 
 
 def _restore_nss(args: dict) -> NetworkedStateSpace:

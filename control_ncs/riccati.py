@@ -329,8 +329,9 @@ def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
             if status == "diverged":
                 raise SynthesisError(
                     "riccati: the iteration diverged for every eta down to "
-                    f"{trial:.3g}: no gain has a certificate (margin "
-                    f"{margin}, decay {decay})", INFEASIBLE,
+                    f"{trial:.3g}: no gain has a certificate with the "
+                    f"strictness margin {margin} (relative), decay {decay}",
+                    INFEASIBLE,
                     dict(figures, sweeps=sweeps))
             raise SynthesisError(
                 "riccati: inconclusive: for every eta down to "

@@ -396,9 +396,13 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     Raises
     ------
     SynthesisError
-        ``reason`` and ``figures`` say why: ``'infeasible'`` only with a
-        proof: the exact status 'infeasible' of the problem as posed (never
-        an ``*_inaccurate`` one), a diverging Riccati iteration, or the
+        ``reason`` and ``figures`` say why: ``'infeasible'`` only with
+        evidence: the solver's exact status 'infeasible' for the LMI as posed
+        (never an ``*_inaccurate`` one; this is the solver's infeasibility
+        certificate, not re-checked, and it covers the LMI *with* its
+        strictness ``margin`` — a level within about the margin of the
+        supremum may still have a certificate), a diverging Riccati
+        iteration (likewise with its margin), or the
         gain-independent network modes alone having ``ms_radius ≥ 1``
         (``≥ r²``; e.g. a loss of exactly 1 on an unstable plant; figure
         ``ms_radius_without_control``); ``'solver_failed'``,
@@ -655,15 +659,19 @@ def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
                 raise
     reason = out.reason
     if reason == INFEASIBLE:
+        # what the solver's status proves: the LMI *with its strictness
+        # margin* has no solution; levels within about that margin of the
+        # supremum may still have a certificate (the LMI is not homogeneous)
         what = (f"{out.message}: no gain of this kind "
-                + ("exists with a certificate" if struct == "full" else
+                + ("has a certificate" if struct == "full" else
                    f"passes the sufficient '{struct}' condition")
-                + f" for eta={'max' if eta is None else eta}, decay={decay}")
+                + f" with the strictness margin {margin:g} (relative) for "
+                f"eta={'max' if eta is None else eta}, decay={decay}")
     else:
         what = (f"no verified gain ({out.message}, (margin, back-off) = "
                 f"{[(margin * m, b) for m, b in RETRIES]})")
     raise SynthesisError(f"passivesyn: {what}", reason,
-                         dict(out.figures(), structure=struct))
+                         dict(out.figures(), structure=struct, margin=margin))
 
 
 def _eta_search(plant, decay, margin, structure, form, solver, options,

@@ -375,3 +375,27 @@ def test_frequency_machinery_lives_in_kyp():
     resp = kyp.FrequencyResponse(G.A, G.B, G.C, G.D)
     assert kyp.frequency_minimum(resp) == pytest.approx(1 / 3, abs=1e-12)
     assert cn.frequency_ff_index(G) == kyp.frequency_minimum(resp)
+
+
+# -- review findings: no refutation without a proof ---------------------------
+def test_floor_level_with_an_output_feedback_index_is_not_refused_for_feedthrough():
+    # the floor of a very negative ifp_index sits below the feedthrough bound
+    # *with* rho; it used to be computed without rho and be refused there
+    G = ct.ss(0.5, 1.0, 1.0, 1.0, True)
+    res = cn.passivity_certificate(G, -1e9, ofp_index=1e7)
+    assert res.passive and res.eta == -1e9
+    assert cn.check_certificate(G, [[2e8]], -1e9, ofp_index=1e7).verified
+
+
+def test_a_maximised_margin_within_solver_tolerance_of_zero_refutes_nothing():
+    # static-gain loop x⁺ = (2 - 1.5θ)x + w, z = x + w, actuator loss 0.1:
+    # its certified index is 0.3519238534011 (a scalar optimum over P); just
+    # below it a certificate exists (checked exactly), so no solver number
+    # may call the level refuted
+    P = cn.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+            nmeas=1, ncon=1, actuator_loss=0.1)
+    CL = cn.feedback(P, cn.PeriodicGain([[[-1.5]]]))
+    level = 0.3519238534011 - 1e-10
+    assert cn.check_certificate(CL, [[1.11978503]], level).verified
+    res = cn.passivity_certificate(CL, level, method="lmi")
+    assert res.passive or res.reason != "infeasible"

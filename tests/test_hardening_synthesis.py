@@ -359,7 +359,9 @@ def test_driver_refuted_fixed_level_is_infeasible_when_nothing_verifies():
     assert out.reason == "infeasible" and len(calls) == 2
 
 
-def test_driver_nonpositive_maximised_margin_refutes_a_fixed_level():
+def test_driver_nonpositive_maximised_margin_refutes_nothing():
+    # a maximised margin <= 0 is the solver's number, within its tolerance
+    # of 0 near the index: only an exact check or status may refute
     def attempt(scale, target, name, left):
         value = -1.0 if scale is None else None
         return _report("optimal" if scale is None else "solver_error",
@@ -367,7 +369,7 @@ def test_driver_nonpositive_maximised_margin_refutes_a_fixed_level():
 
     out = driver.drive(attempt, lambda c: _Cert(False), eta=0.5,
                        solver="X", retries=LEVELS, refute_margins=True)
-    assert out.reason == "infeasible"
+    assert out.reason != "infeasible"
 
 
 def test_driver_without_spare_returns_a_verified_level_of_inaccurate_solve():
