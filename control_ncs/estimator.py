@@ -25,6 +25,9 @@ from .jump import JumpStateSpace
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
 
+#: Balance the state when its scales spread by this factor (as synthesis)
+BALANCE_FROM = 16.0
+
 __all__ = ["EstimatorGain", "estimator_gain", "estimation_error_loop"]
 
 
@@ -283,7 +286,15 @@ def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
             f"error uncorrected, so its mean-square rate is at least "
             f"{bound:.6g} ≥ {r ** 2:.6g}", INFEASIBLE, {"lower_bound": bound})
     S1 = np.array([P.sensor_schedule.selection(k) for k in range(N)])
-    model = lmi.estimator_model(P.A, P.C2, S1, a1, r)
+    # solved in balanced coordinates e = T ẽ, T = diag(t) (powers of two,
+    # exact): Ã = T⁻¹AT, C̃2 = C2 T, and L = T L̃; the gain is then checked
+    # on the error loop in the plant's own coordinates
+    A0, C0 = np.asarray(P.A, float), np.asarray(P.C2, float)
+    t = lmi.balancing_scale(np.abs(A0), np.zeros(A0.shape[0]),
+                            np.abs(C0).sum(axis=0), BALANCE_FROM)
+    t = np.ones(A0.shape[0]) if t is None else t
+    model = lmi.estimator_model(A0 * (1 / t)[:, None] * t[None, :],
+                                C0 * t[None, :], S1, a1, r)
     # the status is kept on the report and the gain is checked exactly, so
     # cvxpy's "may be inaccurate" warning is noise (as in passivity.py);
     # catch_warnings restores the filters on exit
@@ -296,9 +307,10 @@ def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
             f"estimator_gain: the solver found no estimator gain (status "
             f"{report.status!r}); nothing is proven either way",
             SOLVER_FAILED, {"status": report.status})
-    Pk = np.array([0.5 * (X.value + X.value.T) for X in model.P])
-    L = np.array([np.linalg.solve(Pk[k], model.Z[k].value) @ S1[k]
-                  for k in range(N)])
+    Pt = np.array([0.5 * (X.value + X.value.T) for X in model.P])
+    L = np.array([t[:, None] * (np.linalg.solve(Pt[k], model.Z[k].value)
+                                @ S1[k]) for k in range(N)])
+    Pk = Pt / t[None, :, None] / t[None, None, :]   # T⁻¹ P̃ T⁻¹
     rate = ms_radius(estimation_error_loop(P, L))
     if not rate < r ** 2:
         raise SynthesisError(

@@ -876,3 +876,28 @@ def estimator_model(A: np.ndarray, C2: np.ndarray, S1: np.ndarray,
         cons.append(0.5 * (M + M.T) >> eps * np.eye(n * (size + 1)))
         cons += [P[k] >> np.eye(n), P[k] << t * np.eye(n)]
     return EstimatorModel(cp.Problem(cp.Minimize(t), cons), P, Z)
+
+
+def balancing_scale(A: np.ndarray, b: np.ndarray, c: np.ndarray,
+                    spread: float) -> np.ndarray | None:
+    """Diagonal state scaling ``t`` (powers of two) for an LMI, or None.
+
+    Balances the weights ``A`` (``n × n``, e.g. ``Σ |A_ki|``) together with
+    one extra node standing for every input (``b``, weight per state) and
+    output (``c``) like :func:`scipy.linalg.matrix_balance`. A similarity by
+    powers of two is exact in floating point and keeps every zero pattern,
+    so the LMI can be solved in ``x = diag(t) x̃`` and its answer mapped back
+    exactly. None when the data are not finite or ``t`` spreads by less than
+    ``spread`` (then the data are taken as they are).
+    """
+    from scipy.linalg import matrix_balance
+    n = A.shape[0]
+    S = np.zeros((n + 1, n + 1))
+    S[:n, :n], S[:n, n], S[n, :n] = A, b, c
+    if not np.all(np.isfinite(S)) or not np.any(S):
+        return None
+    _, (scale, _) = matrix_balance(S, permute=False, separate=True)
+    t = scale[:n] / scale[n]
+    if not t.max() / t.min() >= spread:
+        return None
+    return t

@@ -26,8 +26,9 @@ from .stability import ms_radius
 from .gain import PeriodicGain, actuators, controllers
 from .jump import JumpPlant, JumpStateSpace, require_iid
 from .driver import RETRIES, drive
-from .lmi import (DEFAULT_MARGIN, SolveReport, check_options, check_solver,
-                  data_scale, read_gains, solve, synthesis_model)
+from .lmi import (DEFAULT_MARGIN, SolveReport, balancing_scale,
+                  check_options, check_solver, data_scale, read_gains, solve,
+                  synthesis_model)
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
 from .strategies import build, require_state_measured
@@ -782,22 +783,11 @@ def _balancing(plant: JumpPlant) -> np.ndarray | None:
     """
     if not plant.is_selection():
         return None
-    from scipy.linalg import matrix_balance
-    n = plant.shape["nx"]
     A = np.abs(plant.A).sum(axis=(0, 1))
     b = np.abs(np.concatenate([plant.Bu, plant.Bw], axis=-1)).sum(
         axis=(0, 1)).sum(axis=1)
     c = np.abs(plant.Cz).sum(axis=(0, 1)).sum(axis=0)
-    # one extra node standing for every input and output
-    S = np.zeros((n + 1, n + 1))
-    S[:n, :n], S[:n, n], S[n, :n] = A, b, c
-    if not np.all(np.isfinite(S)) or not np.any(S):
-        return None
-    _, (scale, _) = matrix_balance(S, permute=False, separate=True)
-    t = scale[:n] / scale[n]
-    if not t.max() / t.min() >= BALANCE_FROM:
-        return None
-    return t
+    return balancing_scale(A, b, c, BALANCE_FROM)
 
 
 def _scaled(plant: JumpPlant, t: np.ndarray) -> JumpPlant:

@@ -477,3 +477,18 @@ def test_estimator_design_checks_its_options_before_solving(monkeypatch,
     monkeypatch.setattr(lmi, "solve", never)
     with pytest.raises(error, match=words):
         passivesyn(measured_first(), controller="estimator", **kwargs)
+
+
+def test_badly_scaled_plant_gets_an_estimator_and_a_verified_design():
+    # a well-scaled plant under x = diag(1e3, 1e-3) x̃, measured through
+    # y = x1 (issue 19's plant): the estimator LMI is solved in balanced
+    # coordinates and its gain checked in the plant's own
+    import control_ncs as ncs
+    P = ncs.nss([[0.9, 5e5], [2e-7, 1.2]], [[1e3, 1e3], [1e-3, 1e-3]],
+                [[1e-3, 1e3], [1, 0]], [[1, 0], [0, 0]], nmeas=1, ncon=1,
+                sensor_loss=0.05, actuator_loss=0.1)
+    L = ncs.estimator_gain(P)
+    assert L.ms_radius < 1
+    assert ncs.ms_radius(ncs.estimation_error_loop(P, L)) == L.ms_radius
+    K, CL, eta = ncs.passivesyn(P, controller="estimator", decay=0.99)
+    assert K.result.certificate.verified and ncs.ms_radius(CL) < 0.99 ** 2
