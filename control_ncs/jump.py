@@ -31,7 +31,7 @@ from typing import Any, Sequence
 
 import numpy as np
 import control as ct
-from control.exception import ControlDimension
+from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, no_extra_kwargs, real_array
 
@@ -738,6 +738,8 @@ class JumpStateSpace(ct.StateSpace):
         >>> one.A.tolist(), one.dt, one.input_labels
         ([[0.9]], 0.1, ['w[0]'])
         """
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+            raise ControlArgument(f"k: expected an int phase, got {k!r}")
         k = int(k) % self.period
         return ct.StateSpace(*self.mean_phase(k), self.dt_step,
                              inputs=self.jump_inputs, outputs=self.jump_outputs,
@@ -882,8 +884,6 @@ class JumpStateSpace(ct.StateSpace):
         law = m.probabilities if m.initial is None else m.initial
         return law, m.transition
 
-    def _law(self) -> np.ndarray:
-        return self.mode_law()[0]
 
     def _modewise(self, op: Any, what: str, *, name: str | None = None,
                   names: dict | None = None) -> "JumpStateSpace":
@@ -906,7 +906,7 @@ class JumpStateSpace(ct.StateSpace):
                       states=list(first.state_labels))
         labels.update(names or {})
         dt = self.dt_step if first.dt is True else first.dt
-        return JumpStateSpace(A, B, C, D, self._law(), dt,
+        return JumpStateSpace(A, B, C, D, self.mode_law()[0], dt,
                               transition=self.modes.transition,
                               nominal=self.nominal_mode, name=name,
                               info=dict(self.info, algebra=what),
@@ -982,6 +982,10 @@ class JumpStateSpace(ct.StateSpace):
         # indices and names refer to the per-step signals z (rows) and w
         # (columns) for any N, not to the lifted face's stacked ones
         first = self.mode_system(0, 0)[key]
+        if first.noutputs == 0 or first.ninputs == 0:
+            raise IndexError(f"sys[{key!r}]: selects no output or no input "
+                             f"of {len(self.jump_outputs)} outputs and "
+                             f"{len(self.jump_inputs)} inputs")
         return self._modewise(lambda S: S[key], f"sys[{key!r}]",
                               name=first.name)
 
@@ -1051,7 +1055,7 @@ class JumpStateSpace(ct.StateSpace):
         # control.StateSpace holds lambdas and cannot be pickled; rebuild
         # from the defining data instead (this also serves copy/deepcopy).
         m = self.modes
-        return (_restore_jss, (m.A, m.B, m.C, m.D, self._law(), self.dt_step,
+        return (_restore_jss, (m.A, m.B, m.C, m.D, self.mode_law()[0], self.dt_step,
                                self.nominal_mode, self.name, self.jump_inputs,
                                self.jump_outputs, self.jump_states, self.info,
                                m.transition))

@@ -521,6 +521,9 @@ def link_model(value: Any, name: str) -> float | GilbertElliott:
 def transition_matrix(value: Any, name: str) -> np.ndarray:
     """A row-stochastic matrix (or stack), checked: finite, non-negative,
     rows summing to one."""
+    if np.iscomplexobj(value):
+        raise ValueError(f"{name}: a transition matrix needs real entries "
+                         f"(got complex ones)")
     try:
         T = np.array(value, dtype=float)
     except (TypeError, ValueError):

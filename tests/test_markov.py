@@ -570,3 +570,9 @@ def test_output_feedback_over_markov_links_matches_the_protocol(controller,
     lost = ~sim["theta1"]
     both = np.mean(lost[:, 1:] & lost[:, :-1])
     assert both == pytest.approx(s1.loss * (1 - s1.recover), abs=0.01)
+
+
+def test_complex_transition_matrix_is_refused():
+    with pytest.raises(ValueError, match="real"):
+        jss([[[0.5]], [[1.2]]], [[1.0]], [[1.0]], [[0.0]],
+            transition=np.eye(2) * (1 + 1j))

@@ -515,3 +515,15 @@ def test_networked_plant_is_not_analysed_as_a_deterministic_loop():
                     lambda S: cn.simulate(S, 3, trials=2, seed=0)):
         with pytest.raises(ControlArgument, match="close it first"):
             analyse(P)
+
+
+# -- final review: named errors where the change left raw ones ----------------
+def test_phase_needs_an_integer_phase():
+    from control.exception import ControlArgument
+    with pytest.raises(ControlArgument, match="int phase"):
+        lossy_loop().phase(1.5)
+
+
+def test_indexing_that_selects_no_signal_raises_index_error():
+    with pytest.raises(IndexError, match="selects no output"):
+        lossy_loop()[5, 0]
