@@ -1411,30 +1411,74 @@ class JumpPlant:
             it (as :func:`control_ncs.build` does).
         """
         K = np.asarray(gains, float)
+        plant = self.info.get("plant")
+        name = None if plant is None else f"{plant} (closed loop)"
+        if K.ndim == 4:
+            return self._close_pairs(K, name, info)
         F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
         A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
         C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
         loop = (A, self.Bw, C, self.Dw)
-        plant = self.info.get("plant")
         if self.transition is not None:
             # Markov modes are not merged (their futures differ, MATH §11)
             return JumpStateSpace(*loop, None, self.dt,
                                   transition=self.transition,
                                   nominal=self.nominal,
                                   inputs=self.inputs, outputs=self.outputs,
-                                  states=self.states,
-                                  name=None if plant is None
-                                  else f"{plant} (closed loop)",
+                                  states=self.states, name=name,
                                   info=dict(self.info, gains=K, **info))
         # merge before building: the lifted face is then built once
         groups, nominal = _merge_groups(loop, self.probabilities, self.nominal)
         (A, B, C, D), p = _apply_groups(loop, self.probabilities, groups)
         return JumpStateSpace(A, B, C, D, p, self.dt, nominal=nominal,
                               inputs=self.inputs, outputs=self.outputs,
-                              states=self.states,
-                              name=None if plant is None
-                              else f"{plant} (closed loop)",
+                              states=self.states, name=name,
                               info=dict(self.info, gains=K, **info))
+
+    def transitions(self) -> np.ndarray:
+        """``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``, shape (N, M, M).
+
+        For i.i.d. modes every row of ``T[k]`` is ``probabilities[k + 1]``.
+
+        Returns
+        -------
+        ndarray
+        """
+        if self.transition is not None:
+            return self.transition
+        M = self.probabilities.shape[1]
+        nxt = np.roll(self.probabilities, -1, axis=0)
+        return np.repeat(nxt[:, None, :], M, axis=1)
+
+    def _close_pairs(self, K: np.ndarray, name: Any, info: dict
+                     ) -> JumpStateSpace:
+        """The closed loop with gains ``K_{k,ℓ}`` (shape (N, M, nu, nk)) on
+        the previous mode ``ℓ = σ_{k-1}`` (MATH §11): a Markov jump system
+        on pair modes ``(ℓ, i)`` (index ``ℓ M + i``), ``(ℓ, i) → (i, j)``
+        with probability ``T_k[i, j]``, mode matrices
+        ``A_{k,i} + Bu_{k,i} K_{k,ℓ} E_k``; its initial law is the
+        stationary one, ``P(σ_{-1} = ℓ, σ_0 = i) = p_{N-1,ℓ} T_{N-1}[ℓ, i]``.
+        """
+        N, M = self.probabilities.shape
+        F = np.einsum("kluj,kjx->klux", K, self.E)  # K_{k,ℓ} E_k
+        A = self.A[:, None] + np.einsum("kmxu,kluy->klmxy", self.Bu, F)
+        C = self.Cz[:, None] + np.einsum("kmzu,kluy->klmzy", self.Du, F)
+        rest = [np.repeat(X[:, None], M, axis=1) for X in (self.Bw, self.Dw)]
+        pairs = [X.reshape((N, M * M) + X.shape[3:])
+                 for X in (A, rest[0], C, rest[1])]
+        T = self.transitions()
+        # (ℓ, i) → (i', j) with probability [i = i'] T_k[i, j]
+        Tp = np.einsum("il,kij->klij", np.eye(M), T)  # (k, i, i', j)
+        Tp = np.broadcast_to(Tp[:, None], (N, M, M, M, M)).reshape(
+            N, M * M, M * M)
+        nominal = None if self.nominal is None else (
+            np.asarray(self.nominal) * (M + 1))
+        return JumpStateSpace(*pairs, None, self.dt, transition=Tp,
+                              nominal=nominal, inputs=self.inputs,
+                              outputs=self.outputs, states=self.states,
+                              name=name,
+                              info=dict(self.info, gains=K, pair_modes=M,
+                                        **info))
 
     def merged(self) -> "JumpPlant":
         """The same plant with coinciding modes merged (MATH §8, merged form).
