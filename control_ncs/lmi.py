@@ -25,6 +25,7 @@ from control.exception import ControlArgument
 
 from .exceptions import TIME_LIMIT
 from .jump import JumpPlant, JumpStateSpace
+from .verify import supply_rows
 
 __all__: list[str] = []
 
@@ -469,6 +470,10 @@ class AnalysisModel(_Model):
         self.P = template.parts["P"]
         self.eta, self.margin = eta, margin
 
+    def values(self) -> np.ndarray:
+        """The solved certificate ``P_k``, shape (N, n, n)."""
+        return np.array([Pk.value for Pk in self.P])
+
 
 def analysis_model(sys: JumpStateSpace, eta: float | None,
                    margin: float | None, decay: float = 1.0) -> AnalysisModel:
@@ -880,71 +885,89 @@ def read_gains(model: SynthesisModel, plant: JumpPlant
 
 # -- analysis with an output-feedback term (MATH §6, supply 2wᵀz - 2ρzᵀz - 2ηwᵀw)
 class SupplyModel:
-    """The analysis LMI with ``ρ`` (``ofp_index``): ``Θ_k ≼ -ε diag(P_k, I)``.
+    """The analysis LMI with ``ρ`` or Markov modes: ``Θ ≼ -ε diag(P, I)``.
 
-    A plain (uncached) cvxpy problem: the ``ρ`` term is rare next to the
-    input-feedforward index of :func:`analysis_model`.
+    A plain (uncached) cvxpy problem: the ``ρ`` term and Markov modes are
+    rare next to the i.i.d. input-feedforward index of
+    :func:`analysis_model`.
 
     Attributes
     ----------
     problem : cvxpy.Problem
-    P : list of cvxpy.Variable
+    P : list of list of cvxpy.Variable
+        ``P[k][ℓ]``: ``P_k`` (``ℓ = 0`` only) for i.i.d. modes, ``P_{k,ℓ}``
+        per previous mode for Markov modes (MATH §11).
     eta, rho, margin : cvxpy.Variable or float
         The maximised one is a Variable, the others the given values.
     """
 
     def __init__(self, problem: cp.Problem, P: list, eta: Any, rho: Any,
-                 margin: Any):
+                 margin: Any, markov: bool = False):
         self.problem, self.P = problem, P
         self.eta, self.rho, self.margin = eta, rho, margin
+        self.markov = markov
 
     def check_current(self) -> None:
         """Nothing to check: the problem is this model's own."""
 
+    def values(self) -> np.ndarray:
+        """The solved certificate: (N, n, n), or (N, M, n, n) if Markov."""
+        P = np.array([[v.value for v in Pk] for Pk in self.P])
+        return P if self.markov else P[:, 0]
+
 
 def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
                  margin: float | None, decay: float = 1.0) -> SupplyModel:
-    """Build the LMI of MATH §6 with the supply ``2wᵀz - 2ρzᵀz - 2ηwᵀw``.
+    """Build the LMI of MATH §6 / §11 with the supply ``2wᵀz - 2ρzᵀz - 2ηwᵀw``.
 
-    ``Θ_k`` gains ``2ρ Σ_i p_i [C_i D_i]ᵀ[C_i D_i]`` (``zᵀz`` is quadratic:
+    ``Θ`` gains ``2ρ Σ_i t_i [C_i D_i]ᵀ[C_i D_i]`` (``zᵀz`` is quadratic:
     its expectation takes each mode's output matrices, not their mean; see
     :func:`control_ncs.verify.dissipation_blocks`), linear in ``P``, ``η``
-    and ``ρ``. Exactly one of ``eta``, ``rho``, ``margin`` may be None: that
-    one is maximised (``margin=None``: the most interior certificate, as in
+    and ``ρ``. One inequality per phase and supply row
+    (:func:`control_ncs.verify.supply_rows`): for Markov modes ``Θ_{k,ℓ}``
+    with ``P_{k,ℓ}`` and ``P_{k+1,i}`` per next mode. Exactly one of
+    ``eta``, ``rho``, ``margin`` may be None: that one is maximised
+    (``margin=None``: the most interior certificate, as in
     :func:`analysis_model`).
     """
     if [eta, rho, margin].count(None) > 1:
         raise ValueError("supply_model: at most one of eta, rho, margin may "
                          "be None")
     A, B, C, D = sys.modes.A, sys.modes.B, sys.modes.C, sys.modes.D
-    p = sys.modes.probabilities
-    N, n, m = sys.period, A.shape[-1], B.shape[-1]
+    rows = supply_rows(sys.modes)
+    markov = not sys.modes.is_iid
+    N, L, n, m = sys.period, rows.shape[1], A.shape[-1], B.shape[-1]
     e = cp.Variable(name="eta") if eta is None else float(eta)
     r = cp.Variable(name="rho") if rho is None else float(rho)
     t = (cp.Variable(name="margin") if margin is None
          else margin * data_scale(A, B, C, D))
-    P = [cp.Variable((n, n), symmetric=True, name=f"P{k}") for k in range(N)]
+    P = [[cp.Variable((n, n), symmetric=True, name=f"P{k}_{l}")
+          for l in range(L)] for k in range(N)]
     cons = []
     for k in range(N):
         Pn = P[(k + 1) % N]
-        live = np.flatnonzero(p[k] > 0)
-        F = [np.concatenate([A[k, i], B[k, i]], axis=1) for i in live]
-        H = [np.concatenate([C[k, i], D[k, i]], axis=1) for i in live]
-        quad = sum(p[k, i] * (Fi.T @ Pn @ Fi) for i, Fi in zip(live, F))
-        W = sum(p[k, i] * (Hi.T @ Hi) for i, Hi in zip(live, H))
-        Cbar = np.tensordot(p[k], C[k], axes=1)
-        Dbar = np.tensordot(p[k], D[k], axes=1)
-        supply = cp.bmat([[-float(decay) ** 2 * P[k], -Cbar.T],
-                          [-Cbar, 2 * e * np.eye(m) - Dbar - Dbar.T]])
-        M = quad + supply + 2 * r * W
-        slack = (np.eye(n + m) if margin is None else
-                 cp.bmat([[P[k], np.zeros((n, m))],
-                          [np.zeros((m, n)), np.eye(m)]]))
-        cons += [0.5 * (M + M.T) << -t * slack, P[k] >> t * np.eye(n)]
+        for l, p in enumerate(rows[k]):
+            live = np.flatnonzero(p > 0)
+            F = {i: np.concatenate([A[k, i], B[k, i]], axis=1) for i in live}
+            H = {i: np.concatenate([C[k, i], D[k, i]], axis=1) for i in live}
+            # i.i.d.: one P_{k+1}; Markov: P_{k+1,i} for next mode i
+            quad = sum(p[i] * (F[i].T @ Pn[i if markov else 0] @ F[i])
+                       for i in live)
+            W = sum(p[i] * (H[i].T @ H[i]) for i in live)
+            Cbar = np.tensordot(p, C[k], axes=1)
+            Dbar = np.tensordot(p, D[k], axes=1)
+            Pk = P[k][l]
+            supply = cp.bmat([[-float(decay) ** 2 * Pk, -Cbar.T],
+                              [-Cbar, 2 * e * np.eye(m) - Dbar - Dbar.T]])
+            M = quad + supply + 2 * r * W
+            slack = (np.eye(n + m) if margin is None else
+                     cp.bmat([[Pk, np.zeros((n, m))],
+                              [np.zeros((m, n)), np.eye(m)]]))
+            cons += [0.5 * (M + M.T) << -t * slack, Pk >> t * np.eye(n)]
     objective = (cp.Maximize(t) if margin is None else
                  cp.Maximize(e) if eta is None else
                  cp.Maximize(r) if rho is None else cp.Minimize(0))
-    return SupplyModel(cp.Problem(objective, cons), P, e, r, t)
+    return SupplyModel(cp.Problem(objective, cons), P, e, r, t, markov)
 
 
 # -- estimator gain (MATH §12) ------------------------------------------------

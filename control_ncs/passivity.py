@@ -14,7 +14,9 @@ Two different indices exist for a lossy loop, and they are named apart:
 
 * :func:`get_input_ff_index` -- the *stochastic* (certified) index: the
   supply inequality holds in expectation for every input adapted to the past,
-  as in a feedback interconnection. Certified by ``P_k`` with ``Θ_k ≺ 0``.
+  as in a feedback interconnection. Certified by ``P_k`` with ``Θ_k ≺ 0``;
+  for Markov (bursty) modes by ``P_{k,ℓ}`` per previous mode with
+  ``Θ_{k,ℓ} ≺ 0`` (MATH §11, the seed's Lemma 2 in full).
 * :func:`mean_input_ff_index` -- the index of the *mean system* (the
   StateSpace face, MATH §7): a statement about ``E z`` for deterministic
   inputs only. It is never smaller than the stochastic one.
@@ -22,8 +24,8 @@ Two different indices exist for a lossy loop, and they are named apart:
 Two routes produce a certificate, both checked exactly by
 :mod:`control_ncs.verify`:
 
-* ``'lmi'`` -- the LMI of MATH §6 solved by an interior-point solver
-  (any jump system);
+* ``'lmi'`` -- the LMI of MATH §6 (§11 for Markov modes) solved by an
+  interior-point solver (any jump system);
 * ``'riccati'`` -- for a deterministic system (one mode, period 1): the KYP
   frequency test gives the index from above, and one discrete algebraic
   Riccati equation just below it gives ``P`` (see :func:`control_ncs.riccati.dare_storage`);
@@ -51,8 +53,8 @@ from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
 from .jump import JumpStateSpace
 from .stability import ms_radius
 from .verify import (Certificate, certify_index, certify_ofp_index,
-                     check_certificate, feedthrough_bound, level_floor,
-                     square_system)
+                     check_certificate, level_floor, square_system,
+                     supply_feedthrough_bound)
 
 __all__ = ["ispassive", "get_input_ff_index", "get_output_fb_index",
            "mean_input_ff_index", "frequency_ff_index",
@@ -209,12 +211,10 @@ class PassivityResult:
 
 def _feedthrough_refutes(sys, ifp_index, ofp_index=0.0) -> bool:
     """The necessary feedthrough condition fails for ``(ρ, η)``: no
-    certificate (MATH §6, :func:`control_ncs.verify.feedthrough_bound`)."""
+    certificate (MATH §6, :func:`control_ncs.verify.supply_feedthrough_bound`)."""
     if ifp_index is None or ofp_index is None:
         return False
-    bound, _ = feedthrough_bound(sys.modes.probabilities, sys.modes.D,
-                                 ofp_index=ofp_index)
-    return not bound > ifp_index
+    return not supply_feedthrough_bound(sys, ofp_index) > ifp_index
 
 
 def _deterministic(sys: JumpStateSpace) -> tuple[np.ndarray, ...] | None:
@@ -347,8 +347,7 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         # the floor sits below the feedthrough bound of the level asked
         # (with its output-feedback term), so the floor problem is never
         # refused for feedthrough where the requested one is not
-        bound, _ = feedthrough_bound(sys.modes.probabilities, sys.modes.D,
-                                     ofp_index=ofp_index or 0.0)
+        bound = supply_feedthrough_bound(sys, ofp_index or 0.0)
         ifp_index = max(ifp_index, level_floor(
             bound, sys.modes.A, sys.modes.B, sys.modes.C, sys.modes.D))
     result = _certificate(sys, ifp_index, ofp_index, decay, method, solver,
@@ -464,10 +463,11 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
         level_rho = target if free == "rho" else ofp_index
         level = None if scale is None else margin * scale
         model: AnalysisModel | SupplyModel
-        if level_rho == 0.0:
+        if level_rho == 0.0 and sys.modes.is_iid:
             model = analysis_model(sys, eta, level, decay)
         else:
-            # zᵀz needs every mode's output matrices (MATH §6)
+            # zᵀz needs every mode's output matrices (MATH §6); Markov
+            # modes need P_{k,ℓ} per previous mode (MATH §11)
             model = supply_model(sys, eta, level_rho, level, decay)
         # the caller's options are for the solver the caller chose
         report = solve(model.problem, name,
@@ -481,7 +481,7 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
         # computes the certified level from P (an 'optimal' status comes
         # with a value, lmi.solve)
         guess = report.value if target is None else target
-        return report, (np.array([Pk.value for Pk in model.P]), guess)
+        return report, (model.values(), guess)
 
     def verify(candidate):
         P, guess = candidate
@@ -733,7 +733,7 @@ def mean_input_ff_index(sys: Any, **kwargs: Any) -> float:
     >>> round(mean_input_ff_index(sys), 4), round(get_input_ff_index(sys), 4)
     (0.2, 0.1791)
     """
-    sys = square_system(sys, markov=True)   # the mean face is exact (§11)
+    sys = square_system(sys)   # the mean face is exact (§11)
     return get_input_ff_index(sys.mean(), **kwargs)
 
 
@@ -783,7 +783,7 @@ def frequency_ff_index(sys: Any, omega: Any = None, *,
     0.3333333333
     """
     no_extra_kwargs("frequency_ff_index", kwargs)
-    lti = square_system(sys, markov=True).mean()
+    lti = square_system(sys).mean()
     A, B, C, D = (np.asarray(M, float) for M in (lti.A, lti.B, lti.C, lti.D))
     resp = kyp.FrequencyResponse(A, B, C, D)
     if resp.radius >= 1:

@@ -26,12 +26,13 @@ from control.exception import ControlDimension
 
 from ._checks import decay_bound, finite_real, real_array
 from .exceptions import CERTIFIED, NOT_VERIFIED
-from .jump import JumpStateSpace, as_jump, require_iid
+from .jump import JumpStateSpace, Modes, as_jump
 from .stability import ms_radius
 
 __all__ = ["Certificate", "dissipation_matrices", "certified_index",
            "check_certificate", "certify_index", "certify_ofp_index",
-           "dissipation_blocks", "ifp_supremum", "feedthrough_bound"]
+           "dissipation_blocks", "ifp_supremum", "feedthrough_bound",
+           "supply_rows", "supply_feedthrough_bound"]
 
 #: Relative back-offs below a certificate's supremum, tried in turn: the Schur
 #: complement loses accuracy near the ms boundary, and a re-check needs room.
@@ -234,18 +235,14 @@ def level_floor(bound: float, *mats: np.ndarray) -> float:
 
 
 # -- public checks --------------------------------------------------------------
-def square_system(sys: Any, name: str = "sys", *, markov: bool = False
-                  ) -> JumpStateSpace:
+def square_system(sys: Any, name: str = "sys") -> JumpStateSpace:
     """``sys`` as a square jump system (a TransferFunction via control.ss).
 
-    Markov modes are refused unless ``markov`` is True: the dissipation
-    inequality here is MATH §6's for i.i.d. modes; with a chain it is
-    ``Θ_{k,ℓ}`` of MATH §11, not written yet, and the i.i.d. one on the
-    stationary marginals would be a wrong answer, not an approximation.
+    i.i.d. and Markov modes alike: the dissipation matrices are MATH §6's
+    ``Θ_k`` for i.i.d. modes and §11's ``Θ_{k,ℓ}`` for a chain (see
+    :func:`supply_rows`).
     """
     sys = as_jump(sys, name)
-    if not markov:
-        require_iid(sys, "passivity analysis", name)
     m, p = sys.modes.B.shape[-1], sys.modes.C.shape[-2]
     if m != p:
         raise ControlDimension(f"{name}: passivity needs as many inputs as "
@@ -254,19 +251,114 @@ def square_system(sys: Any, name: str = "sys", *, markov: bool = False
     return sys
 
 
+def supply_rows(modes: Modes) -> np.ndarray:
+    """The mode law each dissipation inequality averages over, per phase.
+
+    A storage ``V = ξᵀ P ξ`` may depend on what is known before the mode
+    is drawn. For i.i.d. modes that is nothing new: one inequality per
+    phase, averaged with ``p_k`` (MATH §6, §10). For Markov modes it is
+    the previous mode ``ℓ = σ_{k-1}``: one inequality per ``(k, ℓ)``,
+    averaged with the row ``t = T_{k-1}[ℓ, ·]`` (MATH §11, ``Θ_{k,ℓ}`` with
+    ``P_{k,ℓ}`` and ``P_{k+1,i}`` per next mode). Every ``ℓ`` is kept, so a
+    certificate covers any initial mode.
+
+    Parameters
+    ----------
+    modes : Modes
+        A jump system's modes (``sys.modes``).
+
+    Returns
+    -------
+    ndarray, shape (N, L, M)
+        ``rows[k, ℓ]``: the law of the mode at phase ``k``; ``L = 1`` for
+        i.i.d. modes, ``L = M`` for Markov modes.
+
+    Examples
+    --------
+    A bursty chain (stay lost with probability 0.75) and its i.i.d.
+    counterpart with the same marginals:
+
+    >>> from control_ncs.verify import supply_rows
+    >>> chain = jss([[[0.5]], [[2.0]]], [[1.0]], [[1.0]], [[1.0]],
+    ...                    transition=[[0.9, 0.1], [0.25, 0.75]])
+    >>> supply_rows(chain.modes).tolist()
+    [[[0.9, 0.1], [0.25, 0.75]]]
+    >>> p = chain.modes.probabilities
+    >>> iid = jss(chain.modes.A, [[1.0]], [[1.0]], [[1.0]], p[0])
+    >>> supply_rows(iid.modes).round(6).tolist()
+    [[[0.714286, 0.285714]]]
+    """
+    if modes.is_iid:
+        return modes.probabilities[:, None, :]
+    return np.roll(modes.transitions(), 1, axis=0)
+
+
+def supply_feedthrough_bound(sys: JumpStateSpace, ofp_index: float = 0.0
+                             ) -> float:
+    """:func:`feedthrough_bound` of a jump system, over its supply rows.
+
+    Markov modes average the feedthrough with each row ``T_{k-1}[ℓ, ·]``
+    (MATH §11: ``H̄ = Σ t_i H_{k,i}``), i.i.d. modes with ``p_k``.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace
+    ofp_index : float, optional
+        Output-feedback level ``ρ``.
+
+    Returns
+    -------
+    float
+        Every certifiable ``η`` lies strictly below it.
+
+    Examples
+    --------
+    >>> from control_ncs.verify import supply_feedthrough_bound
+    >>> G = jss([[[0.5]], [[0.5]]], [[1.0]], [[1.0]],
+    ...                [[[1.0]], [[0.0]]], transition=[[0.9, 0.1], [0.5, 0.5]])
+    >>> supply_feedthrough_bound(G)           # row ℓ = 1: D̄ = 0.5
+    0.5
+    """
+    rows = supply_rows(sys.modes)
+    N, L, M = rows.shape
+    D = np.repeat(sys.modes.D[:, None], L, axis=1)
+    bound, _ = feedthrough_bound(rows.reshape(N * L, M),
+                                 D.reshape((N * L,) + D.shape[2:]),
+                                 ofp_index=ofp_index)
+    return bound
+
+
 def _certificate_array(P: Any, sys: JumpStateSpace) -> np.ndarray:
-    """``P`` as a symmetric (N, n, n) stack, or a named error."""
-    n, N = sys.modes.A.shape[-1], sys.period
-    P = real_array(P, "P", ndim=(2, 3))
+    """``P`` as a symmetric (N, L, n, n) stack, or a named error.
+
+    ``L = 1`` for i.i.d. modes (``P_k``: shapes (N, n, n) or (n, n));
+    ``L = M`` for Markov modes (``P_{k,ℓ}`` per previous mode ``ℓ``:
+    shape (N, M, n, n); (N, n, n) or (n, n) give every ``ℓ`` the same).
+    """
+    n, N, M = sys.modes.A.shape[-1], sys.period, sys.modes.count
+    markov = not sys.modes.is_iid
+    P = real_array(P, "P", ndim=(2, 3, 4) if markov else (2, 3))
     if P.ndim == 2:
         P = P[None]
+    if P.ndim == 3:
+        # one P_k per phase (Markov: the same for every previous mode)
+        P = P[:, None]
     if P.shape[0] == 1 and N > 1:
         P = np.repeat(P, N, axis=0)
-    if P.shape != (N, n, n):
-        raise ControlDimension(f"P: expected shape ({N}, {n}, {n}) or "
-                               f"({n}, {n}) (one P_k per phase), got "
-                               f"{np.shape(P)}")
-    return 0.5 * (P + P.transpose(0, 2, 1))
+    if markov and P.shape[1] == 1 and P.ndim == 4:
+        P = np.repeat(P, M, axis=1)
+    if P.shape != (N, M if markov else 1, n, n):
+        want = (f"({N}, {M}, {n}, {n}) (P_k,ℓ per phase k and previous mode "
+                f"ℓ: Markov modes, MATH §11)" if markov else
+                f"({N}, {n}, {n}) (one P_k per phase)")
+        raise ControlDimension(f"P: expected shape {want}, ({N}, {n}, {n}) "
+                               f"or ({n}, {n}), got {np.shape(P)}")
+    return 0.5 * (P + P.swapaxes(-1, -2))
+
+
+def _public(P: np.ndarray, sys: JumpStateSpace) -> np.ndarray:
+    """The (N, L, ...) stack as the user sees it: (N, ...) for i.i.d. modes."""
+    return P[:, 0] if sys.modes.is_iid else P
 
 
 def _levels(eta: Any, decay: Any, ofp_index: Any
@@ -278,11 +370,19 @@ def _levels(eta: Any, decay: Any, ofp_index: Any
 
 def _thetas(sys: JumpStateSpace, P: np.ndarray, eta: float, rho: float,
             decay: float) -> list[np.ndarray]:
-    m = sys.modes
-    return [dissipation_blocks(m.probabilities[k], m.A[k], m.B[k], m.C[k],
-                               m.D[k], P[k], P[(k + 1) % sys.period], eta,
-                               ofp_index=rho, decay=decay)
-            for k in range(sys.period)]
+    """``Θ_{k,ℓ}`` for every phase and supply row, phase-major."""
+    m, N = sys.modes, sys.period
+    rows = supply_rows(m)
+    out = []
+    for k in range(N):
+        Pn = P[(k + 1) % N]
+        # i.i.d.: one P_{k+1}; Markov: P_{k+1,i} per next mode i (MATH §11)
+        P_next = Pn[0] if m.is_iid else Pn
+        out += [dissipation_blocks(t, m.A[k], m.B[k], m.C[k], m.D[k],
+                                   P[k, l], P_next, eta, ofp_index=rho,
+                                   decay=decay)
+                for l, t in enumerate(rows[k])]
+    return out
 
 
 def _sup(sys: JumpStateSpace, P: np.ndarray, rho: float, decay: float
@@ -308,11 +408,16 @@ def dissipation_matrices(sys: Any, P: Any, eta: float, *,
     Lemma 1, so mean-square stability follows, with ``E V`` decaying at
     least like ``r^(2t)``).
 
+    Markov modes (MATH §11): one ``Θ_{k,ℓ}`` per phase ``k`` and previous
+    mode ``ℓ``, with ``P_{k,ℓ}`` in place of ``P_k``, ``P_{k+1,i}`` per next
+    mode in the quadratic term, and the row ``t = T_{k-1}[ℓ, ·]`` in place
+    of ``p`` (:func:`supply_rows`); ``P`` then has shape (N, M, n, n).
+
     Parameters
     ----------
     sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
         Square.
-    P : array_like, shape (N, n, n) or (n, n)
+    P : array_like, shape (N, n, n), (N, M, n, n) or (n, n)
         ``P_k`` per phase (symmetrised before use).
     eta : float
         Input-feedforward level ``η``.
@@ -324,6 +429,7 @@ def dissipation_matrices(sys: Any, P: Any, eta: float, *,
     Returns
     -------
     list of ndarray, each (n + m, n + m)
+        Phase-major: ``Θ_0, Θ_1, ...`` (Markov: ``Θ_{0,0}, Θ_{0,1}, ...``).
 
     Raises
     ------
@@ -359,7 +465,7 @@ def certified_index(sys: Any, P: Any, *, decay: float = 1.0,
     Parameters
     ----------
     sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
-    P : array_like, shape (N, n, n) or (n, n)
+    P : array_like, shape (N, n, n), (N, M, n, n) or (n, n)
     decay : float, optional
         Decay bound ``r`` in (0, 1].
     ofp_index : float, optional
@@ -400,12 +506,12 @@ class Certificate:
         Input-feedforward level ``η`` checked.
     decay : float
         Decay bound ``r`` checked (1 = none).
-    P : ndarray, shape (N, n, n)
-        The certificate ``P_k``.
-    theta_max : ndarray, shape (N,)
-        ``λmax(Θ_k)``; must be < 0.
-    P_min : ndarray, shape (N,)
-        ``λmin(P_k)``; must be > 0.
+    P : ndarray, shape (N, n, n), or (N, M, n, n) for Markov modes
+        The certificate ``P_k`` (Markov: ``P_{k,ℓ}`` per previous mode).
+    theta_max : ndarray, shape (N,), or (N, M) for Markov modes
+        ``λmax(Θ_k)`` (``λmax(Θ_{k,ℓ})``); must be < 0.
+    P_min : ndarray, shape (N,), or (N, M) for Markov modes
+        ``λmin(P_k)`` (``λmin(P_{k,ℓ})``); must be > 0.
     ms_radius : float
         Per-step spectral radius of the second-moment operator (MATH §5),
         computed independently of ``P``; must be < 1, and ``< r²`` with a
@@ -527,12 +633,14 @@ class Certificate:
 
 def _check(sys: JumpStateSpace, P: np.ndarray, eta: float, rho: float,
            decay: float) -> Certificate:
-    """:func:`check_certificate` on checked arguments."""
+    """:func:`check_certificate` on checked arguments (``P``: (N, L, n, n))."""
     thetas = _thetas(sys, P, eta, rho, decay)
+    shape = P.shape[:2]
     theta_max = np.array([np.linalg.eigvalsh(T).max() for T in thetas])
     theta_ok = [t < -_float_margin(T) for t, T in zip(theta_max, thetas)]
-    P_min = np.array([np.linalg.eigvalsh(Pk).min() for Pk in P])
-    P_ok = [v > _float_margin(Pk) for v, Pk in zip(P_min, P)]
+    flat = P.reshape((-1,) + P.shape[2:])
+    P_min = np.array([np.linalg.eigvalsh(Pk).min() for Pk in flat])
+    P_ok = [v > _float_margin(Pk) for v, Pk in zip(P_min, flat)]
     rho_ms = ms_radius(sys)
     failures = []
     if not all(theta_ok):
@@ -544,9 +652,10 @@ def _check(sys: JumpStateSpace, P: np.ndarray, eta: float, rho: float,
     if decay < 1.0 and not rho_ms < decay ** 2:
         failures.append(f"ms_radius = {rho_ms:.6g} is not < r² = "
                         f"{decay ** 2:.6g}")
-    return Certificate(not failures, float(eta), float(decay), P, theta_max,
-                       P_min, rho_ms, _sup(sys, P, rho, decay), failures,
-                       float(rho))
+    return Certificate(not failures, float(eta), float(decay),
+                       _public(P, sys), _public(theta_max.reshape(shape), sys),
+                       _public(P_min.reshape(shape), sys), rho_ms,
+                       _sup(sys, P, rho, decay), failures, float(rho))
 
 
 def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0,
@@ -557,7 +666,7 @@ def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0,
     ----------
     sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
         The closed loop (square).
-    P : array_like, shape (N, n, n) or (n, n)
+    P : array_like, shape (N, n, n), (N, M, n, n) or (n, n)
         Candidate ``P_k`` (symmetrised before use).
     eta : float
         Input-feedforward level ``η`` to certify.
@@ -605,7 +714,7 @@ def certify_index(sys: Any, P: Any, *, decay: float = 1.0,
     Parameters
     ----------
     sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
-    P : array_like, shape (N, n, n) or (n, n)
+    P : array_like, shape (N, n, n), (N, M, n, n) or (n, n)
     decay : float, optional
         Decay bound ``r`` in (0, 1].
     ofp_index : float, optional
@@ -640,8 +749,7 @@ def _certify(sys: JumpStateSpace, P: np.ndarray, rho: float, decay: float
     if not np.isfinite(sup):
         # P proves nothing (some M11 is not negative definite): report the
         # figures (all failing) at a level below the feedthrough bound.
-        low, _ = feedthrough_bound(sys.modes.probabilities, sys.modes.D,
-                                   ofp_index=rho)
+        low = supply_feedthrough_bound(sys, rho)
         return _check(sys, P, low - 1.0, rho, decay)
     for backoff in INDEX_BACKOFFS:          # never empty
         cert = _check(sys, P, sup - backoff * max(1.0, abs(sup)), rho, decay)
@@ -666,7 +774,7 @@ def certify_ofp_index(sys: Any, P: Any, rho: float, *, eta: float = 0.0,
     Parameters
     ----------
     sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
-    P : array_like, shape (N, n, n) or (n, n)
+    P : array_like, shape (N, n, n), (N, M, n, n) or (n, n)
     rho : float
         A guess of the level ``P`` proves (e.g. a solver's optimum); never
         the number certified.
@@ -713,10 +821,11 @@ def _certify_ofp(sys: JumpStateSpace, P: np.ndarray, eta: float,
     if not cert.verified:
         return cert
     sup = np.inf
-    for k, T in enumerate(_thetas(sys, P, eta, rho0, decay)):
+    rows = supply_rows(m).reshape(-1, m.count)
+    phases = np.repeat(np.arange(sys.period), len(rows) // sys.period)
+    for k, t, T in zip(phases, rows, _thetas(sys, P, eta, rho0, decay)):
         H = np.concatenate([m.C[k], m.D[k]], axis=2)
-        W = np.tensordot(m.probabilities[k], H.transpose(0, 2, 1) @ H,
-                         axes=1)
+        W = np.tensordot(t, H.transpose(0, 2, 1) @ H, axes=1)
         try:
             L = np.linalg.cholesky(-T)
         except np.linalg.LinAlgError:

@@ -468,23 +468,6 @@ def _bursty_loop():
     return P, ncs.feedback(P, [[-1.0]])
 
 
-@pytest.mark.parametrize("call", [
-    lambda CL: ncs.ispassive(CL),
-    lambda CL: ncs.get_input_ff_index(CL),
-    lambda CL: ncs.get_output_fb_index(CL),
-    lambda CL: ncs.passivity_certificate(CL),
-    lambda CL: ncs.certified_index(CL, [[1.0]]),
-    lambda CL: ncs.check_certificate(CL, [[1.0]], 0.0),
-    lambda CL: ncs.certify_index(CL, [[1.0]]),
-    lambda CL: ncs.dissipation_matrices(CL, [[1.0]], 0.0),
-], ids=["ispassive", "ifp", "ofp", "certificate", "certified_index",
-        "check_certificate", "certify_index", "dissipation_matrices"])
-def test_iid_only_passivity_refuses_markov_modes_instead_of_a_wrong_answer(call):
-    _, CL = _bursty_loop()
-    with pytest.raises(ControlArgument, match="Markov"):
-        call(CL)
-
-
 def test_passivesyn_refuses_markov_links_and_markov_jump_plants():
     P, _ = _bursty_loop()
     with pytest.raises(ControlArgument, match="Markov"):
