@@ -962,8 +962,9 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
         P = c["P"]
         if c["gains"].ndim == 4:
             P = _pair_certificate(P)        # the pair-mode loop's
-        elif P.ndim == 4:
-            P = list(P)                     # P_{k,ℓ} of a Markov loop
+        elif P.ndim == 4 and CL.modes.is_iid:
+            # equal rows: one class per phase, and the loop is i.i.d.
+            P = P[:, 0]
         if eta is None or supremum:
             cert = certify_index(CL, P, decay=decay)
             if eta is None or cert.verified:
