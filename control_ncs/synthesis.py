@@ -563,15 +563,16 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                                      form, structure, plant, gain)
     riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
     note = ""
-    if riccati and plant.transition is not None:
-        # the iteration's quadratic form is MATH §8's, on i.i.d. modes
+    if riccati and plant.transition is not None and gain == "phase":
+        # the coupled equations give the optimal K_{k,ℓ}; a gain common to
+        # the previous modes is the LMI's (sufficient) condition only
         _riccati_options(solver_options)
         if structure0 != "full":
             raise ValueError(
                 f"solver: 'riccati' needs structure 'full'; this loop "
                 f"resolves to structure {structure0!r}: use an LMI solver")
-        note = ("solver='riccati' is written for i.i.d. links; with Markov "
-                "links the call solved the LMI of MATH §11 instead")
+        note = ("solver='riccati' designs gains K_{k,l} on Markov links; "
+                "gain='phase' was solved by the LMI of MATH §11 instead")
         solver_options, solver, riccati = {}, None, False
     if riccati and structure0 != "full":
         raise ValueError(
@@ -663,10 +664,10 @@ def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
     """The solve-and-verify routes of :func:`passivesyn` (checked input)."""
     if riccati:
         return _riccati(plant, eta, decay, margin, solver_options)
-    # the Riccati iteration is MATH §8's, for i.i.d. modes only
-    iid = plant.transition is None
+    # the Riccati iteration designs K_k (i.i.d.) or K_{k,ℓ} (Markov)
+    fits = plant.transition is None or gain == "mode"
     chosen = (solver is None and not solver_options and structure0 == "full"
-              and plant.shape["nx"] > RICCATI_THRESHOLD and iid)
+              and plant.shape["nx"] > RICCATI_THRESHOLD and fits)
     if chosen:
         try:
             return _riccati(plant, eta, decay, margin, solver_options)
@@ -706,7 +707,7 @@ def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
                                 solver_options, deadline, gain)
             if found is not None:
                 return found
-    if (solver is None and structure0 == "full" and not chosen and iid
+    if (solver is None and structure0 == "full" and not chosen and fits
             and out.reason != TIME_LIMIT
             and (deadline is None or time.perf_counter() < deadline)):
         # The default call: the Riccati iteration solves the same exact
@@ -1032,8 +1033,10 @@ def _riccati(plant, eta, decay, margin, options):
     report = SolveReport("optimal", "RICCATI", 0.0, res.time, res.time,
                          res.sweeps, res.eta, options=dict(options))
     CL = plant.close(res.gains)
-    cert = (certify_index(CL, res.P, decay=decay) if eta is None
-            else check_certificate(CL, res.P, eta, decay=decay))
+    # Markov modes: K_{k,ℓ}, checked on the pair-mode loop (MATH §11)
+    Pv = _pair_certificate(res.P) if res.gains.ndim == 4 else res.P
+    cert = (certify_index(CL, Pv, decay=decay) if eta is None
+            else check_certificate(CL, Pv, eta, decay=decay))
     if not cert.verified:
         raise SynthesisError(
             "passivesyn: no verified gain (the Riccati gain fails the exact "
@@ -1041,10 +1044,13 @@ def _riccati(plant, eta, decay, margin, options):
             dict(status=report.status, solver=report.solver,
                  statuses=[report.status], **cert.figures()))
     s = plant.shape
-    X = np.array([np.linalg.inv(Pk) for Pk in res.P])
-    X = 0.5 * (X + X.transpose(0, 2, 1))
+    X = np.linalg.inv(res.P)
+    X = 0.5 * (X + np.swapaxes(X, -1, -2))
     # K_k E_k is the full gain (E_k selects every coordinate)
-    Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
+    if res.gains.ndim == 4:
+        Y = np.einsum("kluj,kjx,klxy->kluy", res.gains, plant.E, X)
+    else:
+        Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
     return _finish(plant, X, Y, res.gains, CL, cert, cert.eta,
                    res.eta if eta is None else eta, decay, "merged", "full",
                    s["nx"] + s["nw"], report, [report])

@@ -296,11 +296,36 @@ def test_predictor_on_markov_links_gets_a_verified_gain():
     assert K.gains.shape[:2] == (3, 4)
 
 
-def test_riccati_on_markov_links_falls_back_to_the_lmi_and_says_so():
+@pytest.mark.parametrize("decay", [1.0, 0.98])
+def test_coupled_riccati_equations_match_the_lmi_on_markov_links(decay):
     P = two_state()
-    K, CL, _ = passivesyn(P, decay=0.98, solver="riccati")
-    assert K.result.report.solver != "RICCATI"
-    assert "Markov" in K.result.note and K.result.note in K.result.summary()
+    Kr, CLr, eta_r = passivesyn(P, decay=decay, solver="riccati")
+    Kl, _, eta_l = passivesyn(P, decay=decay, solver="CLARABEL")
+    assert Kr.result.report.solver == "RICCATI" and Kr.mode_dependent
+    assert Kr.result.certificate.verified and ms_radius(CLr) < decay ** 2
+    # both certified; the bisection stops within rtol = 1e-4 of the supremum
+    assert eta_r == pytest.approx(eta_l, rel=1e-3, abs=1e-3)
+
+
+def test_coupled_riccati_diverges_iff_the_closed_form_says_no_gain():
+    """(1 − r) a² = 0.96: decay 0.97 asks for 0.9409 (no gain: the coupled
+    iteration diverges, a proof), decay 0.985 for 0.970 (it converges).
+    Called directly: passivesyn's own bound would refuse first."""
+    from control_ncs.riccati import riccati_synthesis
+    plant = ncs.build(scalar(2.0, gilbert_elliott(fail=0.3, recover=0.76)))
+    with pytest.raises(SynthesisError) as err:
+        riccati_synthesis(plant, -10.0, decay=0.97)
+    assert err.value.reason == "infeasible"
+    res = riccati_synthesis(plant, -10.0, decay=0.985)
+    assert res.gains.shape == (1, 4, 1, 1) and res.P.shape == (1, 4, 1, 1)
+    assert ms_radius(plant.close(res.gains)) < 0.985 ** 2
+
+
+def test_riccati_with_phase_gains_falls_back_to_the_lmi_and_says_so():
+    P = two_state()
+    K, CL, _ = passivesyn(P, decay=0.98, solver="riccati", gain="phase")
+    assert K.result.report.solver != "RICCATI" and not K.mode_dependent
+    assert "LMI" in K.result.note and K.result.note in K.result.summary()
     assert K.result.certificate.verified
 
 
