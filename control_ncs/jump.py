@@ -1453,31 +1453,64 @@ class JumpPlant:
     def _close_pairs(self, K: np.ndarray, name: Any, info: dict
                      ) -> JumpStateSpace:
         """The closed loop with gains ``K_{k,ℓ}`` (shape (N, M, nu, nk)) on
-        the previous mode ``ℓ = σ_{k-1}`` (MATH §11): a Markov jump system
-        on pair modes ``(ℓ, i)`` (index ``ℓ M + i``), ``(ℓ, i) → (i, j)``
+        the previous mode ``ℓ = σ_{k-1}`` (MATH §11).
+
+        A Markov jump system on pair modes ``(ℓ, i)``, ``(ℓ, i) → (i, j)``
         with probability ``T_k[i, j]``, mode matrices
-        ``A_{k,i} + Bu_{k,i} K_{k,ℓ} E_k``; its initial law is the
-        stationary one, ``P(σ_{-1} = ℓ, σ_0 = i) = p_{N-1,ℓ} T_{N-1}[ℓ, i]``.
+        ``A_{k,i} + Bu_{k,i} K_{k,ℓ} E_k``. Pairs with the same ``i`` and
+        the same matrices (e.g. every ``ℓ`` when the input is lost in
+        ``i``) have the same future and are lumped into one mode; phases
+        with fewer lumped modes repeat their last one, unreachable. The
+        current plant mode ``i`` of each lumped mode is
+        ``info['pair_modes']``, shape (N, G). The initial law is the
+        stationary one.
         """
         N, M = self.probabilities.shape
+        T = self.transitions()
         F = np.einsum("kluj,kjx->klux", K, self.E)  # K_{k,ℓ} E_k
         A = self.A[:, None] + np.einsum("kmxu,kluy->klmxy", self.Bu, F)
         C = self.Cz[:, None] + np.einsum("kmzu,kluy->klmzy", self.Du, F)
-        rest = [np.repeat(X[:, None], M, axis=1) for X in (self.Bw, self.Dw)]
-        pairs = [X.reshape((N, M * M) + X.shape[3:])
-                 for X in (A, rest[0], C, rest[1])]
-        T = self.transitions()
-        # (ℓ, i) → (i', j) with probability [i = i'] T_k[i, j]
-        Tp = np.einsum("il,kij->klij", np.eye(M), T)  # (k, i, i', j)
-        Tp = np.broadcast_to(Tp[:, None], (N, M, M, M, M)).reshape(
-            N, M * M, M * M)
-        nominal = None if self.nominal is None else (
-            np.asarray(self.nominal) * (M + 1))
-        return JumpStateSpace(*pairs, None, self.dt, transition=Tp,
+        # lumped mode of the pair (ℓ, i) at each phase; first member kept
+        where: list = []
+        groups: list = []
+        for k in range(N):
+            index: dict = {}
+            where.append({})
+            groups.append([])
+            for i in range(M):
+                for ell in range(M):
+                    key = (i, A[k, ell, i].tobytes(), C[k, ell, i].tobytes())
+                    if key not in index:
+                        index[key] = len(groups[k])
+                        groups[k].append((i, ell))
+                    where[k][(ell, i)] = index[key]
+        G = max(map(len, groups))
+        # unreachable copies keep the shape (N, G): no flow enters them
+        padded = [g + [g[-1]] * (G - len(g)) for g in groups]
+        cur = np.array([[i for i, _ in g] for g in padded])
+        Ap = np.array([[A[k, ell, i] for i, ell in g]
+                       for k, g in enumerate(padded)])
+        Cp = np.array([[C[k, ell, i] for i, ell in g]
+                       for k, g in enumerate(padded)])
+        Bp = np.array([[self.Bw[k, i] for i, _ in g]
+                       for k, g in enumerate(padded)])
+        Dp = np.array([[self.Dw[k, i] for i, _ in g]
+                       for k, g in enumerate(padded)])
+        Tp = np.zeros((N, G, G))
+        for k in range(N):
+            for s, (i, _) in enumerate(padded[k]):
+                for j in range(M):
+                    Tp[k, s, where[(k + 1) % N][(i, j)]] += T[k, i, j]
+        nominal = None
+        if self.nominal is not None:
+            # the loss-free mode reached from the loss-free mode
+            nominal = [where[k][(self.nominal[k - 1], self.nominal[k])]
+                       for k in range(N)]
+        return JumpStateSpace(Ap, Bp, Cp, Dp, None, self.dt, transition=Tp,
                               nominal=nominal, inputs=self.inputs,
                               outputs=self.outputs, states=self.states,
                               name=name,
-                              info=dict(self.info, gains=K, pair_modes=M,
+                              info=dict(self.info, gains=K, pair_modes=cur,
                                         **info))
 
     def merged(self) -> "JumpPlant":

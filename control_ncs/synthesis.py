@@ -868,12 +868,16 @@ def _open_loop_rate_markov(plant: JumpPlant) -> float:
     return float(np.max(np.abs(np.linalg.eigvals(total)))) ** (1.0 / N)
 
 
-def _pair_certificate(P: np.ndarray) -> list:
-    """``P_{k,ℓ}`` (shape (N, M, n, n)) as the certificate of the pair-mode
-    closed loop of gains ``K_{k,ℓ}``: ``P_{k,(ℓ',ℓ)} = P_{k,ℓ}`` (the pair
-    ``(ℓ', ℓ)`` has index ``ℓ' M + ℓ``, as in ``JumpPlant.close``)."""
-    M = P.shape[1]
-    return [np.tile(Pk, (M, 1, 1)) for Pk in P]
+def _pair_certificate(P: np.ndarray, CL: JumpStateSpace) -> np.ndarray:
+    """``P_{k,ℓ}`` (shape (N, M, n, n)) as the certificate of the closed
+    loop of gains ``K_{k,ℓ}`` on (lumped) pair modes (``JumpPlant.close``):
+    a previous pair mode whose current plant mode was ``ℓ`` gets
+    ``P_{k,ℓ}`` (MATH §11: ``P_{k,(ℓ',ℓ)} = P_{k,ℓ}``)."""
+    if CL.modes.is_iid:
+        # lumped to i.i.d. modes: a single class of ℓ at every phase
+        return P[:, 0]
+    cur = np.roll(CL.info["pair_modes"], 1, axis=0)   # [k] = modes at k-1
+    return np.array([P[k][cur[k]] for k in range(P.shape[0])])
 
 
 def _unscale(P: Any, t: np.ndarray) -> Any:
@@ -962,7 +966,7 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
         CL = work.close(c["gains"])
         P = c["P"]
         if c["gains"].ndim == 4:
-            P = _pair_certificate(P)        # the pair-mode loop's
+            P = _pair_certificate(P, CL)    # the pair-mode loop's
         elif P.ndim == 4 and CL.modes.is_iid:
             # equal rows: one class per phase, and the loop is i.i.d.
             P = P[:, 0]
@@ -1034,7 +1038,7 @@ def _riccati(plant, eta, decay, margin, options):
                          res.sweeps, res.eta, options=dict(options))
     CL = plant.close(res.gains)
     # Markov modes: K_{k,ℓ}, checked on the pair-mode loop (MATH §11)
-    Pv = _pair_certificate(res.P) if res.gains.ndim == 4 else res.P
+    Pv = _pair_certificate(res.P, CL) if res.gains.ndim == 4 else res.P
     cert = (certify_index(CL, Pv, decay=decay) if eta is None
             else check_certificate(CL, Pv, eta, decay=decay))
     if not cert.verified:

@@ -62,25 +62,29 @@ def test_equal_gains_per_previous_mode_give_the_phase_gain_loop():
     P = two_state()
     K = np.array([[-1.0, -0.3]])
     CL, CLp = feedback(P, K), feedback(P, np.tile(K, (1, 4, 1, 1)))
-    assert CLp.nmodes == 16 and CLp.modes.transition is not None
+    assert CLp.modes.transition is not None
     assert ms_radius(CLp) == pytest.approx(ms_radius(CL), rel=1e-9)
 
 
 def test_pair_modes_move_from_l_i_to_i_j_with_the_plants_transition():
+    """Pairs (ℓ, i) with the input lost in i (θ1 θ2 = 0) do not depend on
+    ℓ and are lumped: 3 + 4 modes; each moves to the modes of current plant
+    mode j with probability T[i, j] and applies K_ℓ when delivered."""
     P = two_state()
     K = np.random.default_rng(0).standard_normal((1, 4, 1, 2))
     CL = feedback(P, K)
-    T = ncs.build(P).transition[0]
-    Tp = CL.modes.transition[0].reshape(4, 4, 4, 4)
-    for ell in range(4):
-        for i in range(4):
-            expect = np.zeros((4, 4))
-            expect[i] = T[i]
-            assert np.array_equal(Tp[ell, i], expect)
-    # mode (ℓ, i) applies K_{k,ℓ}
     plant = ncs.build(P)
-    A = plant.A[0, 2] + plant.Bu[0, 2] @ K[0, 1] @ plant.E[0]
-    assert np.allclose(CL.modes.A[0, 1 * 4 + 2], A)
+    T = plant.transition[0]
+    cur = CL.info["pair_modes"][0]
+    assert CL.nmodes == 7 and sorted(cur.tolist()) == [0, 1, 2, 3, 3, 3, 3]
+    Tp = CL.modes.transition[0]
+    for s, i in enumerate(cur):
+        for j in range(4):
+            assert Tp[s, cur == j].sum() == pytest.approx(T[i, j], abs=1e-15)
+    delivered = [CL.modes.A[0, s] for s in np.flatnonzero(cur == 3)]
+    for ell in range(4):
+        A = plant.A[0, 3] + plant.Bu[0, 3] @ K[0, ell] @ plant.E[0]
+        assert any(np.array_equal(A, D) for D in delivered)
 
 
 def test_mode_dependent_gains_on_iid_links_are_allowed_as_extra_information():
@@ -273,10 +277,10 @@ def test_the_pair_certificate_passes_the_public_exact_check():
     assert again.verified
     X = K.result.X                     # X_{k,ℓ} per previous mode
     assert X.shape == (1, 4, 2, 2)
-    # P_{k,(ℓ',ℓ)} = X_{k,ℓ}⁻¹ for every ℓ'
-    Ppair = np.asarray(cert.P).reshape(1, 4, 4, 2, 2)
-    for ell in range(4):
-        assert np.allclose(Ppair[0, :, ell], np.linalg.inv(X[0, ell]),
+    # P_{k,(ℓ',ℓ)} = X_{k,ℓ}⁻¹: a previous pair mode whose plant mode is ℓ
+    previous = CL.info["pair_modes"][-1]
+    for s, ell in enumerate(previous):
+        assert np.allclose(np.asarray(cert.P)[0, s], np.linalg.inv(X[0, ell]),
                            rtol=1e-6, atol=1e-9)
 
 
