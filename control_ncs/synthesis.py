@@ -1,4 +1,4 @@
-"""Positive-real (passive) synthesis over a lossy network (MATH §8, §8b).
+"""Positive-real (passive) synthesis over a lossy network (MATH §8, §8b, §11).
 
 ``K, CL, eta = passivesyn(P, ...)`` in the manner of :func:`control.hinfsyn`.
 The LMI is built for the generic plant of MATH §10 (``lmi.py``), so every
@@ -7,7 +7,9 @@ has passed the exact checks of ``verify.py``. Loops whose gain sees the
 whole state (``structure='full'``) can instead go through the monotone
 Riccati iteration of ``riccati.py`` (``solver='riccati'``, chosen
 automatically above ``RICCATI_THRESHOLD`` states); its gains pass the same
-checks.
+checks. Over bursty (Markov) links both routes design gains ``K_{k,ℓ}`` on
+the previous network mode (MATH §11), checked on the closed loop on pair
+modes (:meth:`control_ncs.jump.JumpPlant.close`).
 """
 
 from __future__ import annotations
@@ -342,7 +344,10 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     ``K_k = Y_k X_k⁻¹`` (or ``Y_k G_k⁻¹`` in the extended form); then checks
     the closed loop exactly: ``λmax(Θ_k) < 0`` with ``P_k = X_k⁻¹`` for every
     phase and ``ms_radius < 1`` (``< r²`` with ``decay=r``). A gain that fails
-    is never returned.
+    is never returned. Over Markov (Gilbert–Elliott) links the LMI is MATH
+    §11's, with ``X_{k,ℓ}``, ``Y_{k,ℓ}`` per previous mode ``ℓ`` (see
+    ``gain``), and the check is ``Θ_{k,ℓ}`` of the closed loop on pair modes
+    with ``P_{k,(ℓ',ℓ)} = X_{k,ℓ}⁻¹``.
 
     The LMI is solved in balanced coordinates (a diagonal similarity by
     powers of two, exact in floating point) and every solve goes through
@@ -412,6 +417,9 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``RICCATI_THRESHOLD`` states and no solver options are given (if
         that iteration is inconclusive and the plant has at most
         ``RICCATI_FALLBACK_MAX`` states, Clarabel after it), else Clarabel.
+        Over Markov links the iteration solves the coupled Riccati
+        equations (gains ``K_{k,ℓ}``); with ``gain='phase'`` the LMI is
+        solved instead (``K.result.note`` says so).
     margin : float, optional
         Relative strictness margin of the LMIs (for the Riccati iteration:
         the ``εI`` added at each step, relative to the data's scale).
@@ -436,8 +444,10 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     Returns
     -------
     K : PeriodicGain
-        ``K.gains`` has shape ``(N, m2, nk)``, applied as ``u = K_k ŷ``
-        (no minus sign); ``K.result`` is the :class:`SynthesisResult`.
+        ``K.gains`` has shape ``(N, m2, nk)``, or ``(N, M, m2, nk)`` for
+        gains on the previous mode (Markov links, ``gain='mode'``), applied
+        as ``u = K_k ŷ`` (no minus sign); ``K.result`` is the
+        :class:`SynthesisResult`.
     CL : JumpStateSpace
         The closed loop ``w → z``; ``CL.info['synthesis']`` is the result.
     eta : float
@@ -503,6 +513,16 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     >>> CL = ncs.feedback(P, ncs.PeriodicGain(-Klqr))
     >>> bool(ms_radius(CL) < 1)
     True
+
+    A bursty actuator link (6 % loss in bursts of 1/0.9 steps): gains on the
+    previous mode, 4 of them for the modes ``(θ1, θ2)``.
+
+    >>> P3 = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...          nmeas=1, ncon=1, actuator_loss=gilbert_elliott(fail=0.06,
+    ...                                                         recover=0.9))
+    >>> K, CL, eta = passivesyn(P3, decay=0.9)
+    >>> K.gains.shape, K.result.gain_kind, bool(ms_radius(CL) < 0.81)
+    ((1, 4, 1, 1), 'mode', True)
 
     Only ``x[0]`` measured (``C2 = [1 0]``): the estimator-based design.
 

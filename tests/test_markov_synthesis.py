@@ -17,7 +17,7 @@ from control_ncs.jump import JumpPlant
 from control_ncs.protocol import simulate_protocol
 from control_ncs.verify import check_certificate
 
-from helpers import assert_mean_within
+from helpers import assert_mean_within, plant_state_selector
 
 
 def scalar(a, actuator, sensor=0.0):
@@ -364,6 +364,33 @@ def test_event_level_protocol_validates_the_loop_with_mode_gains():
     assert_mean_within(x, mom.states_mean, 5)
     assert_mean_within(np.einsum("sit,sjt->sijt", x, x),
                        mom.states_second_moment, 5)
+
+
+def test_event_level_protocol_validates_the_predictor_with_mode_gains():
+    """The predictor's previous mode is (θ1,k, θ2,k-1) (MATH §11): the
+    protocol applies K_{k,ℓ} with it and matches the pair-mode loop."""
+    P = two_state()
+    K, CL, _ = passivesyn(P, controller="predictor", decay=0.95)
+    assert K.mode_dependent
+    steps, x0 = 15, np.array([1.0, -0.5])
+    t = np.arange(steps + 1)
+    w = np.vstack([np.cos(0.3 * t), 0.5 * np.sin(0.2 * t)])
+    xi0 = np.zeros(len(CL.jump_states))
+    hat = [i for i, name in enumerate(CL.jump_states) if name.endswith("_hat")]
+    xi0[hat] = x0                       # x̂0 = x0, e0 = 0
+    mom = moments(CL, steps + 1, inputs=w, initial_state=xi0)
+    S = plant_state_selector(CL, 2)
+    sim = simulate_protocol(
+        P.A, P.B1, P.B2, P.C1, P.D11, P.D12, P.sensor_schedule.pattern,
+        P.actuator_schedule.pattern, P.sensor_link, P.actuator_link,
+        K.gains, steps, controller="predictor", inputs=w[:, :steps],
+        initial_state=x0, initial_estimate=x0, trials=20000,
+        rng=np.random.default_rng(6))
+    x = sim["x"]
+    assert_mean_within(x, S @ mom.states_mean, 5)
+    assert_mean_within(np.einsum("sit,sjt->sijt", x, x),
+                       np.einsum("ia,abt,jb->ijt", S,
+                                 mom.states_second_moment, S), 5)
 
 
 def test_protocol_refuses_mode_gains_of_the_wrong_shape():
