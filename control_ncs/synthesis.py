@@ -190,6 +190,7 @@ class SynthesisResult:
         return (f"<SynthesisResult: {self.status}, eta = {self.eta:.6g}, "
                 f"N = {self.gain.period}, controller {self.gain.controller}, "
                 f"actuator {self.gain.actuator}, structure {self.structure}, "
+                f"{self.gain_kind} gains, "
                 f"solver {self.report.solver}: {self.report.status}>")
 
     def summary(self) -> str:

@@ -233,6 +233,15 @@ def test_phase_gains_on_markov_links_are_certified_and_never_beat_mode_gains():
     assert eta_p <= eta_m + 1e-6 * max(1.0, abs(eta_m))
 
 
+def test_phase_gains_on_iid_links_are_the_iid_design():
+    P = scalar(2.0, 0.2)
+    K0, _, eta0 = passivesyn(P, decay=0.9)
+    K1, _, eta1 = passivesyn(P, decay=0.9, gain="phase")
+    assert eta1 == eta0 and np.array_equal(K1.gains, K0.gains)
+    assert K0.result.gain_kind == K1.result.gain_kind == "phase"
+    assert "phase gains" in repr(K0.result)
+
+
 def test_phase_gains_with_a_common_x_are_certified_too():
     P = two_state()
     K, CL, _ = passivesyn(P, decay=0.98, gain="phase", structure="block")
