@@ -54,7 +54,7 @@ REPR_ENTRIES = 64
 
 
 class PeriodicGain:
-    """Per-phase gains ``K_k`` of a networked controller.
+    """Per-phase gains ``K_k`` (or ``K_{k,ℓ}``) of a networked controller.
 
     The gain is applied as is: ``u = K_k ŷ`` (positive feedback, no minus
     sign). :func:`control.dlqr` and :func:`control.lqr` return ``K`` for
@@ -62,12 +62,17 @@ class PeriodicGain:
 
     Parameters
     ----------
-    gains : array_like, shape (N, m2, nk) or (m2, nk)
+    gains : array_like, shape (N, m2, nk), (m2, nk) or (N, M, m2, nk)
         ``K_k`` for ``k = 0..N-1``. What ``K_k`` multiplies depends on the
         controller: the received measurement ``ŷ`` (``'static'``, with either
         actuator), the estimate ``x̂`` (``'predictor'`` with a ``'zero'``
         actuator), or ``[x̂; u⁻]``, the estimate and the last applied input
-        (``'predictor'`` with a ``'hold'`` actuator).
+        (``'predictor'`` with a ``'hold'`` actuator). A 4-D stack holds
+        gains that also use the previous network mode ``ℓ = σ_{k-1}``
+        (``K_{k,ℓ}``, MATH §11: the controller knows it through
+        acknowledgements and arrivals), ``M`` modes in the order of the
+        loop's modes (for a :func:`control_ncs.build` plant the four
+        ``(θ1, θ2)`` of MATH §1).
     controller : {'static', 'predictor', 'estimator'}
     actuator : {'zero', 'hold'}
     result : object, optional
@@ -80,7 +85,8 @@ class PeriodicGain:
 
     Attributes
     ----------
-    gains : ndarray, shape (N, m2, nk)
+    gains : ndarray, shape (N, m2, nk), or (N, M, m2, nk)
+        Read-only; 4-D when :attr:`mode_dependent`.
     estimator_gain : ndarray, shape (N_L, n, nmeas), or None
         Read-only.
     period : int
@@ -88,7 +94,8 @@ class PeriodicGain:
     Notes
     -----
     ``numpy.asarray(K)`` is the ``(m2, nk)`` matrix when ``N = 1`` (as
-    :func:`control.lqr` returns) and the ``(N, m2, nk)`` stack otherwise.
+    :func:`control.lqr` returns) and the ``(N, m2, nk)`` stack otherwise;
+    for mode-dependent gains always the ``(N, M, m2, nk)`` stack.
 
     Examples
     --------
@@ -100,12 +107,19 @@ class PeriodicGain:
     >>> K = PeriodicGain(-Klqr)
     >>> bool(abs(2.0 + K[0][0, 0]) < 1)
     True
+
+    Gains per previous mode (two modes, one phase): ``K[k]`` is the stack
+    ``K_{k,ℓ}`` over ``ℓ``:
+
+    >>> Km = PeriodicGain([[[[-1.0]], [[-2.0]]]])
+    >>> Km.mode_dependent, Km.modes, Km[0][1].tolist()
+    (True, 2, [[-2.0]])
     """
 
     def __init__(self, gains: Any, controller: str = "static",
                  actuator: str = "zero", result: Any = None,
                  estimator_gain: Any = None):
-        K = real_array(gains, "gains", ndim=(2, 3))
+        K = real_array(gains, "gains", ndim=(2, 3, 4))
         if 0 in K.shape:
             raise ControlDimension(f"gains: expected nonzero dimensions, got "
                                    f"shape {K.shape}")
@@ -129,7 +143,7 @@ class PeriodicGain:
                 raise ControlDimension(f"estimator_gain: expected nonzero "
                                        f"dimensions, got shape {L.shape}")
             # K_k multiplies x̂ ('zero') or [x̂; u⁻] ('hold')
-            m2, nk = self.gains.shape[1:]
+            m2, nk = self.gains.shape[-2:]
             n = nk if self.actuator == "zero" else nk - m2
             if L.shape[1] != n:
                 raise ControlDimension(
@@ -140,14 +154,27 @@ class PeriodicGain:
 
     @property
     def period(self) -> int:
+        """Number of phases ``N``."""
         return self.gains.shape[0]
 
+    @property
+    def mode_dependent(self) -> bool:
+        """True for gains ``K_{k,ℓ}`` that use the previous mode ``ℓ``."""
+        return self.gains.ndim == 4
+
+    @property
+    def modes(self) -> int | None:
+        """Number ``M`` of previous modes the gains use, or None."""
+        return self.gains.shape[1] if self.mode_dependent else None
+
     def __getitem__(self, k: int) -> np.ndarray:
-        """``K_k`` for any time ``k`` (taken mod N)."""
+        """``K_k`` for any time ``k`` (taken mod N); the ``(M, m2, nk)``
+        stack ``K_{k,ℓ}`` for mode-dependent gains."""
         return self.gains[k % self.period]
 
     def __array__(self, dtype=None, copy=None):
-        out = self.gains[0] if self.period == 1 else self.gains
+        out = (self.gains[0] if self.period == 1 and not self.mode_dependent
+               else self.gains)
         return np.array(out, dtype=dtype)
 
     def __eq__(self, other: object) -> bool:
@@ -171,6 +198,8 @@ class PeriodicGain:
     def __repr__(self) -> str:
         head = (f"PeriodicGain(controller={self.controller!r}, "
                 f"actuator={self.actuator!r}, period={self.period}")
+        if self.mode_dependent:
+            head += f", previous modes={self.modes}"
         if self.estimator_gain is not None:
             head += f", estimator_gain shape={self.estimator_gain.shape}"
         if self.gains.size > REPR_ENTRIES:

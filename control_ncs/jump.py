@@ -1411,30 +1411,107 @@ class JumpPlant:
             it (as :func:`control_ncs.build` does).
         """
         K = np.asarray(gains, float)
+        plant = self.info.get("plant")
+        name = None if plant is None else f"{plant} (closed loop)"
+        if K.ndim == 4:
+            return self._close_pairs(K, name, info)
         F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
         A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
         C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
         loop = (A, self.Bw, C, self.Dw)
-        plant = self.info.get("plant")
         if self.transition is not None:
             # Markov modes are not merged (their futures differ, MATH §11)
             return JumpStateSpace(*loop, None, self.dt,
                                   transition=self.transition,
                                   nominal=self.nominal,
                                   inputs=self.inputs, outputs=self.outputs,
-                                  states=self.states,
-                                  name=None if plant is None
-                                  else f"{plant} (closed loop)",
+                                  states=self.states, name=name,
                                   info=dict(self.info, gains=K, **info))
         # merge before building: the lifted face is then built once
         groups, nominal = _merge_groups(loop, self.probabilities, self.nominal)
         (A, B, C, D), p = _apply_groups(loop, self.probabilities, groups)
         return JumpStateSpace(A, B, C, D, p, self.dt, nominal=nominal,
                               inputs=self.inputs, outputs=self.outputs,
-                              states=self.states,
-                              name=None if plant is None
-                              else f"{plant} (closed loop)",
+                              states=self.states, name=name,
                               info=dict(self.info, gains=K, **info))
+
+    def transitions(self) -> np.ndarray:
+        """``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``, shape (N, M, M).
+
+        For i.i.d. modes every row of ``T[k]`` is ``probabilities[k + 1]``.
+
+        Returns
+        -------
+        ndarray
+        """
+        if self.transition is not None:
+            return self.transition
+        M = self.probabilities.shape[1]
+        nxt = np.roll(self.probabilities, -1, axis=0)
+        return np.repeat(nxt[:, None, :], M, axis=1)
+
+    def _close_pairs(self, K: np.ndarray, name: Any, info: dict
+                     ) -> JumpStateSpace:
+        """The closed loop with gains ``K_{k,ℓ}`` (shape (N, M, nu, nk)) on
+        the previous mode ``ℓ = σ_{k-1}`` (MATH §11).
+
+        A Markov jump system on pair modes ``(ℓ, i)``, ``(ℓ, i) → (i, j)``
+        with probability ``T_k[i, j]``, mode matrices
+        ``A_{k,i} + Bu_{k,i} K_{k,ℓ} E_k``. Pairs with the same ``i`` and
+        the same matrices (e.g. every ``ℓ`` when the input is lost in
+        ``i``) have the same future and are lumped into one mode; phases
+        with fewer lumped modes repeat their last one, unreachable. The
+        current plant mode ``i`` of each lumped mode is
+        ``info['pair_modes']``, shape (N, G). The initial law is the
+        stationary one.
+        """
+        N, M = self.probabilities.shape
+        T = self.transitions()
+        F = np.einsum("kluj,kjx->klux", K, self.E)  # K_{k,ℓ} E_k
+        A = self.A[:, None] + np.einsum("kmxu,kluy->klmxy", self.Bu, F)
+        C = self.Cz[:, None] + np.einsum("kmzu,kluy->klmzy", self.Du, F)
+        # lumped mode of the pair (ℓ, i) at each phase; first member kept
+        where: list = []
+        groups: list = []
+        for k in range(N):
+            index: dict = {}
+            where.append({})
+            groups.append([])
+            for i in range(M):
+                for ell in range(M):
+                    key = (i, A[k, ell, i].tobytes(), C[k, ell, i].tobytes())
+                    if key not in index:
+                        index[key] = len(groups[k])
+                        groups[k].append((i, ell))
+                    where[k][(ell, i)] = index[key]
+        G = max(map(len, groups))
+        # unreachable copies keep the shape (N, G): no flow enters them
+        padded = [g + [g[-1]] * (G - len(g)) for g in groups]
+        cur = np.array([[i for i, _ in g] for g in padded])
+        Ap = np.array([[A[k, ell, i] for i, ell in g]
+                       for k, g in enumerate(padded)])
+        Cp = np.array([[C[k, ell, i] for i, ell in g]
+                       for k, g in enumerate(padded)])
+        Bp = np.array([[self.Bw[k, i] for i, _ in g]
+                       for k, g in enumerate(padded)])
+        Dp = np.array([[self.Dw[k, i] for i, _ in g]
+                       for k, g in enumerate(padded)])
+        Tp = np.zeros((N, G, G))
+        for k in range(N):
+            for s, (i, _) in enumerate(padded[k]):
+                for j in range(M):
+                    Tp[k, s, where[(k + 1) % N][(i, j)]] += T[k, i, j]
+        nominal = None
+        if self.nominal is not None:
+            # the loss-free mode reached from the loss-free mode
+            nominal = [where[k][(self.nominal[k - 1], self.nominal[k])]
+                       for k in range(N)]
+        return JumpStateSpace(Ap, Bp, Cp, Dp, None, self.dt, transition=Tp,
+                              nominal=nominal, inputs=self.inputs,
+                              outputs=self.outputs, states=self.states,
+                              name=name,
+                              info=dict(self.info, gains=K, pair_modes=cur,
+                                        **info))
 
     def merged(self) -> "JumpPlant":
         """The same plant with coinciding modes merged (MATH §8, merged form).

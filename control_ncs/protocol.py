@@ -216,12 +216,18 @@ def simulate_protocol(
         delivered; or an object with a ``transition`` attribute).
     actuator_loss : float, 2x2 array or Gilbert-Elliott link
         ``alpha2 = P(theta2_k = 0)``, likewise for the actuator packets.
-    gains : array_like, shape (N, m2, nk)
+    gains : array_like, shape (N, m2, nk) or (N, 4, m2, nk)
         Periodic gains; step ``k`` uses ``gains[k mod N]``. ``nk = p2``
         (static) or ``n`` (predictor, estimator), except for the predictor
         and the estimator with ``actuator='hold'``, where ``nk = n + m2``
         and the gain acts on ``[xhat; u_{k-1}]``. Ignored (pass ``None``)
-        for ``controller='lti'``.
+        for ``controller='lti'``. A 4-D stack holds gains ``K_{k,ℓ}`` on
+        the previous network mode (MATH §11), which the controller knows
+        from arrivals and acknowledgements: ``ℓ`` indexes
+        ``(θ1, θ2) = (0, 0), (1, 0), (0, 1), (1, 1)`` of the static
+        controller's previous step, ``(θ1,k, θ2,k-1)`` for the predictor
+        and the estimator; the channels are then drawn once more before
+        step 0 (step -1), so that ``ℓ`` at step 0 follows the chains.
     steps : int
         Number of time steps to simulate (>= 0).
     controller : {'static', 'predictor', 'estimator', 'lti'}, optional
@@ -390,9 +396,11 @@ def simulate_protocol(
         K = np.asarray(gains, dtype=float)
     except (TypeError, ValueError) as exc:
         raise ValueError("gains must be a real array of shape (N, m2, nk)") from exc
-    if K.shape != (N, m2, nk):
+    by_mode = K.ndim == 4 and not lti
+    if K.shape != ((N, 4, m2, nk) if by_mode else (N, m2, nk)):
         raise ValueError(
-            f"gains must have shape (N, m2, nk) = ({N}, {m2}, {nk}) for "
+            f"gains must have shape (N, m2, nk) = ({N}, {m2}, {nk}) or "
+            f"(N, 4, m2, nk) = ({N}, 4, {m2}, {nk}) for "
             f"controller={controller!r}, actuator={actuator!r}, got {K.shape}"
         )
     if not np.all(np.isfinite(K)):
@@ -462,9 +470,14 @@ def simulate_protocol(
         return rng.random(trials) >= loss
 
     th1 = th2 = None
+    if by_mode:
+        # step -1: the previous mode at step 0 (stationary channels)
+        th1 = draw(link1, th1)
+        th2 = draw(link2, th2)
     x_hist[:, :, 0] = x
     for k in range(steps):
         phase = k % N
+        before1, before2 = th1, th2
         # Drawn unconditionally so the random stream is independent of the
         # schedule (the channel moves whether or not it carries a packet);
         # with a loss of 1 this is always False since random() < 1.
@@ -478,6 +491,11 @@ def simulate_protocol(
         recv1 = th1[:, None] * S1[phase][None, :]
         recv2 = th2[:, None] * S2[phase][None, :]
         Kk = K[phase]
+        if by_mode:
+            # ℓ = σ_{k-1}: (θ1,k-1, θ2,k-1) for the static gain, (θ1,k,
+            # θ2,k-1) for the model-based controllers (MATH §11)
+            seen1 = th1 if predictor else before1
+            Kk = Kk[seen1.astype(int) + 2 * before2.astype(int)]
         w = W[:, k]
 
         y = x @ C2m.T
@@ -488,7 +506,8 @@ def simulate_protocol(
         if predictor:
             xhat_hist[:, :, k] = xhat
             feedback = np.concatenate([xhat, u_prev], axis=1) if hold else xhat
-            v = feedback @ Kk.T
+            v = (np.einsum("tij,tj->ti", Kk, feedback) if by_mode
+                 else feedback @ Kk.T)
         elif lti:
             if sensor == "hold":
                 y_rcv = y_rcv + recv1 * (y - y_rcv)
@@ -497,6 +516,8 @@ def simulate_protocol(
             v = xc @ Cc.T + y_rcv @ Dc.T
             xc = xc @ Ac.T + y_rcv @ Bc.T
             xc_hist[:, :, k + 1] = xc
+        elif by_mode:
+            v = np.einsum("tij,tj->ti", Kk, recv1 * y)
         else:
             v = (recv1 * y) @ Kk.T
 

@@ -70,9 +70,20 @@ computed with BLAS products). A level still unconverged after
 ``probe_sweeps`` sweeps counts as infeasible: conservative (the result is
 certified, only possibly below the supremum by more than ``rtol``).
 
+Markov modes (coupled Riccati equations)
+----------------------------------------
+With a Markov chain of modes (MATH §11) the certificate is ``P_{k,ℓ}`` per
+previous mode ``ℓ`` and the gain ``K_{k,ℓ}``: for each ``ℓ`` the quadratic
+form above takes the row ``t = T_{k-1}[ℓ]`` in place of ``p`` and
+``P_{k+1,i}`` per next mode ``i`` in place of ``P⁺``
+(``Σ t_i F_iᵀ P_{k+1,i} F_i``). Previous modes with equal rows share one
+equation (``lmi.mode_classes``); i.i.d. modes have one per phase, the
+iteration above. Monotonicity, the divergence proof and the convergence
+test carry over unchanged, one equation at a time.
+
 References
 ----------
-MATH §6 (analysis LMI), §8 (synthesis), §10 (generic jump plant);
+MATH §6 (analysis LMI), §8 (synthesis), §10 (generic jump plant), §11;
 docs/benchmarks.md §2 and §7.1 (measurements of this route against the LMI).
 """
 
@@ -112,11 +123,12 @@ class RiccatiResult:
 
     Attributes
     ----------
-    gains : ndarray, shape (N, nu, nk), or None
-        ``K_k``.
-    P : ndarray, shape (N, n, n)
-        The certificate candidate ``P_k`` (an iterate of the monotone
-        sequence). Not yet checked exactly: the caller does that.
+    gains : ndarray, shape (N, nu, nk) or (N, M, nu, nk), or None
+        ``K_k``; Markov modes: ``K_{k,ℓ}`` per previous mode.
+    P : ndarray, shape (N, n, n) or (N, M, n, n)
+        The certificate candidate ``P_k`` (Markov: ``P_{k,ℓ}``), an
+        iterate of the monotone sequence. Not yet checked exactly: the
+        caller does that.
     eta : float
         The requested ``η``, or the largest level found: a converged level,
         or the supremum its ``P`` proves (not itself certified: the strict
@@ -143,9 +155,11 @@ class RiccatiResult:
 class _Phase:
     """One phase's data, restricted to live modes and active inputs."""
 
-    def __init__(self, p, A, Bu, Bw, Cz, Du, Dw, active, means):
+    def __init__(self, p, A, Bu, Bw, Cz, Du, Dw, active, means, nxt=None):
         live = np.flatnonzero(p > 0)
         self.p = p[live]
+        # Markov modes: the class of each live next mode at phase k + 1
+        self.nxt = None if nxt is None else np.asarray(nxt)[live]
         self.active = active
         self.n, self.nw, self.nu = A.shape[-1], Bw.shape[-1], active.size
         # [A Bw Bu] per mode: one batched product gives every quadratic term
@@ -158,6 +172,11 @@ class _Phase:
         self.Czb, Dub, Dwb = means
         self.Dub = Dub[:, active]
         self.Dsym = Dwb + Dwb.T
+
+    def after(self, Pn: np.ndarray) -> np.ndarray:
+        """``P⁺`` from the next phase's stack (one per class): the first
+        (i.i.d.), or one per live next mode (Markov)."""
+        return Pn[0] if self.nxt is None else Pn[self.nxt]
 
     def quad(self, Pn: np.ndarray) -> tuple[np.ndarray, ...]:
         """Blocks of ``Σ p Fᵀ P⁺ F``: (AA, AW, AU, WW, WU, UU)."""
@@ -227,8 +246,9 @@ def _certified_sup(data, P, K, decay):
     :func:`control_ncs.verify.ifp_supremum`; used only to move the
     bisection, never as a verdict."""
     N = len(data)
-    return min(ifp_supremum(_theta0(d, P[k], P[(k + 1) % N], K[k], decay),
-                            d.n) for k, d in enumerate(data))
+    return min(ifp_supremum(_theta0(d, P[k][c], d.after(P[(k + 1) % N]),
+                                    K[k][c], decay), d.n)
+               for k, ds in enumerate(data) for c, d in enumerate(ds))
 
 
 def _iterate(data, eta, decay, eps, P0, max_sweeps, blowup):
@@ -240,22 +260,25 @@ def _iterate(data, eta, decay, eps, P0, max_sweeps, blowup):
     ``'blowup'`` (``P`` beyond ``blowup``) or ``'max_sweeps'``.
     """
     N = len(data)
-    n = data[0].n
-    P = P0.copy()
-    K = [None] * N
+    n = data[0][0].n
+    # P[k]: one matrix per class of previous modes (i.i.d.: one)
+    P = [Pk.copy() for Pk in P0]
+    K = [[None] * len(ds) for ds in data]
     eye = eps * np.eye(n)
     r2 = decay ** 2
     for sweep in range(1, max_sweeps + 1):
         change = 0.0
         for k in reversed(range(N)):
-            out = _step(data[k], P[(k + 1) % N], eta)
-            if out is None:          # R_k lost definiteness: a proof
-                return "diverged", P, K, sweep
-            G, K[k] = out
-            new = (G + eye) / r2
+            new = np.empty_like(P[k])
+            for c, d in enumerate(data[k]):
+                out = _step(d, d.after(P[(k + 1) % N]), eta)
+                if out is None:      # R_k lost definiteness: a proof
+                    return "diverged", P, K, sweep
+                G, K[k][c] = out
+                new[c] = (G + eye) / r2
             change = max(change, float(np.max(np.abs(new - P[k]))))
             P[k] = new
-        top = float(np.max(np.abs(P)))
+        top = max(float(np.max(np.abs(Pk))) for Pk in P)
         if not np.isfinite(top) or top > blowup:
             # a threshold, not a proof: any certificate would be at least
             # this large, beyond what the exact check can verify
@@ -263,25 +286,27 @@ def _iterate(data, eta, decay, eps, P0, max_sweeps, blowup):
         # Phases 0..N-2 have residual εI by construction; the wrap-around
         # phase N-1 used the previous P_0. Its exact residual decides, once
         # the increments are small enough for it to possibly hold.
-        if change <= 1e2 * eps and _residual_ok(
-                data[N - 1], P[N - 1], P[0], K[N - 1], eta, decay, eps / 2):
+        if change <= 1e2 * eps and all(
+                _residual_ok(d, P[N - 1][c], d.after(P[0]), K[N - 1][c],
+                             eta, decay, eps / 2)
+                for c, d in enumerate(data[N - 1])):
             return "converged", P, K, sweep
     return "max_sweeps", P, K, max_sweeps
 
 
 def _scale(data) -> float:
-    return max([1.0] + [float(np.linalg.norm(M, 2)) for d in data
-                        for M in (d.Czb, d.Dsym) if M.size])
+    return max([1.0] + [float(np.linalg.norm(M, 2)) for ds in data
+                        for d in ds for M in (d.Czb, d.Dsym) if M.size])
 
 
 def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
     """Fixed ``eta``: one iteration; ``eta=None``: the bisection. Returns
     ``(P, K, η, sweeps, bisections)``; raises SynthesisError."""
-    N, n = len(data), data[0].n
+    n = data[0][0].n
     scale = _scale(data)
     eps = margin * scale
     blowup = _BLOWUP * scale
-    zero = np.zeros((N, n, n))
+    zero = [np.zeros((len(ds), n, n)) for ds in data]
     figures = dict(margin=margin, decay=decay)
 
     if eta is not None:
@@ -308,7 +333,8 @@ def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
                 SOLVER_FAILED, dict(figures, sweeps=sweeps))
         return P, K, float(eta), sweeps, 0
 
-    hi = min(float(np.linalg.eigvalsh(d.Dsym)[0]) for d in data) / 2
+    hi = min(float(np.linalg.eigvalsh(d.Dsym)[0]) for ds in data
+             for d in ds) / 2
     width = max(1.0, abs(hi))
     sweeps = bis = 0
     while True:   # a feasible starting level: lower it until it converges
@@ -349,7 +375,7 @@ def _search(data, eta, decay, margin, rtol, max_sweeps, probe_sweeps):
         if status != "converged":    # diverged, or (conservatively) too slow
             hi = mid
             continue
-        P, K = Pm, list(Km)
+        P, K = Pm, [list(Kk) for Kk in Km]
         lo = max(mid, min(_certified_sup(data, P, K, decay), hi))
     return P, K, lo, sweeps, bis
 
@@ -370,8 +396,10 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
 
     Finds ``K_k`` and ``P_k`` with ``Θ_k ≺ 0`` (MATH §6) for the plant's
     closed loop, at the given ``η`` or for the largest ``η`` the bisection
-    reaches (see the module docstring for the derivation). The result is not
-    checked here: :func:`control_ncs.passivesyn` checks it exactly.
+    reaches (see the module docstring for the derivation). Markov modes
+    (MATH §11): ``K_{k,ℓ}`` and ``P_{k,ℓ}`` per previous mode, from the
+    coupled equations. The result is not checked here:
+    :func:`control_ncs.passivesyn` checks it exactly.
 
     Parameters
     ----------
@@ -421,20 +449,54 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
                 "plant: the Riccati iteration needs every state known at "
                 "every phase (structure 'full', E_k = I); this plant needs "
                 "the LMI ('block' or 'extended')")
-    _, _, _, Czb, Dub, Dwb = plant.mean()
-    data = [_Phase(plant.probabilities[k], plant.A[k], plant.Bu[k],
-                   plant.Bw[k], plant.Cz[k], plant.Du[k], plant.Dw[k],
-                   plant.active_inputs(k), (Czb[k], Dub[k], Dwb[k]))
-            for k in range(N)]
+    data, labels = _phases(plant)
     P, K, e, sweeps, bis = _search(data, eta, float(decay), margin, rtol,
                                    int(max_sweeps), int(probe_sweeps))
-    gains = np.zeros((N, s["nu"], s["nk"]))
+    M = plant.probabilities.shape[1]
+    gains = np.zeros((N, len(labels[0]) if labels else 1, s["nu"], s["nk"]))
+    cert = np.zeros((N, gains.shape[1], nx, nx))
     for k in range(N):
-        Kfull = np.zeros((s["nu"], nx))
-        Kfull[data[k].active] = K[k]
-        gains[k] = Kfull @ plant.E[k].T      # K_k E_k = Kfull (E_k selects all)
-    return RiccatiResult(gains, P, float(e), sweeps, bis,
+        for ell, c in enumerate(labels[k] if labels else [0]):
+            Kfull = np.zeros((s["nu"], nx))
+            Kfull[data[k][c].active] = K[k][c]
+            # K_k E_k = Kfull (E_k selects all)
+            gains[k, ell] = Kfull @ plant.E[k].T
+            cert[k, ell] = P[k][c]
+    if not labels:
+        gains, cert = gains[:, 0], cert[:, 0]
+    assert not labels or gains.shape[1] == M
+    return RiccatiResult(gains, cert, float(e), sweeps, bis,
                          time.perf_counter() - start)
+
+
+def _phases(plant: JumpPlant) -> tuple[list, list]:
+    """The equations of each phase: one :class:`_Phase` (i.i.d. modes), or
+    one per class of previous modes with equal rows ``T_{k-1}[ℓ]``
+    (Markov, MATH §11), and the class of each ``ℓ`` per phase (empty list
+    for i.i.d. modes)."""
+    N = plant.period
+    if plant.transition is None:
+        _, _, _, Czb, Dub, Dwb = plant.mean()
+        return [[_Phase(plant.probabilities[k], plant.A[k], plant.Bu[k],
+                        plant.Bw[k], plant.Cz[k], plant.Du[k], plant.Dw[k],
+                        plant.active_inputs(k), (Czb[k], Dub[k], Dwb[k]))]
+                for k in range(N)], []
+    from .lmi import mode_classes   # the LMI's classes, one definition
+    T = plant.transitions()
+    classes = [mode_classes(T[k - 1]) for k in range(N)]
+    data = []
+    for k in range(N):
+        ds = []
+        for rep in classes[k][1]:
+            t = T[k - 1][rep]
+            means = tuple(np.einsum("m,mij->ij", t, X[k])
+                          for X in (plant.Cz, plant.Du, plant.Dw))
+            ds.append(_Phase(t, plant.A[k], plant.Bu[k], plant.Bw[k],
+                             plant.Cz[k], plant.Du[k], plant.Dw[k],
+                             plant.active_inputs(k), means,
+                             nxt=classes[(k + 1) % N][0]))
+        data.append(ds)
+    return data, [c[0] for c in classes]
 
 
 # -- deterministic systems: the DARE storage of the certified index ----------

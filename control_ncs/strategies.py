@@ -536,7 +536,10 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         Plant with its network.
     K : PeriodicGain, array_like, control.StateSpace or TransferFunction
         A gain from :func:`control_ncs.passivesyn`, or gains of shape
-        ``(m2, nk)`` (constant) or ``(N_K, m2, nk)`` (periodic; the loop's
+        ``(m2, nk)`` (constant), ``(N_K, M, m2, nk)`` (per phase and
+        previous network mode ``ℓ``, MATH §11: the loop is then a Markov
+        jump system on pair modes ``(ℓ, i)``, for i.i.d. links too, where
+        ``ℓ`` is extra information) or ``(N_K, m2, nk)`` (periodic; the loop's
         period is the least common multiple of ``N_K``, ``P.period`` and
         the estimator gain's period). ``nk`` is ``nmeas`` for the static
         controller, ``n`` for the predictor and the estimator, plus ``m2``
@@ -631,7 +634,7 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         gains = K.gains
     else:
         # validate here so that messages name the argument K, not 'gains'
-        gains = real_array(K, "K", ndim=(2, 3))
+        gains = real_array(K, "K", ndim=(2, 3, 4))
         gains = gains[None] if gains.ndim == 2 else gains
     if 0 in gains.shape:
         raise ControlDimension(f"K: expected a non-empty gain (at least one "
@@ -659,12 +662,18 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     plant = build(P, controller, actuator, period=N,
                   estimator_gain=estimator_gain)
     want = plant.gain_shape()[1:]
+    if gains.ndim == 4:
+        # K_{k,ℓ}: one gain per previous mode ℓ (MATH §11)
+        want = (plant.probabilities.shape[1],) + want
     if gains.shape[1:] != want:
         raise ControlDimension(
-            f"K: expected gains of shape {want} (or ({gains.shape[0]}, "
-            f"{want[0]}, {want[1]}) per phase) for controller={controller!r}, "
-            f"actuator={actuator!r}, got {gains.shape[1:]}")
-    gains = np.tile(gains, (N // gains.shape[0], 1, 1))
+            f"K: expected gains of shape {want[-2:]} (or "
+            f"({gains.shape[0]}, {want[-2]}, {want[-1]}) per phase, or "
+            f"({gains.shape[0]}, {plant.probabilities.shape[1]}, {want[-2]}, "
+            f"{want[-1]}) per phase and previous mode) for "
+            f"controller={controller!r}, actuator={actuator!r}, got "
+            f"{gains.shape[1:]}")
+    gains = np.tile(gains, (N // gains.shape[0],) + (1,) * (gains.ndim - 1))
     return plant.close(gains)
 
 

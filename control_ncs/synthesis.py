@@ -1,4 +1,4 @@
-"""Positive-real (passive) synthesis over a lossy network (MATH §8, §8b).
+"""Positive-real (passive) synthesis over a lossy network (MATH §8, §8b, §11).
 
 ``K, CL, eta = passivesyn(P, ...)`` in the manner of :func:`control.hinfsyn`.
 The LMI is built for the generic plant of MATH §10 (``lmi.py``), so every
@@ -7,7 +7,9 @@ has passed the exact checks of ``verify.py``. Loops whose gain sees the
 whole state (``structure='full'``) can instead go through the monotone
 Riccati iteration of ``riccati.py`` (``solver='riccati'``, chosen
 automatically above ``RICCATI_THRESHOLD`` states); its gains pass the same
-checks.
+checks. Over bursty (Markov) links both routes design gains ``K_{k,ℓ}`` on
+the previous network mode (MATH §11), checked on the closed loop on pair
+modes (:meth:`control_ncs.jump.JumpPlant.close`).
 """
 
 from __future__ import annotations
@@ -24,9 +26,9 @@ from ._checks import (choice, decay_bound, finite_real, positive_real,
                       real_array)
 from .stability import ms_radius
 from .gain import PeriodicGain, actuators, controllers
-from .jump import JumpPlant, JumpStateSpace, require_iid
+from .jump import JumpPlant, JumpStateSpace
 from .driver import RETRIES, drive
-from .lmi import (DEFAULT_MARGIN, SolveReport, balancing_scale,
+from .lmi import (DEFAULT_MARGIN, GAINS, SolveReport, balancing_scale,
                   check_options, check_solver, data_scale, read_gains, solve,
                   synthesis_model)
 from .plant import NetworkedStateSpace
@@ -102,7 +104,8 @@ class SynthesisResult:
         of the exact check there (``Θ̃_k`` is congruent to ``Θ_k``: same
         signs; ``ms_radius`` is the same).
     X, Y : ndarray
-        LMI variables per phase (``Y`` zero-padded to ``(N, nu, nx)``); for
+        LMI variables per phase (``Y`` zero-padded to ``(N, nu, nx)``;
+        Markov links: per phase and previous mode, ``(N, M, ., .)``); for
         the Riccati route ``X_k = P_k⁻¹`` and ``Y_k = K_k X_k`` (the LMI
         variables its certificate corresponds to).
     form : {'merged', 'paper'}
@@ -111,6 +114,16 @@ class SynthesisResult:
     structure : {'full', 'block', 'extended'}
         Which LMI certified the gain: ``'full'`` is exact (feasible iff a
         certified gain exists); ``'block'`` and ``'extended'`` are sufficient.
+    gain_kind : {'phase', 'mode'}
+        Which kind of gain was certified: ``K_k`` per phase, or
+        ``K_{k,ℓ}`` per phase and previous network mode (Markov links,
+        MATH §11; the closed loop is then a jump system on pair modes
+        ``(ℓ, i)`` and ``certificate.P`` is ``P_{k,(ℓ',ℓ)} = P_{k,ℓ}``).
+        On Markov links ``'phase'`` is sufficient only.
+    note : str
+        Why the call took another route than asked or than usual (e.g. the
+        Riccati iteration is written for i.i.d. modes: Markov links fall
+        back to the LMI), or ''.
     width : int
         Side of each LMI block ``Ψ_k``; for the Riccati route, the side
         ``n + m1`` of the matrices ``Θ_k`` it certifies (it works with
@@ -149,6 +162,8 @@ class SynthesisResult:
     report: SolveReport
     attempts: list = field(default_factory=list)
     plant: JumpPlant | None = None
+    gain_kind: str = "phase"
+    note: str = ""
 
     @property
     def ms_radius(self) -> float:
@@ -168,12 +183,14 @@ class SynthesisResult:
     def message(self) -> str:
         """One sentence: what the certificate proves."""
         return (f"{MESSAGES[CERTIFIED]} (eta = {self.eta:.6g}, ms_radius = "
-                f"{self.ms_radius:.6g}, structure {self.structure})")
+                f"{self.ms_radius:.6g}, structure {self.structure}, "
+                f"{self.gain_kind} gains)")
 
     def __repr__(self) -> str:
         return (f"<SynthesisResult: {self.status}, eta = {self.eta:.6g}, "
                 f"N = {self.gain.period}, controller {self.gain.controller}, "
                 f"actuator {self.gain.actuator}, structure {self.structure}, "
+                f"{self.gain_kind} gains, "
                 f"solver {self.report.solver}: {self.report.status}>")
 
     def summary(self) -> str:
@@ -188,7 +205,8 @@ class SynthesisResult:
                  f"  {self.message}",
                  f"  controller={self.gain.controller!r}, "
                  f"actuator={self.gain.actuator!r}, N={self.gain.period}, "
-                 f"form={self.form}, structure={self.structure}",
+                 f"form={self.form}, structure={self.structure}, "
+                 f"gain={self.gain_kind}",
                  f"  certified eta = {self.eta:.6g} (solver "
                  f"{self.eta_solver:.6g})",
                  f"  solver {r.solver}: {r.status}, compile "
@@ -198,6 +216,8 @@ class SynthesisResult:
             # MATH §12: the loop's rate is the larger of these two loops'
             lines.append(f"  estimator gain L_k of shape "
                          f"{self.gain.estimator_gain.shape} (N_L, n, nmeas)")
+        if self.note:
+            lines.append(f"  note: {self.note}")
         lines += ["  " + line for line in
                   self.certificate.summary().splitlines()]
         return "\n".join(lines)
@@ -232,9 +252,30 @@ def _plant_arrays(plant: JumpPlant) -> None:
                          "with rows summing to 1")
     if not all(np.all(np.isfinite(getattr(plant, f))) for f in want):
         raise ValueError("P: JumpPlant matrices must be finite")
+    T = plant.transition
+    if T is not None and (T.shape != (N, M, M) or not (
+            np.all(np.isfinite(T)) and np.all(T >= 0)
+            and np.allclose(T.sum(axis=2), 1.0))):
+        raise ValueError(f"P: JumpPlant.transition must have shape "
+                         f"{(N, M, M)}, entries >= 0 and rows summing to 1, "
+                         f"got shape {T.shape}")
 
 
-def _checks(P, eta, decay, controller, actuator, form, structure, plant):
+def _feedthrough(plant: JumpPlant) -> tuple[float, int]:
+    """The feedthrough bound on ``η`` (MATH §6); Markov modes: per phase
+    and previous mode, with the laws ``T_{k-1}[ℓ]`` (MATH §11)."""
+    if plant.transition is None:
+        return feedthrough_bound(plant.probabilities, plant.Dw)
+    N, M = plant.probabilities.shape
+    laws = np.roll(plant.transitions(), 1, axis=0)   # [k, ℓ] = T_{k-1}[ℓ]
+    D = np.repeat(plant.Dw[:, None], M, axis=1)
+    bound, j = feedthrough_bound(laws.reshape(N * M, M),
+                                 D.reshape((N * M,) + plant.Dw.shape[1:]))
+    return bound, j // M
+
+
+def _checks(P, eta, decay, controller, actuator, form, structure, plant,
+            gain="mode"):
     if isinstance(P, JumpPlant):
         _plant_arrays(plant)
         if not plant.is_selection():
@@ -253,7 +294,7 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant):
             "outputs")
     eta = finite_real(eta, "eta", allow_none=True)
     if eta is not None:
-        bound, _ = feedthrough_bound(plant.probabilities, plant.Dw)
+        bound, _ = _feedthrough(plant)
         if not bound > eta:
             raise ValueError(
                 f"eta: D11 + D11ᵀ ≻ 2·eta·I is necessary (paper's Assumption 1, "
@@ -261,6 +302,7 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant):
                 f"{eta:.6g}")
     decay = decay_bound(decay)
     choice(form, "form", FORMS)
+    choice(gain, "gain", GAINS)
     choice(structure, "structure", STRUCTURES)
     # the loop closes where some phase knows a coordinate and can act
     if not any(plant.known_coordinates(k).size and plant.active_inputs(k).size
@@ -285,7 +327,8 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant):
 def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                decay: float | None = None, controller: str = "static",
                actuator: str = "zero", form: str = "merged",
-               structure: str = "auto", solver: str | None = None,
+               structure: str = "auto", gain: str = "mode",
+               solver: str | None = None,
                margin: float = DEFAULT_MARGIN,
                time_limit: float | None = TIME_BUDGET,
                estimator_gain: Any = None, **solver_options: Any
@@ -302,7 +345,10 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     ``K_k = Y_k X_k⁻¹`` (or ``Y_k G_k⁻¹`` in the extended form); then checks
     the closed loop exactly: ``λmax(Θ_k) < 0`` with ``P_k = X_k⁻¹`` for every
     phase and ``ms_radius < 1`` (``< r²`` with ``decay=r``). A gain that fails
-    is never returned.
+    is never returned. Over Markov (Gilbert–Elliott) links the LMI is MATH
+    §11's, with ``X_{k,ℓ}``, ``Y_{k,ℓ}`` per previous mode ``ℓ`` (see
+    ``gain``), and the check is ``Θ_{k,ℓ}`` of the closed loop on pair modes
+    with ``P_{k,(ℓ',ℓ)} = X_{k,ℓ}⁻¹``.
 
     The LMI is solved in balanced coordinates (a diagonal similarity by
     powers of two, exact in floating point) and every solve goes through
@@ -352,6 +398,16 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``'auto'``: ``'full'`` (exact) when the controller knows every
         coordinate at every phase, else ``'extended'``. ``'block'`` and
         ``'extended'`` are sufficient conditions (MATH §8).
+    gain : {'mode', 'phase'}
+        Markov (bursty) links, MATH §11: ``'mode'`` (default) designs
+        gains ``K_{k,ℓ}`` that also use the previous network mode
+        ``ℓ = σ_{k-1}`` (known through acknowledgements and arrivals;
+        exact with structure ``'full'``), returned as a 4-D
+        :class:`PeriodicGain` of shape ``(N, M, m2, nk)``; ``'phase'``
+        designs ``K_k`` for every ``ℓ`` (sufficient: a common slack
+        ``G_k``, or a common ``X_k`` with ``structure='block'``). For
+        i.i.d. links both are the LMI of MATH §8 and the gain is ``K_k``.
+        ``K.result.gain_kind`` says which kind was certified.
     solver : str, optional
         An installed cvxpy solver for the LMI, or ``'riccati'``
         (case-insensitive) for the monotone Riccati iteration of
@@ -362,6 +418,9 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``RICCATI_THRESHOLD`` states and no solver options are given (if
         that iteration is inconclusive and the plant has at most
         ``RICCATI_FALLBACK_MAX`` states, Clarabel after it), else Clarabel.
+        Over Markov links the iteration solves the coupled Riccati
+        equations (gains ``K_{k,ℓ}``); with ``gain='phase'`` the LMI is
+        solved instead (``K.result.note`` says so).
     margin : float, optional
         Relative strictness margin of the LMIs (for the Riccati iteration:
         the ``εI`` added at each step, relative to the data's scale).
@@ -386,8 +445,10 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     Returns
     -------
     K : PeriodicGain
-        ``K.gains`` has shape ``(N, m2, nk)``, applied as ``u = K_k ŷ``
-        (no minus sign); ``K.result`` is the :class:`SynthesisResult`.
+        ``K.gains`` has shape ``(N, m2, nk)``, or ``(N, M, m2, nk)`` for
+        gains on the previous mode (Markov links, ``gain='mode'``), applied
+        as ``u = K_k ŷ`` (no minus sign); ``K.result`` is the
+        :class:`SynthesisResult`.
     CL : JumpStateSpace
         The closed loop ``w → z``; ``CL.info['synthesis']`` is the result.
     eta : float
@@ -454,6 +515,16 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     >>> bool(ms_radius(CL) < 1)
     True
 
+    A bursty actuator link (6 % loss in bursts of 1/0.9 steps): gains on the
+    previous mode, 4 of them for the modes ``(θ1, θ2)``.
+
+    >>> P3 = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...          nmeas=1, ncon=1, actuator_loss=gilbert_elliott(fail=0.06,
+    ...                                                         recover=0.9))
+    >>> K, CL, eta = passivesyn(P3, decay=0.9)
+    >>> K.gains.shape, K.result.gain_kind, bool(ms_radius(CL) < 0.81)
+    ((1, 4, 1, 1), 'mode', True)
+
     Only ``x[0]`` measured (``C2 = [1 0]``): the estimator-based design.
 
     >>> P2 = nss([[1.2, 1.0], [0.0, 0.5]], [[1.0, 0.0], [0.0, 1.0]],
@@ -490,6 +561,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         actuator = P.info.get("actuator", actuator)
         plant = JumpPlant(P.A, P.Bu, P.Bw, P.Cz, P.Du, P.Dw, P.E,
                           P.probabilities, P.dt, nominal=P.nominal,
+                          transition=P.transition,
                           inputs=P.inputs, outputs=P.outputs,
                           states=P.states, info=dict(
                               P.info, controller=controller,
@@ -508,14 +580,21 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             plant = build(P, controller, actuator)
     else:
         plant = None
-    if plant is not None:
-        # MATH §8 is written for i.i.d. modes; on a chain it would design
-        # for the stationary marginals (§11's K_{k,ℓ} synthesis: not yet)
-        require_iid(P if isinstance(P, JumpPlant) else plant, "passivesyn",
-                    "P")
     eta, decay, structure0 = _checks(P, eta, decay, controller, actuator,
-                                     form, structure, plant)
+                                     form, structure, plant, gain)
     riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
+    note = ""
+    if riccati and plant.transition is not None and gain == "phase":
+        # the coupled equations give the optimal K_{k,ℓ}; a gain common to
+        # the previous modes is the LMI's (sufficient) condition only
+        _riccati_options(solver_options)
+        if structure0 != "full":
+            raise ValueError(
+                f"solver: 'riccati' needs structure 'full'; this loop "
+                f"resolves to structure {structure0!r}: use an LMI solver")
+        note = ("solver='riccati' designs gains K_{k,l} on Markov links; "
+                "gain='phase' was solved by the LMI of MATH §11 instead")
+        solver_options, solver, riccati = {}, None, False
     if riccati and structure0 != "full":
         raise ValueError(
             f"solver: 'riccati' needs structure 'full' (the gain sees every "
@@ -529,13 +608,13 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     _open_loop_bound(plant, decay)
     requested = eta
     if eta is not None:
-        bound, _ = feedthrough_bound(plant.probabilities, plant.Dw)
+        bound, _ = _feedthrough(plant)
         eta = max(eta, level_floor(bound, plant.A, plant.Bu, plant.Bw,
                                    plant.Cz, plant.Du, plant.Dw))
     try:
         K, CL, got = _routes(plant, eta, decay, margin, structure,
                              structure0, form, solver, solver_options,
-                             deadline, riccati)
+                             deadline, riccati, gain)
     except SynthesisError as err:
         if requested == eta or err.reason != INFEASIBLE:
             raise
@@ -547,6 +626,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     if requested != eta:
         # Θ(η) ≼ Θ(η0) for η ≤ η0: the certificate at η0 proves η exactly
         K.result.eta = K.result.eta_solver = got = float(requested)
+    if note:
+        K.result.note = note
     return K, CL, got
 
 
@@ -600,12 +681,14 @@ def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
 
 
 def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
-            solver_options, deadline, riccati):
+            solver_options, deadline, riccati, gain="mode"):
     """The solve-and-verify routes of :func:`passivesyn` (checked input)."""
     if riccati:
         return _riccati(plant, eta, decay, margin, solver_options)
+    # the Riccati iteration designs K_k (i.i.d.) or K_{k,ℓ} (Markov)
+    fits = plant.transition is None or gain == "mode"
     chosen = (solver is None and not solver_options and structure0 == "full"
-              and plant.shape["nx"] > RICCATI_THRESHOLD)
+              and plant.shape["nx"] > RICCATI_THRESHOLD and fits)
     if chosen:
         try:
             return _riccati(plant, eta, decay, margin, solver_options)
@@ -629,7 +712,8 @@ def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
     first = None
     for struct in order:
         out, finish = _lmi_route(plant, eta, decay, margin, struct, form,
-                                 solver, solver_options, deadline)
+                                 solver, solver_options, deadline,
+                                 gain=gain)
         if out.ok:
             return finish()
         first = first or (out, struct)
@@ -641,10 +725,10 @@ def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
             (INFEASIBLE, TIME_LIMIT)):
         for struct2 in order:
             found = _eta_search(plant, decay, margin, struct2, form, solver,
-                                solver_options, deadline)
+                                solver_options, deadline, gain)
             if found is not None:
                 return found
-    if (solver is None and structure0 == "full" and not chosen
+    if (solver is None and structure0 == "full" and not chosen and fits
             and out.reason != TIME_LIMIT
             and (deadline is None or time.perf_counter() < deadline)):
         # The default call: the Riccati iteration solves the same exact
@@ -676,7 +760,7 @@ def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
 
 
 def _eta_search(plant, decay, margin, structure, form, solver, options,
-                deadline):
+                deadline, gain="mode"):
     """``η`` maximised by fixed-``η`` LMIs: the default call's fallback.
 
     Near the edge of mean-square stability the maximisation's optimum lies
@@ -689,7 +773,7 @@ def _eta_search(plant, decay, margin, structure, form, solver, options,
     (``certify_index``: the returned ``η`` is what its ``P`` proves).
     Returns the result of the best verified level, or None.
     """
-    u, _ = feedthrough_bound(plant.probabilities, plant.Dw)
+    u, _ = _feedthrough(plant)
     unit = max(1.0, abs(u))
     found = high = None
 
@@ -698,7 +782,7 @@ def _eta_search(plant, decay, margin, structure, form, solver, options,
             return None
         out, finish = _lmi_route(plant, target, decay, margin, structure,
                                  form, solver, options, deadline,
-                                 supremum=True)
+                                 supremum=True, gain=gain)
         return finish if out.ok else None
 
     for j in range(ETA_SEARCH_DECADES):
@@ -748,17 +832,22 @@ def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
     is the special case where every mode is gain-independent.
     """
     n = plant.shape["nx"]
-    if n > OPEN_LOOP_BOUND_MAX:
-        return
     p, N = plant.probabilities, plant.period
-    M = np.eye(n * n)
-    for k in range(N):
-        step = np.zeros((n * n, n * n))
-        for i in np.flatnonzero(p[k] > 0):
-            if not np.any(plant.E[k]) or not np.any(plant.Bu[k, i]):
-                step += p[k, i] * np.kron(plant.A[k, i], plant.A[k, i])
-        M = step @ M
-    rho = float(np.max(np.abs(np.linalg.eigvals(M)))) ** (1.0 / N)
+    if plant.transition is not None:
+        if p.shape[1] * n * n > OPEN_LOOP_BOUND_MAX ** 2:
+            return
+        rho = _open_loop_rate_markov(plant)
+    else:
+        if n > OPEN_LOOP_BOUND_MAX:
+            return
+        M = np.eye(n * n)
+        for k in range(N):
+            step = np.zeros((n * n, n * n))
+            for i in np.flatnonzero(p[k] > 0):
+                if not np.any(plant.E[k]) or not np.any(plant.Bu[k, i]):
+                    step += p[k, i] * np.kron(plant.A[k, i], plant.A[k, i])
+            M = step @ M
+        rho = float(np.max(np.abs(np.linalg.eigvals(M)))) ** (1.0 / N)
     bound = min(1.0, decay ** 2)
     # a clear margin over rounding (eigvals is backward stable)
     if rho >= bound * (1 + 1e-9):
@@ -771,6 +860,52 @@ def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
             + (f" with decay {decay}" if decay < 1 else ""),
             INFEASIBLE, dict(ms_radius_without_control=rho, bound=bound,
                                proof="gain-independent modes"))
+
+
+def _open_loop_rate_markov(plant: JumpPlant) -> float:
+    """Per-step rate of the gain-independent part on Markov modes.
+
+    With ``S_{k,ℓ} = E[ξ ξᵀ 1{σ_{k-1} = ℓ}]`` (MATH §11),
+    ``S_{k+1,i} = Σ_ℓ T_{k-1}[ℓ, i] Acl S_{k,ℓ} Aclᵀ`` dominates the same
+    sum over the modes ``i`` in which ``Acl = A_{k,i}`` whatever the gain
+    (also a gain using ``ℓ``); the operator on ``M``-tuples restricted to
+    them bounds every closed loop's rate from below. For the scalar
+    ``x⁺ = a x + u`` it is ``a² ρ(T_oo)`` (MATH §11).
+    """
+    n = plant.shape["nx"]
+    N, M = plant.probabilities.shape
+    T = plant.transitions()
+    size = M * n * n
+    total = np.eye(size)
+    for k in range(N):
+        step = np.zeros((M, n * n, M, n * n))
+        for i in range(M):
+            if np.any(plant.E[k]) and np.any(plant.Bu[k, i]):
+                continue
+            AA = np.kron(plant.A[k, i], plant.A[k, i])
+            for ell in np.flatnonzero(T[k - 1][:, i] > 0):
+                step[i, :, ell, :] = T[k - 1][ell, i] * AA
+        total = step.reshape(size, size) @ total
+    return float(np.max(np.abs(np.linalg.eigvals(total)))) ** (1.0 / N)
+
+
+def _pair_certificate(P: np.ndarray, CL: JumpStateSpace) -> np.ndarray:
+    """``P_{k,ℓ}`` (shape (N, M, n, n)) as the certificate of the closed
+    loop of gains ``K_{k,ℓ}`` on (lumped) pair modes (``JumpPlant.close``):
+    a previous pair mode whose current plant mode was ``ℓ`` gets
+    ``P_{k,ℓ}`` (MATH §11: ``P_{k,(ℓ',ℓ)} = P_{k,ℓ}``)."""
+    if CL.modes.is_iid:
+        # lumped to i.i.d. modes: a single class of ℓ at every phase
+        return P[:, 0]
+    cur = np.roll(CL.info["pair_modes"], 1, axis=0)   # [k] = modes at k-1
+    return np.array([P[k][cur[k]] for k in range(P.shape[0])])
+
+
+def _unscale(P: Any, t: np.ndarray) -> Any:
+    """``T⁻¹ P T⁻¹`` for each certificate matrix, ``T = diag(t)``."""
+    if isinstance(P, list):
+        return [np.asarray(Pk) / t[:, None] / t[None, :] for Pk in P]
+    return np.asarray(P) / t[:, None] / t[None, :]
 
 
 def _balancing(plant: JumpPlant) -> np.ndarray | None:
@@ -797,12 +932,13 @@ def _scaled(plant: JumpPlant, t: np.ndarray) -> JumpPlant:
                      plant.Bu * inv[:, None], plant.Bw * inv[:, None],
                      plant.Cz * t[None, :], plant.Du, plant.Dw, plant.E,
                      plant.probabilities, plant.dt, nominal=plant.nominal,
+                     transition=plant.transition,
                      inputs=plant.inputs, outputs=plant.outputs,
                      states=plant.states, info=plant.info)
 
 
 def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
-               deadline, supremum=False):
+               deadline, supremum=False, gain="mode"):
     """The LMI of ``structure``, through the one driver (``driver.drive``).
 
     Returns the driver's outcome and a function building the result. The
@@ -817,7 +953,7 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
 
     def attempt(scale, target, name, left):
         model = synthesis_model(work, target, decay, margin * scale,
-                                structure, form)
+                                structure, form, gain)
         extra = {} if left is None else dict(time_limit=left)
         # the caller's options are for the solver the caller chose
         report = solve(model.problem, name,
@@ -849,11 +985,17 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
         # ms_radius). In the original coordinates the eigenvalue test's
         # rounding bound grows with ‖P‖ and can refuse a true certificate.
         CL = work.close(c["gains"])
+        P = c["P"]
+        if c["gains"].ndim == 4:
+            P = _pair_certificate(P, CL)    # the pair-mode loop's
+        elif P.ndim == 4 and CL.modes.is_iid:
+            # equal rows: one class per phase, and the loop is i.i.d.
+            P = P[:, 0]
         if eta is None or supremum:
-            cert = certify_index(CL, c["P"], decay=decay)
+            cert = certify_index(CL, P, decay=decay)
             if eta is None or cert.verified:
                 return cert
-        return check_certificate(CL, c["P"], eta, decay=decay)
+        return check_certificate(CL, P, eta, decay=decay)
 
     out = drive(attempt, verify, eta=eta, solver=solver, deadline=deadline,
                 label=f"passivesyn LMI ({structure})")
@@ -866,11 +1008,12 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
             # X_k = T X̃_k T, Y_k = Ỹ_k T (all exact: powers of two)
             d = np.einsum("kjx,x->kj", work.E, t)
             d[d == 0] = 1.0
-            gains = gains / d[:, None, :]
-            X = X * t[None, :, None] * t[None, None, :]
-            Y = Y * t[None, None, :]
-            cert = replace(cert, P=c["P"] / t[None, :, None]
-                           / t[None, None, :])
+            if gains.ndim == 4:
+                d = d[:, None]
+            gains = gains / d[..., None, :]
+            X = X * t[:, None] * t[None, :]
+            Y = Y * t
+            cert = replace(cert, P=_unscale(cert.P, t))
         return _finish(plant, X, Y, gains, plant.close(gains), cert,
                        cert.eta, out.eta_solver, decay, form, structure,
                        c["width"], out.report, out.attempts)
@@ -879,16 +1022,25 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
 
 
 def _variables(model, plant):
-    """The LMI's ``X_k`` and ``Y_k`` (zero-padded to ``(N, nu, nx)``)."""
+    """The LMI's ``X`` and ``Y`` (zero-padded to ``nu × nx``): shape
+    ``(N, ., .)``, or ``(N, M, ., .)`` per previous mode (Markov)."""
     model.check_current()
     s = plant.shape
-    Y = np.zeros((plant.period, s["nu"], s["nx"]))
-    for k, Yv in enumerate(model.Y):
-        if Yv is not None:
-            known, active, _ = model.blocks[k]
-            Y[k][np.ix_(active, known)] = Yv.value
-    X = np.array([np.asarray(Xk.value, float) for Xk in model.X])
-    return X, Y
+    N = plant.period
+    Ys = np.zeros((N, max(map(len, model.X_classes)), s["nu"], s["nx"]))
+    Xs = np.zeros((N, Ys.shape[1], s["nx"], s["nx"]))
+    for k in range(N):
+        for c, Xv in enumerate(model.X_classes[k]):
+            Xs[k, c] = np.asarray(Xv.value, float)
+            Yv = model.Y_classes[k][c]
+            if Yv is not None:
+                known, active, _ = model.blocks_classes[k][c]
+                Ys[k, c][np.ix_(active, known)] = Yv.value
+    if not model.markov:
+        return Xs[:, 0], Ys[:, 0]
+    idx = np.array(model.classes)
+    rows = np.arange(N)[:, None]
+    return Xs[rows, idx], Ys[rows, idx]
 
 
 def _riccati_options(options):
@@ -906,8 +1058,10 @@ def _riccati(plant, eta, decay, margin, options):
     report = SolveReport("optimal", "RICCATI", 0.0, res.time, res.time,
                          res.sweeps, res.eta, options=dict(options))
     CL = plant.close(res.gains)
-    cert = (certify_index(CL, res.P, decay=decay) if eta is None
-            else check_certificate(CL, res.P, eta, decay=decay))
+    # Markov modes: K_{k,ℓ}, checked on the pair-mode loop (MATH §11)
+    Pv = _pair_certificate(res.P, CL) if res.gains.ndim == 4 else res.P
+    cert = (certify_index(CL, Pv, decay=decay) if eta is None
+            else check_certificate(CL, Pv, eta, decay=decay))
     if not cert.verified:
         raise SynthesisError(
             "passivesyn: no verified gain (the Riccati gain fails the exact "
@@ -915,10 +1069,13 @@ def _riccati(plant, eta, decay, margin, options):
             dict(status=report.status, solver=report.solver,
                  statuses=[report.status], **cert.figures()))
     s = plant.shape
-    X = np.array([np.linalg.inv(Pk) for Pk in res.P])
-    X = 0.5 * (X + X.transpose(0, 2, 1))
+    X = np.linalg.inv(res.P)
+    X = 0.5 * (X + np.swapaxes(X, -1, -2))
     # K_k E_k is the full gain (E_k selects every coordinate)
-    Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
+    if res.gains.ndim == 4:
+        Y = np.einsum("kluj,kjx,klxy->kluy", res.gains, plant.E, X)
+    else:
+        Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
     return _finish(plant, X, Y, res.gains, CL, cert, cert.eta,
                    res.eta if eta is None else eta, decay, "merged", "full",
                    s["nx"] + s["nw"], report, [report])
@@ -931,7 +1088,8 @@ def _finish(plant, X, Y, gains, CL, cert, eta_ok, eta_solver, decay, form,
                      estimator_gain=info.get("estimator_gain"))
     result = SynthesisResult(
         K, float(eta_ok), float(eta_solver), decay, cert,
-        X, Y, form, structure, width, report, attempts, plant)
+        X, Y, form, structure, width, report, attempts, plant,
+        "mode" if K.mode_dependent else "phase")
     K.result = result
     CL.info["synthesis"] = result
     return K, CL, float(eta_ok)

@@ -326,12 +326,12 @@ def test_auto_structure_falls_back_to_block_and_says_so(monkeypatch):
     P = scheduled_plant()
     real = synthesis.synthesis_model
 
-    def broken_extended(plant, eta, decay, margin, structure, form):
+    def broken_extended(plant, eta, decay, margin, structure, form, *gain):
         if structure == "extended":
             # an 'extended' LMI that never verifies: η fixed above the
             # feedthrough bound makes it infeasible
-            return real(plant, 10.0, decay, margin, structure, form)
-        return real(plant, eta, decay, margin, structure, form)
+            return real(plant, 10.0, decay, margin, structure, form, *gain)
+        return real(plant, eta, decay, margin, structure, form, *gain)
 
     monkeypatch.setattr(synthesis, "synthesis_model", broken_extended)
     with pytest.raises(SynthesisError):
