@@ -31,7 +31,8 @@ from .jump import JumpStateSpace, as_jump
 __all__ = ["ms_radius", "is_mss", "second_moment_operator"]
 
 #: Above this state dimension, method='auto' goes matrix-free (the dense
-#: monodromy needs n⁴ floats and N·n⁶ flops; see benchmarks/).
+#: monodromy needs n⁴ floats and N·n⁶ flops; see benchmarks/). Markov modes:
+#: above an operator of side DENSE_MAX_STATES² (M·n² unknowns).
 DENSE_MAX_STATES = 24
 
 
@@ -173,7 +174,8 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
         ``'auto'``: for a deterministic system (one live mode per phase)
         ``ρ(Φ)^(2/N)`` from the eigenvalues of the ``n × n`` monodromy
         ``Φ`` (exact, since ``𝒯 = Φ ⊗ Φ``); otherwise ``'dense'`` up to
-        ``DENSE_MAX_STATES`` states, else ``'matrix-free'``.
+        ``DENSE_MAX_STATES`` states (Markov modes: up to an operator of side
+        ``DENSE_MAX_STATES²``, ``M·n²`` unknowns), else ``'matrix-free'``.
     tol : float
         Relative accuracy asked of ARPACK (matrix-free route); a finite
         number > 0.
@@ -226,8 +228,11 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
             rho = float(np.max(np.abs(np.linalg.eigvals(phi)))) ** 2 \
                 if n else 0.0
             return rho ** (1.0 / sys.period)
-        method = "dense" if n <= DENSE_MAX_STATES else "matrix-free"
     size = n * n * (sys.nmodes if markov else 1)
+    if method == "auto":
+        # by the operator's size: a Markov operator acts on M matrices
+        method = ("dense" if size <= DENSE_MAX_STATES ** 2
+                  else "matrix-free")
     if method == "dense" or size <= 4:
         rho = float(np.max(np.abs(np.linalg.eigvals(_dense_monodromy(sys)))))
     else:
