@@ -495,7 +495,7 @@ def simulate_protocol(
             # ℓ = σ_{k-1}: (θ1,k-1, θ2,k-1) for the static gain, (θ1,k,
             # θ2,k-1) for the model-based controllers (MATH §11)
             seen1 = th1 if predictor else before1
-            Kk = Kk[seen1.astype(int) + 2 * before2.astype(int)]
+            Kk = Kk[np.asarray(seen1, int) + 2 * np.asarray(before2, int)]
         w = W[:, k]
 
         y = x @ C2m.T

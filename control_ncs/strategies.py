@@ -661,7 +661,7 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     N = math.lcm(P.period, gains.shape[0], NL)
     plant = build(P, controller, actuator, period=N,
                   estimator_gain=estimator_gain)
-    want = plant.gain_shape()[1:]
+    want: tuple[int, ...] = plant.gain_shape()[1:]
     if gains.ndim == 4:
         # K_{k,ℓ}: one gain per previous mode ℓ (MATH §11)
         want = (plant.probabilities.shape[1],) + want
