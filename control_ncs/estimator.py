@@ -251,6 +251,13 @@ def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
         ``'not_verified'`` when the solver found nothing that passes the
         exact check (nothing is proven then).
 
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+    .. [2] S. Boyd, L. El Ghaoui, E. Feron and V. Balakrishnan, *Linear Matrix
+           Inequalities in System and Control Theory*, SIAM, 1994.
+
     Examples
     --------
     ``x⁺ = 2x`` seen by ``y = x`` over a link losing 20 %: the error rate

@@ -1239,6 +1239,11 @@ def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any = None,
     TypeError
         Unknown keyword.
 
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+
     Examples
     --------
     A scalar loop ``x⁺ = 2x + u`` with ``u = -2x`` applied with probability

@@ -295,6 +295,11 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     ControlDimension
         Arrays of the wrong shape.
 
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+
     Examples
     --------
     >>> from control_ncs import jss

@@ -337,6 +337,12 @@ def mode_probabilities(sensor_loss: float, actuator_loss: float) -> dict:
     dict
         ``{(θ1, θ2): probability}`` for ``θ1, θ2 ∈ {0, 1}`` (1 = arrived).
 
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+
     Examples
     --------
     >>> p = mode_probabilities(0.1, 0.2)
@@ -462,6 +468,15 @@ def gilbert_elliott(fail: float | None = None, recover: float | None = None,
     ValueError
         A value outside its range, or ``loss`` and ``burst`` that need
         ``f > 1``.
+
+    References
+    ----------
+    .. [1] E. N. Gilbert, "Capacity of a burst-noise channel", *Bell System
+           Technical Journal* 39(5), 1960.
+    .. [2] E. O. Elliott, "Estimates of error rates for codes on burst-noise
+           channels", *Bell System Technical Journal* 42(5), 1963.
+    .. [3] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------

@@ -433,6 +433,12 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
     TypeError
         Unknown keyword.
 
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+
     Examples
     --------
     The paper's schedule with two sensors, ``N = 4``:

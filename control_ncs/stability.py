@@ -57,6 +57,11 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
     ValueError
         ``k`` is not an int.
 
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+
     Examples
     --------
     ``x⁺ = 2x`` with probability 0.2, else ``x⁺ = 0``: ``E x²`` is
@@ -195,6 +200,11 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
     RuntimeError
         If ARPACK does not converge (the message gives its best estimate).
 
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+
     Examples
     --------
     ``x⁺ = 2x + u``, ``u = -2x`` applied with probability 0.8: ``E x²`` is
@@ -272,6 +282,11 @@ def is_mss(sys: Any, **kwargs: Any) -> bool:
     ------
     TypeError, ControlArgument, ValueError, RuntimeError
         As :func:`ms_radius`.
+
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------
