@@ -118,4 +118,6 @@ def _copy_notebooks() -> None:
 
 
 _copy_notebooks()
-os.environ.setdefault("MPLBACKEND", "Agg")
+# the kernels inherit this process's environment: a non-interactive backend
+# set for CI (MPLBACKEND=Agg) would make plt.show() draw nothing on the site
+os.environ["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
