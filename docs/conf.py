@@ -65,11 +65,11 @@ myst_heading_anchors = 3
 suppress_warnings = ["myst.header"]
 
 # -- notebooks -----------------------------------------------------------------
-# Executed once per build (committed without outputs; the test suite's nbmake
-# run does not keep its outputs). 'cache' keeps the executed notebooks in
-# docs/_build/.jupyter_cache, so a local rebuild re-runs only edited ones.
-nb_execution_mode = "cache"
-nb_execution_cache_path = str(DOCS / "_build" / ".jupyter_cache")
+# Executed once per build: they are committed without outputs, and the test
+# suite's nbmake run keeps none. Always ('force'), not from a cache: a cache
+# is keyed on the cells' code only and would show the outputs of an older
+# control_ncs after the package changed.
+nb_execution_mode = "force"
 nb_execution_timeout = 600
 nb_execution_raise_on_error = True
 nb_execution_show_tb = True
