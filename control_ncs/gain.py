@@ -74,9 +74,10 @@ class PeriodicGain:
         The synthesis result that produced the gain (certificate and
         verification figures), if any.
     estimator_gain : array_like, shape (n, nmeas) or (N_L, n, nmeas), optional
-        The estimator's ``L_k`` (MATH §12) that ``controller='estimator'``
-        gains belong to (an :class:`control_ncs.estimator.EstimatorGain` is
-        accepted); :func:`control_ncs.feedback` closes the loop with it.
+        The estimator's ``L_k`` (:ref:`theory-output-feedback`) that
+        ``controller='estimator'`` gains belong to (an
+        :class:`control_ncs.estimator.EstimatorGain` is accepted);
+        :func:`control_ncs.feedback` closes the loop with it.
 
     Attributes
     ----------

@@ -1,9 +1,11 @@
-"""The one place that talks to cvxpy: LMIs of MATH §6 and §8, solved.
+"""The one place that talks to cvxpy: LMIs of :ref:`theory-passivity` and
+:ref:`theory-synthesis`, solved.
 
 Models are built as functions of the data (cvxpy's idiom: build, then solve
 in one place). Strictness margins are relative to the scale of the data, so
-that a problem and its rescaled copy are treated alike (MATH §8). Nothing
-here decides whether a result is *true*: ``verify.py`` does that exactly.
+that a problem and its rescaled copy are treated alike
+(:ref:`theory-synthesis`). Nothing here decides whether a result is *true*:
+``verify.py`` does that exactly.
 
 Every number of the data enters a problem as a cvxpy Parameter, so a problem
 is compiled once per shape and thread and reused (see ``CACHE_SIZE``).
@@ -417,7 +419,8 @@ def _quad_map(terms: list, n: int, m: int) -> np.ndarray:
     Returns ``Q`` with ``Q @ vec(P)[lower(n)]`` the lower triangle of the
     sum (column-major) for symmetric ``P``, ``G_i`` of shape (n, n+m).
     ``parameter × P × parameter`` is not DPP; this linear map of ``P`` is,
-    and the triangles make it a quarter of ``Σ p_i G_iᵀ ⊗ G_iᵀ`` (MATH §6).
+    and the triangles make it a quarter of ``Σ p_i G_iᵀ ⊗ G_iᵀ``
+    (:ref:`theory-passivity`).
     """
     # vec(Gᵀ P G) = (Gᵀ ⊗ Gᵀ) vec(P), column-major
     K = sum(w * np.kron(G.T, G.T) for w, G in terms)
@@ -448,7 +451,7 @@ def _symmetric_scatter(n: int) -> np.ndarray:
     return S
 
 
-# -- analysis: MATH §6 ---------------------------------------------------------
+# -- analysis: theory: passivity ----------------------------------------------
 class AnalysisModel(_Model):
     """The analysis LMI: ``Θ_k(P, η) ≼ -ε diag(P_k, I)``, ``P_k ≽ ε I``.
 
@@ -472,7 +475,8 @@ class AnalysisModel(_Model):
 
 def analysis_model(sys: JumpStateSpace, eta: float | None,
                    margin: float | None, decay: float = 1.0) -> AnalysisModel:
-    """Build the LMI of MATH §6 (maximise ``η`` when ``eta`` is None).
+    """Build the LMI of :ref:`theory-passivity` (maximise ``η`` when ``eta`` is
+    None).
 
     ``margin=None`` (with a given ``eta``) maximises the strictness margin
     ``t`` itself: ``Θ_k ≼ -t I``, ``P_k ≽ t I``. Its answer is the most
@@ -545,7 +549,7 @@ def _analysis_template(N, n, m, nz, maximise_eta, maximise_margin):
     return _Template(cp.Problem(objective, cons), params, P=P, eta=e, margin=t)
 
 
-# -- synthesis: MATH §8, §8b, §10 ----------------------------------------------
+# -- synthesis: theory: synthesis, predictor, jump system ---------------------
 class SynthesisModel(_Model):
     """The synthesis LMI ``Ψ_k ≼ -ε I`` and how to read a gain from it.
 
@@ -585,14 +589,16 @@ def _selector(idx: np.ndarray, size: int) -> np.ndarray:
 def synthesis_model(plant: JumpPlant, eta: float | None, decay: float,
                     margin: float, structure: str, form: str
                     ) -> SynthesisModel:
-    """Build ``Ψ_k`` of MATH §8 for the generic plant of §10.
+    """Build ``Ψ_k`` of :ref:`theory-synthesis` for the generic plant of
+    :ref:`theory-jump-system`.
 
     ``structure``: ``'full'`` (``E_k = I``: exact), ``'block'`` (``X_k``
     block-diagonal on known/unknown coordinates, ``Y_k`` zero on the
     unknown: sufficient), ``'extended'`` (``X_k`` full, slack ``G_k``
     block-diagonal carries the structure: sufficient, never more
     conservative than ``'block'``). ``form``: ``'merged'`` (coinciding modes
-    merged, MATH §8) or ``'paper'`` (one row per network mode, eq. 15).
+    merged, :ref:`theory-synthesis`) or ``'paper'`` (one row per network mode,
+    eq. 15).
 
     The problem is compiled once per shape (sizes, period, known
     coordinates, active inputs and number of modes of each phase, form,
@@ -734,7 +740,8 @@ def read_gains(model: SynthesisModel, plant: JumpPlant
     return gains, P
 
 
-# -- analysis with an output-feedback term (MATH §6, supply 2wᵀz - 2ρzᵀz - 2ηwᵀw)
+# -- analysis with an output-feedback term (theory: passivity, supply 2wᵀz -
+# 2ρzᵀz - 2ηwᵀw)
 class SupplyModel:
     """The analysis LMI with ``ρ`` (``ofp_index``): ``Θ_k ≼ -ε diag(P_k, I)``.
 
@@ -760,7 +767,8 @@ class SupplyModel:
 
 def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
                  margin: float | None, decay: float = 1.0) -> SupplyModel:
-    """Build the LMI of MATH §6 with the supply ``2wᵀz - 2ρzᵀz - 2ηwᵀw``.
+    """Build the LMI of :ref:`theory-passivity` with the supply
+    ``2wᵀz - 2ρzᵀz - 2ηwᵀw``.
 
     ``Θ_k`` gains ``2ρ Σ_i p_i [C_i D_i]ᵀ[C_i D_i]`` (``zᵀz`` is quadratic:
     its expectation takes each mode's output matrices, not their mean; see
@@ -803,12 +811,13 @@ def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
     return SupplyModel(cp.Problem(objective, cons), P, e, r, t)
 
 
-# -- estimator gain (MATH §12) ------------------------------------------------
+# -- estimator gain (theory: output feedback) ---------------------------------
 # Appended by the output-feedback work (issue 14); the models above are left
 # as they are.
 @dataclass
 class EstimatorModel:
-    """The estimator LMI of MATH §12 over one period, before its solve.
+    """The estimator LMI of :ref:`theory-output-feedback` over one period,
+    before its solve.
 
     Attributes
     ----------
@@ -830,10 +839,11 @@ def estimator_model(A: np.ndarray, C2: np.ndarray, S1: np.ndarray,
     For every phase ``k`` (``j = k + 1 mod N``), with ``Mθ = (I - θ L_j Σ1,j
     C2) A`` and ``Z_j = P_j L_j``, ``Σ_θ p_θ Mθᵀ P_j Mθ ≺ r² P_k`` is, by a
     Schur complement, ``[[r² P_k, *, *], [√α1 P_j A, P_j, 0],
-    [√(1-α1) (P_j - Z_j Σ1,j C2) A, 0, P_j]] ≻ 0`` (MATH §12). The LMI is
-    homogeneous in ``(P, Z)``: it is normalised by ``P_k ⪰ I`` and imposed
-    with the margin ``margin · s`` (``s`` the scale of ``A``); the objective
-    ``t ⪰ P_k`` keeps the certificate well conditioned.
+    [√(1-α1) (P_j - Z_j Σ1,j C2) A, 0, P_j]] ≻ 0``
+    (:ref:`theory-output-feedback`). The LMI is homogeneous in ``(P, Z)``: it
+    is normalised by ``P_k ⪰ I`` and imposed with the margin ``margin · s``
+    (``s`` the scale of ``A``); the objective ``t ⪰ P_k`` keeps the certificate
+    well conditioned.
 
     Parameters
     ----------

@@ -23,7 +23,8 @@ Plant (discrete time; sensor ``i`` measures ``y_i = (C2 x)_i``, by default
     y(k)   = C2 x(k)
 
 Controllers: a static gain on the received measurement, the model-based
-predictor (MATH §8b), the estimator (MATH §12: the predictor corrected by
+predictor (:ref:`theory-predictor`), the estimator
+(:ref:`theory-output-feedback`: the predictor corrected by
 ``L_k (y - C2 xhat)``) and any discrete-time LTI controller fed with the
 received measurements (a lost one is 0 or the last received value).
 

@@ -1,19 +1,22 @@
 """A certified Riccati-type iteration for full-information synthesis.
 
-The LMI of MATH §8 has ``N·n(n+1)/2`` unknowns and PSD blocks of side
-``2n + m1``; an interior-point solver factors a dense ``s(s+1)/2`` block per
-cone, so its time grows like ``n⁵``-``n⁶`` and its memory like ``n³``-``n⁴``
-(docs/benchmarks.md §2a: at ``n = 64, N = 4`` Clarabel cannot allocate its
-KKT system). When the gain sees the whole state at every phase
+The LMI of :ref:`theory-synthesis` has ``N·n(n+1)/2`` unknowns and PSD blocks
+of side ``2n + m1``; an interior-point solver factors a dense ``s(s+1)/2``
+block per cone, so its time grows like ``n⁵``-``n⁶`` and its memory like
+``n³``-``n⁴`` (docs/benchmarks.md §2a: at ``n = 64, N = 4`` Clarabel cannot
+allocate its KKT system). When the gain sees the whole state at every phase
 (``structure='full'``: ``E_k = I``, any actuator schedule) the same problem
 is solved here by a monotone matrix iteration with ``O(N·M·n³)`` work per
 sweep and ``O(N·n²)`` memory, numpy only.
 
-Derivation (MATH §6, §8, §10)
------------------------------
+Derivation
+----------
+The theory: :ref:`theory-passivity`, :ref:`theory-synthesis`,
+:ref:`theory-jump-system`.
+
 For the closed loop ``Ā_i = A_i + Bu_i K``, ``C̄ = C̄z + D̄u K`` (bars: means
 over the modes of the phase, ``p_i`` their probabilities), the dissipation
-matrix of MATH §6 is::
+matrix of :ref:`theory-passivity` is::
 
     Θ_k = [ Σ p Ā_iᵀ P⁺ Ā_i − r² P_k     M12        ]    P⁺ = P_{k+1}
           [ M12ᵀ                  −R_k(P⁺)           ]
@@ -72,8 +75,13 @@ certified, only possibly below the supremum by more than ``rtol``).
 
 References
 ----------
-MATH §6 (analysis LMI), §8 (synthesis), §10 (generic jump plant);
-docs/benchmarks.md §2 and §7.1 (measurements of this route against the LMI).
+O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time Markov Jump
+Linear Systems*, Springer, 2005 (coupled Riccati equations); S. Bittanti and
+P. Colaneri, *Periodic Systems: Filtering and Control*, Springer, 2009
+(periodic Riccati iterations);
+:ref:`theory-passivity` (analysis LMI), :ref:`theory-synthesis` (synthesis),
+:ref:`theory-jump-system` (generic jump plant); docs/benchmarks.md §2 and §7.1
+(measurements of this route against the LMI).
 """
 
 from __future__ import annotations
@@ -368,10 +376,10 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
                       probe_sweeps: int = 3000) -> RiccatiResult:
     """Full-information periodic gain by the monotone Riccati iteration.
 
-    Finds ``K_k`` and ``P_k`` with ``Θ_k ≺ 0`` (MATH §6) for the plant's
-    closed loop, at the given ``η`` or for the largest ``η`` the bisection
-    reaches (see the module docstring for the derivation). The result is not
-    checked here: :func:`control_ncs.passivesyn` checks it exactly.
+    Finds ``K_k`` and ``P_k`` with ``Θ_k ≺ 0`` (:ref:`theory-passivity`) for
+    the plant's closed loop, at the given ``η`` or for the largest ``η`` the
+    bisection reaches (see the module docstring for the derivation). The result
+    is not checked here: :func:`control_ncs.passivesyn` checks it exactly.
 
     Parameters
     ----------
@@ -457,8 +465,9 @@ def dare_storage(resp: FrequencyResponse, eta: float, eps: float
                      ) -> np.ndarray | None:
     """``P ≻ 0`` with ``Θ(P, η) ≺ 0`` from one Riccati equation, or None.
 
-    Derivation. For ``ξ⁺ = Aξ + Bw``, ``z = Cξ + Dw`` (MATH §6 with one
-    mode and ``N = 1``; the matrix of ``verify.dissipation_matrices``)::
+    Derivation. For ``ξ⁺ = Aξ + Bw``, ``z = Cξ + Dw`` (:ref:`theory-passivity`
+    with one mode and ``N = 1``; the matrix of
+    ``verify.dissipation_matrices``)::
 
         Θ(P, η) = [ AᵀPA - P    AᵀPB - Cᵀ           ] = [ Θ11  L  ]
                   [ BᵀPA - C    BᵀPB + 2ηI - D - Dᵀ ]   [ Lᵀ   -W ]

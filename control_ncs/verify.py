@@ -1,11 +1,11 @@
 """Exact, solver-independent checks of passivity and stability certificates.
 
-A solver's status is not a proof (MATH §8). Every verdict the library returns
-is re-checked here with plain linear algebra on the *closed-loop* jump
-system: the eigenvalues of the dissipation matrices ``Θ_k`` of MATH §6 for
-the certificate ``P_k``, the eigenvalues of ``P_k`` themselves, and the
-spectral radius of the second-moment operator (MATH §5). The figures are
-kept on a :class:`Certificate`.
+A solver's status is not a proof (:ref:`theory-synthesis`). Every verdict the
+library returns is re-checked here with plain linear algebra on the
+*closed-loop* jump system: the eigenvalues of the dissipation matrices ``Θ_k``
+of :ref:`theory-passivity` for the certificate ``P_k``, the eigenvalues of
+``P_k`` themselves, and the spectral radius of the second-moment operator
+(:ref:`theory-mss`). The figures are kept on a :class:`Certificate`.
 
 One algebra kernel serves every route: :func:`dissipation_blocks` (``Θ_k``
 of one phase from raw per-mode arrays), :func:`ifp_supremum` (the Schur
@@ -54,7 +54,8 @@ def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
                        P: np.ndarray, P_next: np.ndarray, eta: float, *,
                        ofp_index: float = 0.0, decay: float = 1.0
                        ) -> np.ndarray:
-    """``Θ_k`` of one phase from raw per-mode arrays (MATH §6, §10).
+    """``Θ_k`` of one phase from raw per-mode arrays (:ref:`theory-passivity`,
+    :ref:`theory-jump-system`).
 
     The dissipation inequality ``E V(ξ⁺) - r² V(ξ) < E s(w, z)`` for
     ``V(ξ) = ξᵀPξ`` and the supply rate ``s = 2wᵀz - 2ρ zᵀz - 2η wᵀw``
@@ -155,7 +156,8 @@ def ifp_supremum(theta0: np.ndarray, n: int) -> float:
 
 def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
                       ofp_index: float = 0.0) -> tuple[float, int]:
-    """The necessary feedthrough condition of MATH §6, as a bound on ``η``.
+    """The necessary feedthrough condition of :ref:`theory-passivity`, as a
+    bound on ``η``.
 
     ``Θ_k ≺ 0`` needs its ``(2,2)`` block negative, hence
     ``D̄_k + D̄_kᵀ - 2ρ Σ_i p_i D_iᵀD_i ≻ 2ηI`` at every phase (``ρ = 0``:
@@ -206,8 +208,9 @@ def level_floor(bound: float, *mats: np.ndarray) -> float:
     """The lowest level ``η0`` solved and checked for a requested ``η``.
 
     ``Θ(η) = Θ(η0) + 2(η - η0) diag(0, I) ≼ Θ(η0)`` for ``η ≤ η0``: a
-    certificate at ``η0`` certifies every lower ``η`` exactly (MATH §6).
-    Callers solve at ``max(η, level_floor(...))`` and return ``η``.
+    certificate at ``η0`` certifies every lower ``η`` exactly
+    (:ref:`theory-passivity`). Callers solve at ``max(η, level_floor(...))``
+    and return ``η``.
 
     Parameters
     ----------
@@ -239,9 +242,10 @@ def square_system(sys: Any, name: str = "sys", *, markov: bool = False
     """``sys`` as a square jump system (a TransferFunction via control.ss).
 
     Markov modes are refused unless ``markov`` is True: the dissipation
-    inequality here is MATH §6's for i.i.d. modes; with a chain it is
-    ``Θ_{k,ℓ}`` of MATH §11, not written yet, and the i.i.d. one on the
-    stationary marginals would be a wrong answer, not an approximation.
+    inequality here is :ref:`theory-passivity`'s for i.i.d. modes; with a chain
+    it is ``Θ_{k,ℓ}`` of :ref:`theory-markov`, not written yet, and the i.i.d.
+    one on the stationary marginals would be a wrong answer, not an
+    approximation.
     """
     sys = as_jump(sys, name)
     if not markov:
@@ -295,7 +299,8 @@ def _sup(sys: JumpStateSpace, P: np.ndarray, rho: float, decay: float
 def dissipation_matrices(sys: Any, P: Any, eta: float, *,
                          decay: float = 1.0, ofp_index: float = 0.0
                          ) -> list[np.ndarray]:
-    """The matrices ``Θ_k`` of MATH §6 for a closed-loop jump system.
+    """The matrices ``Θ_k`` of :ref:`theory-passivity` for a closed-loop jump
+    system.
 
     ``Θ_k = Σ_i p_i [A_i B_i]ᵀ P_{k+1} [A_i B_i]
     + [[-r² P_k, -C̄ᵀ], [-C̄, 2ηI - D̄ - D̄ᵀ]]
@@ -334,6 +339,14 @@ def dissipation_matrices(sys: Any, P: Any, eta: float, *,
     ValueError
         If ``P``, ``eta`` or ``ofp_index`` is not finite and real, or
         ``decay`` is not in (0, 1].
+
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+    .. [2] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------
@@ -407,9 +420,9 @@ class Certificate:
     P_min : ndarray, shape (N,)
         ``λmin(P_k)``; must be > 0.
     ms_radius : float
-        Per-step spectral radius of the second-moment operator (MATH §5),
-        computed independently of ``P``; must be < 1, and ``< r²`` with a
-        decay bound (``E‖ξ‖²`` decays like ``r^(2t)``).
+        Per-step spectral radius of the second-moment operator
+        (:ref:`theory-mss`), computed independently of ``P``; must be < 1, and
+        ``< r²`` with a decay bound (``E‖ξ‖²`` decays like ``r^(2t)``).
     eta_sup : float
         Supremum of the ``η`` certified by ``P`` at this ``ofp_index``
         (:func:`certified_index`).
@@ -483,12 +496,12 @@ class Certificate:
         --------
         >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
         >>> print(check_certificate(G, [[1.0]], 0.3).summary())
-        Certificate of stochastic passivity (MATH §6): verified
+        Certificate of stochastic passivity (theory: passivity): verified
           eta = 0.3 (sup proved by P: 0.333333), ofp_index = 0, decay = 1
           max_k λmax(Θ_k) = -4.526e-02 < 0, min_k λmin(P_k) = 1.000e+00 > 0
           ms_radius = 0.25 < 1
         """
-        lines = [f"Certificate of stochastic passivity (MATH §6): "
+        lines = [f"Certificate of stochastic passivity (theory: passivity): "
                  f"{'verified' if self.verified else 'NOT verified'}",
                  f"  eta = {self.eta:.6g} (sup proved by P: "
                  f"{self.eta_sup:.6g}), ofp_index = {self.ofp_index:.6g}, "
@@ -578,6 +591,14 @@ def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0,
     ------
     ControlArgument, ControlDimension, ValueError
         As :func:`dissipation_matrices`.
+
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+    .. [2] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------

@@ -135,3 +135,12 @@ def test_ci_builds_the_site_with_warnings_as_errors():
 
 def test_readme_gives_the_one_local_build_command():
     assert BUILD in (ROOT / "README.md").read_text(encoding="utf-8")
+
+
+def test_no_math_section_reference_is_left():
+    """Users never receive MATH.md: code, notebooks and README point to the
+    theory page instead (/work/briefs/mathrefs.py rewrites them)."""
+    left = {name for name, text in _sources().items()
+            if not name.startswith("docs/")
+            and re.search(r"MATH\s*(#\s*)?§|MATH\.md", text)}
+    assert not left, sorted(left)
