@@ -1,4 +1,5 @@
-"""Interconnections of a jump system with deterministic LTI systems (MATH §7).
+"""Interconnections of a jump system with deterministic LTI systems
+(:ref:`theory-interconnection`).
 
 :func:`jump_feedback` closes a loop around a
 :class:`~control_ncs.jump.JumpStateSpace` with an ordinary discrete-time LTI
@@ -10,9 +11,9 @@ periodic jump system.
 What python-control's own functions say about a JumpStateSpace
 ----------------------------------------------------------------
 A ``JumpStateSpace`` *is* a :class:`control.StateSpace`, and its matrices
-are its exact **mean system** (MATH §7): for deterministic inputs ``w``,
-``E z`` obeys them exactly. For a period ``N > 1`` the face is that periodic
-mean lifted over one period (sampling time ``N·dt``, inputs
+are its exact **mean system** (:ref:`theory-moments`): for deterministic inputs
+``w``, ``E z`` obeys them exactly. For a period ``N > 1`` the face is that
+periodic mean lifted over one period (sampling time ``N·dt``, inputs
 ``w[0], …, w[N-1]`` and outputs stacked time-major, named ``'w[0][k]'``).
 Every python-control function therefore makes an exact statement, but only
 about the mean:
@@ -28,8 +29,8 @@ about the mean:
   mean.
 * ``control.nyquist_plot``, ``poles``, ``stability_margins``: stability *in
   the mean* of a loop with a deterministic LTI system. Mean-square
-  stability (:func:`control_ncs.ms_radius` < 1, MATH §5) is stronger: the
-  mean can converge while ``E‖ξ‖²`` diverges, never the other way round.
+  stability (:func:`control_ncs.ms_radius` < 1, :ref:`theory-mss`) is stronger:
+  the mean can converge while ``E‖ξ‖²`` diverges, never the other way round.
 * ``control.feedback(sys, G)``, ``series``, ``parallel``, ``append``, the
   operators ``sys * G``, ``G * sys``, ``sys + G``, ``sys - G``, ``-sys``
   and indexing ``sys[i, j]`` with a deterministic LTI ``G`` (StateSpace,
@@ -49,11 +50,11 @@ about the mean:
   convert ``H`` with ``control.ss``, or use :func:`interconnect`, which
   mirrors ``control.interconnect`` mode by mode.
 * ``control.ispassive(sys)``: passivity of the mean system, i.e. for
-  deterministic inputs only. It is **not** stochastic passivity (MATH §6),
-  which covers inputs that depend on the past -- as they do in any feedback
-  loop -- and is what control_ncs certifies. Stochastic passivity implies
-  that the mean system is passive, not conversely; with losses the
-  certified index is lower.
+  deterministic inputs only. It is **not** stochastic passivity
+  (:ref:`theory-passivity`), which covers inputs that depend on the past -- as
+  they do in any feedback loop -- and is what control_ncs certifies. Stochastic
+  passivity implies that the mean system is passive, not conversely; with
+  losses the certified index is lower.
 """
 
 from __future__ import annotations
@@ -129,12 +130,12 @@ def jump_feedback(sys: Any, other: Any = 1, sign: float = -1, *,
 
     ``control.feedback(sys, other, sign)`` returns the same jump system
     (python-control dispatches to :meth:`JumpStateSpace.feedback`). Its
-    StateSpace face is the exact mean of the loop (MATH §7). It equals the
-    feedback of the means, ``control.feedback(sys.mean(), other, sign)``
-    (for ``N > 1``: with ``lift_lti(other, N)``) when ``other`` is strictly
-    proper, or when ``D`` and one of ``B``, ``C`` of ``sys`` do not depend
-    on the mode (every static-gain loop of :func:`control_ncs.feedback`);
-    see the module notes.
+    StateSpace face is the exact mean of the loop (:ref:`theory-moments`). It
+    equals the feedback of the means,
+    ``control.feedback(sys.mean(), other, sign)`` (for ``N > 1``: with
+    ``lift_lti(other, N)``) when ``other`` is strictly proper, or when ``D``
+    and one of ``B``, ``C`` of ``sys`` do not depend on the mode (every
+    static-gain loop of :func:`control_ncs.feedback`); see the module notes.
 
     Parameters
     ----------
@@ -220,7 +221,7 @@ def jump_feedback(sys: Any, other: Any = 1, sign: float = -1, *,
     states = list(J.jump_states) + [f"{G.name}.{x}" for x in G.state_labels]
     info = dict(J.info, feedback=dict(
         other=G.name, sign=s, dt=G.dt, matrices=(A2, B2, C2, D2)))
-    law, transition = J.mode_law()   # the chain is kept (MATH §11)
+    law, transition = J.mode_law()   # the chain is kept (theory: Markov losses)
     return JumpStateSpace(A, B, C, D, law, dt, transition=transition,
                           nominal=J.nominal_mode, name=name,
                           inputs=J.jump_inputs, outputs=J.jump_outputs,
@@ -298,9 +299,10 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
     jump system (a :class:`control.StateSpace` at the base step with the
     jump system's name and per-step signal names ``jump_inputs``,
     ``jump_outputs``) with the other systems; the result keeps the modes,
-    their probabilities and the loss-free mode. This is exact (MATH §7,
-    §10): the other systems are deterministic and have no modes, and an
-    algebraic loop is closed inside each mode, as in :func:`jump_feedback`.
+    their probabilities and the loss-free mode. This is exact
+    (:ref:`theory-interconnection`, :ref:`theory-jump-system`): the other
+    systems are deterministic and have no modes, and an algebraic loop is
+    closed inside each mode, as in :func:`jump_feedback`.
 
     ``control.interconnect`` itself accepts a JumpStateSpace too, but sees
     only its StateSpace face: it returns the interconnection of the mean
@@ -409,7 +411,7 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
                            dtype=float) for X in "ABCD")
     dt = J.dt_step if first.dt is True else first.dt
     info = dict(J.info, interconnect=[s.name for s in others if s is not None])
-    law, transition = J.mode_law()   # the chain is kept (MATH §11)
+    law, transition = J.mode_law()   # the chain is kept (theory: Markov losses)
     return JumpStateSpace(A, B, C, D, law, dt, transition=transition,
                           nominal=J.nominal_mode, name=name,
                           inputs=list(first.input_labels),

@@ -141,7 +141,7 @@ def run_demo(outdir: str = "demo-output", *, trials: int = 200, seed: int = 0,
     for path in paths[:5]:
         ax.plot(t, path, lw=0.6, color="0.5")
     ax.plot(t, paths.mean(axis=0), "--", label=f"sample mean ({trials} paths)")
-    ax.plot(t, mean, label="exact mean E z (MATH §7)")
+    ax.plot(t, mean, label="exact mean E z (theory: moments)")
     ax.plot(t, nominal, ":", label="loss-free loop")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("z = v1 + 0.5 w")

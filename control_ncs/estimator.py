@@ -1,4 +1,5 @@
-"""The estimator gain of output feedback over a lossy network (MATH §12).
+"""The estimator gain of output feedback over a lossy network
+(:ref:`theory-output-feedback`).
 
 When the controller measures ``y = C2 x`` and not the state, it keeps an
 estimate ``x̂`` corrected by what arrives, ``x̂ ← x̂ + θ1 L_k Σ1,k (y - C2
@@ -7,7 +8,7 @@ x̂)``, and sends ``K_k x̂`` (``controller='estimator'`` in
 exactly when the estimation-error loop (:func:`estimation_error_loop`, a
 property of ``L``, the sensor schedule and ``α1`` alone) and the ``x̂`` loop
 (``K``) both are. :func:`estimator_gain` finds ``L_k`` from the exact LMI of
-MATH §12 and verifies it with the exact ``ms_radius``.
+:ref:`theory-output-feedback` and verifies it with the exact ``ms_radius``.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ __all__ = ["EstimatorGain", "estimator_gain", "estimation_error_loop"]
 
 
 class EstimatorGain:
-    """Verified estimator gains ``L_k`` (MATH §12).
+    """Verified estimator gains ``L_k`` (:ref:`theory-output-feedback`).
 
     Parameters
     ----------
@@ -108,7 +109,8 @@ def _gains(P: NetworkedStateSpace, L: Any) -> np.ndarray:
 
 
 def estimation_error_loop(P: NetworkedStateSpace, L: Any) -> JumpStateSpace:
-    """The estimation-error loop ``e⁺ = (I - R_{k+1})(A e + B1 w)`` (MATH §12).
+    """The estimation-error loop ``e⁺ = (I - R_{k+1})(A e + B1 w)``
+    (:ref:`theory-output-feedback`).
 
     ``R_k = θ1,k L_k Σ1,k C2``: ``e = x - x̂`` after the correction. Its
     mean-square stability, with that of the ``x̂`` loop, is the loop's
@@ -214,12 +216,13 @@ def _undetected_modes(P: NetworkedStateSpace) -> list:
 
 def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
                    solver: str | None = None) -> EstimatorGain:
-    """Estimator gains ``L_k`` with a mean-square stable error loop (MATH §12).
+    """Estimator gains ``L_k`` with a mean-square stable error loop
+    (:ref:`theory-output-feedback`).
 
-    Solves the exact LMI of MATH §12 (feasible if and only if the lossy,
-    scheduled sensor link is mean-square detectable) and verifies the answer
-    with the exact ``ms_radius`` of :func:`estimation_error_loop`, never the
-    solver's word.
+    Solves the exact LMI of :ref:`theory-output-feedback` (feasible if and only
+    if the lossy, scheduled sensor link is mean-square detectable) and verifies
+    the answer with the exact ``ms_radius`` of :func:`estimation_error_loop`,
+    never the solver's word.
 
     Parameters
     ----------
@@ -250,6 +253,13 @@ def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
         least ``(α1^h ρ(A)^{2N})^{1/N}``; ``'solver_failed'`` or
         ``'not_verified'`` when the solver found nothing that passes the
         exact check (nothing is proven then).
+
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+    .. [2] S. Boyd, L. El Ghaoui, E. Feron and V. Balakrishnan, *Linear Matrix
+           Inequalities in System and Control Theory*, SIAM, 1994.
 
     Examples
     --------

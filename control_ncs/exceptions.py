@@ -18,7 +18,8 @@ CERTIFIED = "certified"
 #: Not mean-square stable (``ms_radius ≥ 1``, or ``≥ r²`` with a decay
 #: bound ``r``): no certificate, no index exists.
 NOT_MSS = "not_mss"
-#: A necessary feedthrough condition fails (MATH §6, e.g. ``D̄ + D̄ᵀ ⊁ 2ηI``).
+#: A necessary feedthrough condition fails (theory: passivity, e.g.
+#: ``D̄ + D̄ᵀ ⊁ 2ηI``).
 FEEDTHROUGH = "feedthrough"
 #: Proven: no certificate exists (the LMI with its margin is infeasible, a
 #: Riccati iteration diverged, or a KYP frequency refutes the level).

@@ -69,19 +69,20 @@ class PeriodicGain:
         actuator), or ``[x̂; u⁻]``, the estimate and the last applied input
         (``'predictor'`` with a ``'hold'`` actuator). A 4-D stack holds
         gains that also use the previous network mode ``ℓ = σ_{k-1}``
-        (``K_{k,ℓ}``, MATH §11: the controller knows it through
+        (``K_{k,ℓ}``, :ref:`theory-markov`: the controller knows it through
         acknowledgements and arrivals), ``M`` modes in the order of the
         loop's modes (for a :func:`control_ncs.build` plant the four
-        ``(θ1, θ2)`` of MATH §1).
+        ``(θ1, θ2)`` of :ref:`theory-conventions`).
     controller : {'static', 'predictor', 'estimator'}
     actuator : {'zero', 'hold'}
     result : object, optional
         The synthesis result that produced the gain (certificate and
         verification figures), if any.
     estimator_gain : array_like, shape (n, nmeas) or (N_L, n, nmeas), optional
-        The estimator's ``L_k`` (MATH §12) that ``controller='estimator'``
-        gains belong to (an :class:`control_ncs.estimator.EstimatorGain` is
-        accepted); :func:`control_ncs.feedback` closes the loop with it.
+        The estimator's ``L_k`` (:ref:`theory-output-feedback`) that
+        ``controller='estimator'`` gains belong to (an
+        :class:`control_ncs.estimator.EstimatorGain` is accepted);
+        :func:`control_ncs.feedback` closes the loop with it.
 
     Attributes
     ----------

@@ -1,4 +1,5 @@
-"""The generic periodic jump linear system (MATH §10), written once.
+"""The generic periodic jump linear system (:ref:`theory-jump-system`), written
+once.
 
 Two objects share one shape, indexed by phase ``k = 0..N-1`` and mode ``i``
 (probability ``p[k, i]``, modes i.i.d. from step to step):
@@ -12,15 +13,16 @@ Two objects share one shape, indexed by phase ``k = 0..N-1`` and mode ``i``
 
 * :class:`JumpStateSpace` -- the closed loop ``ξ⁺ = A_ki ξ + B_ki w``,
   ``z = C_ki ξ + D_ki w``. It *is* a :class:`control.StateSpace`: its own
-  ``A, B, C, D`` are the exact mean (first-moment) system of MATH §7, lifted
-  over one period when ``N > 1``. Analysis and simulation consume it.
+  ``A, B, C, D`` are the exact mean (first-moment) system of
+  :ref:`theory-moments`, lifted over one period when ``N > 1``. Analysis and
+  simulation consume it.
 
-Markov-driven modes (Gilbert–Elliott losses, MATH §11) carry a transition
-array of shape ``(N, M, M)`` beside ``probabilities`` (then the per-phase
-marginals of the periodic stationary chain) and an initial distribution.
-i.i.d. modes are the case where every row of it equals the next phase's
-``probabilities``: such a transition is stored as ``None``, so that every
-i.i.d. number is computed exactly as before. Code that reads only
+Markov-driven modes (Gilbert–Elliott losses, :ref:`theory-markov`) carry a
+transition array of shape ``(N, M, M)`` beside ``probabilities`` (then the
+per-phase marginals of the periodic stationary chain) and an initial
+distribution. i.i.d. modes are the case where every row of it equals the next
+phase's ``probabilities``: such a transition is stored as ``None``, so that
+every i.i.d. number is computed exactly as before. Code that reads only
 ``probabilities`` must first test :attr:`Modes.is_iid`.
 """
 
@@ -60,8 +62,8 @@ class Modes:
         every step; Markov modes: the marginals of the periodic stationary
         chain.
     transition : ndarray, shape (N, M, M), or None
-        Markov modes (MATH §11): ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``;
-        None for i.i.d. modes.
+        Markov modes (:ref:`theory-markov`):
+        ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``; None for i.i.d. modes.
     initial : ndarray, shape (M,), or None
         Markov modes: the law of the mode at time 0 (phase 0); None for
         i.i.d. modes.
@@ -91,7 +93,9 @@ class Modes:
         """True for i.i.d. modes: ``probabilities`` alone says everything.
 
         Any code that reads only ``probabilities`` (the i.i.d. formulas of
-        MATH §5–§8) must check this first and refuse a Markov system.
+        :ref:`theory-mss`, :ref:`theory-passivity`, :ref:`theory-moments`,
+        :ref:`theory-synthesis`) must check this first and refuse a Markov
+        system.
         """
         return self.transition is None
 
@@ -359,17 +363,17 @@ class JumpStateSpace(ct.StateSpace):
 
     ``ξ[t+1] = A[k,i] ξ[t] + B[k,i] w[t]``, ``z[t] = C[k,i] ξ[t] + D[k,i] w[t]``
     with ``k = t mod N`` and mode ``i`` drawn independently at every step
-    with probability ``probabilities[k, i]`` (MATH §10), or, given a
-    ``transition``, a Markov chain ``T[k][i, j] = P(σ[t+1] = j | σ[t] = i)``
-    (MATH §11). For Markov modes the StateSpace face is the exact mean
-    system of order ``M·n`` (state ``E[ξ 1{σ = i}]`` per mode ``i``) under
-    the periodic stationary chain; a transition with equal rows is the
-    i.i.d. system.
+    with probability ``probabilities[k, i]`` (:ref:`theory-jump-system`), or,
+    given a ``transition``, a Markov chain
+    ``T[k][i, j] = P(σ[t+1] = j | σ[t] = i)`` (:ref:`theory-markov`). For
+    Markov modes the StateSpace face is the exact mean system of order ``M·n``
+    (state ``E[ξ 1{σ = i}]`` per mode ``i``) under the periodic stationary
+    chain; a transition with equal rows is the i.i.d. system.
 
     The :class:`control.StateSpace` matrices ``self.A, self.B, self.C,
-    self.D`` are the *mean system* of MATH §7: ``E ξ`` and ``E z`` obey them
-    exactly for deterministic inputs, because the mode at time ``t`` is
-    independent of ``ξ[t]``. For ``N = 1`` that system is
+    self.D`` are the *mean system* of :ref:`theory-moments`: ``E ξ`` and
+    ``E z`` obey them exactly for deterministic inputs, because the mode at
+    time ``t`` is independent of ``ξ[t]``. For ``N = 1`` that system is
     ``(Σ p_i A_i, Σ p_i B_i, Σ p_i C_i, Σ p_i D_i)``; for ``N > 1`` it is that
     periodic system lifted over one period (:func:`lift`), with sampling time
     ``N·dt``, inputs ``w[0], …, w[N-1]`` and outputs ``z[0], …, z[N-1]``
@@ -686,8 +690,8 @@ class JumpStateSpace(ct.StateSpace):
             loss-free one).
         """
         if not self.modes.is_iid:
-            # modes may share a row only if their futures coincide too (MATH
-            # §11); merging is not attempted for Markov modes
+            # modes may share a row only if their futures coincide too (theory:
+            # Markov losses); merging is not attempted for Markov modes
             return self
         keys = (self.modes.A, self.modes.B, self.modes.C, self.modes.D)
         groups, nominal = _merge_groups(keys, self.modes.probabilities,
@@ -776,7 +780,7 @@ class JumpStateSpace(ct.StateSpace):
             face["name"] = kwargs["name"]
         super().update_names(**face)
 
-    # -- python-control algebra, mode by mode (MATH §7, §10) ----------------
+    # -- python-control algebra, mode by mode (theory: interconnections, jump system) ---
     # python-control's operators, feedback, append and indexing dispatch to
     # these methods (ct.series and ct.parallel call the operators; Python
     # calls a subclass's reflected operator first, so ``G * CL`` reaches
@@ -865,7 +869,8 @@ class JumpStateSpace(ct.StateSpace):
         A system built from new per-mode matrices with the same mode law
         (an interconnection, python-control's algebra) passes both to
         :class:`JumpStateSpace`; ``probabilities`` is the initial law for
-        Markov modes (MATH §11) and ``transition`` is None for i.i.d. ones.
+        Markov modes (:ref:`theory-markov`) and ``transition`` is None for
+        i.i.d. ones.
 
         Returns
         -------
@@ -1215,8 +1220,9 @@ def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any = None,
     dt : True or float > 0, optional
         Sampling period (discrete time only; default True = unspecified).
     transition : array_like, shape (M, M) or (N, M, M), optional
-        Markov modes (MATH §11): ``T[k][i, j] = P(σ[t+1] = j | σ[t] = i)``
-        at phase ``k``. Equal rows are exactly the i.i.d. system.
+        Markov modes (:ref:`theory-markov`):
+        ``T[k][i, j] = P(σ[t+1] = j | σ[t] = i)`` at phase ``k``. Equal rows
+        are exactly the i.i.d. system.
     **kwargs
         ``nominal`` (loss-free mode index per phase), ``name``, ``inputs``,
         ``outputs``, ``states`` (as for :class:`control.StateSpace`), and
@@ -1238,6 +1244,11 @@ def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any = None,
         Inconsistent shapes, or no input or output.
     TypeError
         Unknown keyword.
+
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------
@@ -1262,7 +1273,8 @@ def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any = None,
 
 def _markov_mean(modes: Modes) -> tuple[np.ndarray, ...]:
     """Per-phase mean system of Markov modes, state ``μ_i = E[ξ 1{σ = i}]``
-    stacked by mode (MATH §11): ``μ⁺_j = Σ_i T[i, j] (A_i μ_i + π_i B_i w)``,
+    stacked by mode (:ref:`theory-markov`):
+    ``μ⁺_j = Σ_i T[i, j] (A_i μ_i + π_i B_i w)``,
     ``E z = Σ_i (C_i μ_i + π_i D_i w)`` with ``π`` the stationary marginals."""
     A, B, C, D, p, T = (modes.A, modes.B, modes.C, modes.D,
                         modes.probabilities, modes.transitions())
@@ -1276,7 +1288,8 @@ def _markov_mean(modes: Modes) -> tuple[np.ndarray, ...]:
 
 
 class JumpPlant:
-    """A periodic jump system before its gain is chosen (MATH §10).
+    """A periodic jump system before its gain is chosen
+    (:ref:`theory-jump-system`).
 
     ``ξ⁺ = (A + Bu K_k E_k) ξ + Bw w``, ``z = (Cz + Du K_k E_k) ξ + Dw w``, all
     matrices per phase ``k`` and mode ``i``. ``E_k`` says what the controller
@@ -1301,8 +1314,9 @@ class JumpPlant:
     nominal : array_like of int, shape (N,), optional
         The loss-free mode of each phase.
     transition : array_like, shape (N, M, M), optional
-        Markov modes (MATH §11): ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``;
-        ``probabilities`` are then the stationary marginals. None: i.i.d.
+        Markov modes (:ref:`theory-markov`):
+        ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``; ``probabilities`` are then
+        the stationary marginals. None: i.i.d.
     inputs, outputs, states : list of str, optional
         Names of ``w``, ``z`` and ``ξ``, handed to the closed loop.
     info : dict, optional
@@ -1368,7 +1382,7 @@ class JumpPlant:
     @property
     def is_iid(self) -> bool:
         """True for i.i.d. modes; synthesis from ``probabilities`` alone
-        (MATH §8) is valid only then."""
+        (:ref:`theory-synthesis`) is valid only then."""
         return self.transition is None
 
     @property
@@ -1420,7 +1434,8 @@ class JumpPlant:
         C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
         loop = (A, self.Bw, C, self.Dw)
         if self.transition is not None:
-            # Markov modes are not merged (their futures differ, MATH §11)
+            # Markov modes are not merged (their futures differ, theory: Markov
+            # losses)
             return JumpStateSpace(*loop, None, self.dt,
                                   transition=self.transition,
                                   nominal=self.nominal,
@@ -1453,7 +1468,7 @@ class JumpPlant:
     def _close_pairs(self, K: np.ndarray, name: Any, info: dict
                      ) -> JumpStateSpace:
         """The closed loop with gains ``K_{k,ℓ}`` (shape (N, M, nu, nk)) on
-        the previous mode ``ℓ = σ_{k-1}`` (MATH §11).
+        the previous mode ``ℓ = σ_{k-1}`` (:ref:`theory-markov`).
 
         A Markov jump system on pair modes ``(ℓ, i)``, ``(ℓ, i) → (i, j)``
         with probability ``T_k[i, j]``, mode matrices
@@ -1514,7 +1529,8 @@ class JumpPlant:
                                         **info))
 
     def merged(self) -> "JumpPlant":
-        """The same plant with coinciding modes merged (MATH §8, merged form).
+        """The same plant with coinciding modes merged
+        (:ref:`theory-synthesis`, merged form).
 
         Returns
         -------
@@ -1522,7 +1538,7 @@ class JumpPlant:
             Same ``E``, fewer modes where modes coincide.
         """
         if self.transition is not None:
-            return self  # Markov modes are not merged (MATH §11)
+            return self  # Markov modes are not merged (theory: Markov losses)
         mats = [getattr(self, f) for f in self._FIELDS]
         groups, nominal = _merge_groups(mats, self.probabilities, self.nominal)
         (A, Bu, Bw, Cz, Du, Dw), p = _apply_groups(mats, self.probabilities,
@@ -1601,8 +1617,9 @@ def require_iid(sys: Any, what: str, name: str = "sys") -> None:
     """Refuse Markov modes where only the i.i.d. formulas exist yet.
 
     For the analyses and syntheses written from ``probabilities`` alone
-    (MATH §6, §8): on a Markov system they would silently answer for
-    i.i.d. modes with the stationary marginals, which is wrong (MATH §11).
+    (:ref:`theory-passivity`, :ref:`theory-synthesis`): on a Markov system they
+    would silently answer for i.i.d. modes with the stationary marginals, which
+    is wrong (:ref:`theory-markov`).
 
     Parameters
     ----------
@@ -1623,7 +1640,7 @@ def require_iid(sys: Any, what: str, name: str = "sys") -> None:
         raise ControlArgument(
             f"{what}: {name} has Markov (bursty) modes; {what} is written for "
             f"i.i.d. losses only and would answer for the stationary "
-            f"marginals, which is wrong for bursts (MATH §11). Exact "
+            f"marginals, which is wrong for bursts (theory: Markov losses). Exact "
             f"mean-square analysis works: ms_radius, moments, simulate")
 
 

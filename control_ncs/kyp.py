@@ -1,4 +1,5 @@
-"""Frequency-domain (KYP) tests of deterministic systems (MATH §6).
+"""Frequency-domain (KYP) tests of deterministic systems
+(:ref:`theory-passivity`).
 
 For a Schur-stable LTI system ``G(z) = D + C (zI - A)⁻¹ B`` the
 input-feedforward passivity index equals

@@ -1,9 +1,11 @@
-"""The one place that talks to cvxpy: LMIs of MATH §6 and §8, solved.
+"""The one place that talks to cvxpy: LMIs of :ref:`theory-passivity` and
+:ref:`theory-synthesis`, solved.
 
 Models are built as functions of the data (cvxpy's idiom: build, then solve
 in one place). Strictness margins are relative to the scale of the data, so
-that a problem and its rescaled copy are treated alike (MATH §8). Nothing
-here decides whether a result is *true*: ``verify.py`` does that exactly.
+that a problem and its rescaled copy are treated alike
+(:ref:`theory-synthesis`). Nothing here decides whether a result is *true*:
+``verify.py`` does that exactly.
 
 Every number of the data enters a problem as a cvxpy Parameter, so a problem
 is compiled once per shape and thread and reused (see ``CACHE_SIZE``).
@@ -418,7 +420,8 @@ def _quad_map(terms: list, n: int, m: int) -> np.ndarray:
     Returns ``Q`` with ``Q @ vec(P)[lower(n)]`` the lower triangle of the
     sum (column-major) for symmetric ``P``, ``G_i`` of shape (n, n+m).
     ``parameter × P × parameter`` is not DPP; this linear map of ``P`` is,
-    and the triangles make it a quarter of ``Σ p_i G_iᵀ ⊗ G_iᵀ`` (MATH §6).
+    and the triangles make it a quarter of ``Σ p_i G_iᵀ ⊗ G_iᵀ``
+    (:ref:`theory-passivity`).
     """
     # vec(Gᵀ P G) = (Gᵀ ⊗ Gᵀ) vec(P), column-major
     K = sum(w * np.kron(G.T, G.T) for w, G in terms)
@@ -449,7 +452,7 @@ def _symmetric_scatter(n: int) -> np.ndarray:
     return S
 
 
-# -- analysis: MATH §6 ---------------------------------------------------------
+# -- analysis: theory: passivity ----------------------------------------------
 class AnalysisModel(_Model):
     """The analysis LMI: ``Θ_k(P, η) ≼ -ε diag(P_k, I)``, ``P_k ≽ ε I``.
 
@@ -477,7 +480,8 @@ class AnalysisModel(_Model):
 
 def analysis_model(sys: JumpStateSpace, eta: float | None,
                    margin: float | None, decay: float = 1.0) -> AnalysisModel:
-    """Build the LMI of MATH §6 (maximise ``η`` when ``eta`` is None).
+    """Build the LMI of :ref:`theory-passivity` (maximise ``η`` when ``eta`` is
+    None).
 
     ``margin=None`` (with a given ``eta``) maximises the strictness margin
     ``t`` itself: ``Θ_k ≼ -t I``, ``P_k ≽ t I``. Its answer is the most
@@ -550,13 +554,14 @@ def _analysis_template(N, n, m, nz, maximise_eta, maximise_margin):
     return _Template(cp.Problem(objective, cons), params, P=P, eta=e, margin=t)
 
 
-# -- synthesis: MATH §8, §8b, §10 ----------------------------------------------
+# -- synthesis: theory: synthesis, predictor, jump system ---------------------
 class SynthesisModel(_Model):
     """The synthesis LMI ``Ψ_{k,c} ≼ -ε I`` and how to read a gain from it.
 
     The blocks are indexed by phase ``k`` and class ``c`` of previous modes
-    ``ℓ = σ_{k-1}`` with equal transition rows ``T_{k-1}[ℓ]`` (MATH §11);
-    i.i.d. modes have one class per phase (MATH §8).
+    ``ℓ = σ_{k-1}`` with equal transition rows ``T_{k-1}[ℓ]``
+    (:ref:`theory-markov`); i.i.d. modes have one class per phase
+    (:ref:`theory-synthesis`).
 
     Attributes
     ----------
@@ -615,7 +620,7 @@ GAINS = ("mode", "phase")
 def mode_classes(T_prev: np.ndarray) -> tuple[np.ndarray, list]:
     """Previous modes ``ℓ`` grouped by equal rows ``T_{k-1}[ℓ]``.
 
-    Their blocks ``Θ_{k,ℓ}`` coincide (MATH §11), so they share the
+    Their blocks ``Θ_{k,ℓ}`` coincide (:ref:`theory-markov`), so they share the
     variables ``X_{k,ℓ}``, ``Y_{k,ℓ}``. Returns the class of each ``ℓ`` and
     a representative mode per class.
     """
@@ -635,25 +640,26 @@ def mode_classes(T_prev: np.ndarray) -> tuple[np.ndarray, list]:
 def synthesis_model(plant: JumpPlant, eta: float | None, decay: float,
                     margin: float, structure: str, form: str,
                     gain: str = "mode") -> SynthesisModel:
-    """Build ``Ψ_{k,c}`` of MATH §8 / §11 for the generic plant of §10.
+    """Build ``Ψ_{k,c}`` of :ref:`theory-synthesis` / :ref:`theory-markov` for
+    the generic plant of :ref:`theory-jump-system`.
 
     ``structure``: ``'full'`` (``E_k = I``: exact), ``'block'`` (``X_k``
     block-diagonal on known/unknown coordinates, ``Y_k`` zero on the
     unknown: sufficient), ``'extended'`` (``X_k`` full, slack ``G_k``
     block-diagonal carries the structure: sufficient, never more
     conservative than ``'block'``). ``form``: ``'merged'`` (rows of modes
-    with equal matrices and the same next class merged, MATH §8) or
-    ``'paper'`` (one row per network mode, eq. 15).
+    with equal matrices and the same next class merged,
+    :ref:`theory-synthesis`) or ``'paper'`` (one row per network mode, eq. 15).
 
-    Markov modes (MATH §11): per phase ``k`` the previous modes ``ℓ`` fall
-    into classes of equal rows ``t = T_{k-1}[ℓ]`` (:func:`mode_classes`;
-    i.i.d. modes: one class, the LMI of §8); class ``c`` has ``X_{k,c}``,
-    ``Y_{k,c}``, rows ``√t_i (A_{k,i} X_{k,c} + B_{k,i} Y_{k,c})`` and
-    ``√t_i G_{k,i}`` against ``-X_{k+1,c'(i)}`` (``c'(i)``: the class of
-    ``i`` at phase ``k+1``), supply row ``-Σ t_i (C X + D Y)``.
-    ``gain='phase'`` asks for ``K_k`` common to the classes: a common
-    ``X_k`` (``structure='block'``) or a common slack ``G_k`` with
-    ``Y_k = K_k G_k`` (sufficient); with one class it is ``'mode'``.
+    Markov modes (:ref:`theory-markov`): per phase ``k`` the previous modes
+    ``ℓ`` fall into classes of equal rows ``t = T_{k-1}[ℓ]``
+    (:func:`mode_classes`; i.i.d. modes: one class, the LMI of
+    :ref:`theory-synthesis`); class ``c`` has ``X_{k,c}``, ``Y_{k,c}``, rows
+    ``√t_i (A_{k,i} X_{k,c} + B_{k,i} Y_{k,c})`` and ``√t_i G_{k,i}`` against
+    ``-X_{k+1,c'(i)}`` (``c'(i)``: the class of ``i`` at phase ``k+1``), supply
+    row ``-Σ t_i (C X + D Y)``. ``gain='phase'`` asks for ``K_k`` common to the
+    classes: a common ``X_k`` (``structure='block'``) or a common slack ``G_k``
+    with ``Y_k = K_k G_k`` (sufficient); with one class it is ``'mode'``.
 
     The problem is compiled once per shape (sizes, period, known
     coordinates, active inputs, classes and rows of each phase, form,
@@ -725,7 +731,7 @@ def synthesis_model(plant: JumpPlant, eta: float | None, decay: float,
 
 def _gain_variables(nx, known, active, structure, k, tag):
     """``X``, ``Z`` (``X`` or the slack ``G``), ``Z_s`` and ``Y`` of one
-    block, with the structure of MATH §8."""
+    block, with the structure of :ref:`theory-synthesis`."""
     rest = np.setdiff1d(np.arange(nx), known)
     Es, Er = _selector(known, nx), _selector(rest, nx)
     split = structure != "full" and rest.size > 0 and known.size > 0
@@ -773,8 +779,8 @@ def _synthesis_template(N, nx, nu, nw, nz, phases, maximise_eta, structure,
     for k, (known, active, spec) in enumerate(phases):
         known, active = np.array(known, int), np.array(active, int)
         if gain == "phase" and len(spec) > 1:
-            # K_k for every ℓ (MATH §11): non-convex; sufficient with a
-            # common X_k ('block') or a common slack G_k, Y_k = K_k G_k
+            # K_k for every ℓ (theory: Markov losses): non-convex; sufficient
+            # with a common X_k ('block') or a common slack G_k, Y_k = K_k G_k
             Xk, Zk, Zs, Yv = _gain_variables(nx, known, active, structure, k,
                                              "")
             if structure != "block":
@@ -883,7 +889,8 @@ def read_gains(model: SynthesisModel, plant: JumpPlant
     return gains, P
 
 
-# -- analysis with an output-feedback term (MATH §6, supply 2wᵀz - 2ρzᵀz - 2ηwᵀw)
+# -- analysis with an output-feedback term (theory: passivity, supply 2wᵀz -
+# 2ρzᵀz - 2ηwᵀw)
 class SupplyModel:
     """The analysis LMI with ``ρ`` or Markov modes: ``Θ ≼ -ε diag(P, I)``.
 
@@ -896,7 +903,7 @@ class SupplyModel:
     problem : cvxpy.Problem
     P : list of list of cvxpy.Variable
         ``P[k][ℓ]``: ``P_k`` (``ℓ = 0`` only) for i.i.d. modes, ``P_{k,ℓ}``
-        per previous mode for Markov modes (MATH §11).
+        per previous mode for Markov modes (:ref:`theory-markov`).
     eta, rho, margin : cvxpy.Variable or float
         The maximised one is a Variable, the others the given values.
     """
@@ -918,7 +925,8 @@ class SupplyModel:
 
 def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
                  margin: float | None, decay: float = 1.0) -> SupplyModel:
-    """Build the LMI of MATH §6 / §11 with the supply ``2wᵀz - 2ρzᵀz - 2ηwᵀw``.
+    """Build the LMI of :ref:`theory-passivity` / :ref:`theory-markov` with the
+    supply ``2wᵀz - 2ρzᵀz - 2ηwᵀw``.
 
     ``Θ`` gains ``2ρ Σ_i t_i [C_i D_i]ᵀ[C_i D_i]`` (``zᵀz`` is quadratic:
     its expectation takes each mode's output matrices, not their mean; see
@@ -970,12 +978,13 @@ def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
     return SupplyModel(cp.Problem(objective, cons), P, e, r, t, markov)
 
 
-# -- estimator gain (MATH §12) ------------------------------------------------
+# -- estimator gain (theory: output feedback) ---------------------------------
 # Appended by the output-feedback work (issue 14); the models above are left
 # as they are.
 @dataclass
 class EstimatorModel:
-    """The estimator LMI of MATH §12 over one period, before its solve.
+    """The estimator LMI of :ref:`theory-output-feedback` over one period,
+    before its solve.
 
     Attributes
     ----------
@@ -997,10 +1006,11 @@ def estimator_model(A: np.ndarray, C2: np.ndarray, S1: np.ndarray,
     For every phase ``k`` (``j = k + 1 mod N``), with ``Mθ = (I - θ L_j Σ1,j
     C2) A`` and ``Z_j = P_j L_j``, ``Σ_θ p_θ Mθᵀ P_j Mθ ≺ r² P_k`` is, by a
     Schur complement, ``[[r² P_k, *, *], [√α1 P_j A, P_j, 0],
-    [√(1-α1) (P_j - Z_j Σ1,j C2) A, 0, P_j]] ≻ 0`` (MATH §12). The LMI is
-    homogeneous in ``(P, Z)``: it is normalised by ``P_k ⪰ I`` and imposed
-    with the margin ``margin · s`` (``s`` the scale of ``A``); the objective
-    ``t ⪰ P_k`` keeps the certificate well conditioned.
+    [√(1-α1) (P_j - Z_j Σ1,j C2) A, 0, P_j]] ≻ 0``
+    (:ref:`theory-output-feedback`). The LMI is homogeneous in ``(P, Z)``: it
+    is normalised by ``P_k ⪰ I`` and imposed with the margin ``margin · s``
+    (``s`` the scale of ``A``); the objective ``t ⪰ P_k`` keeps the certificate
+    well conditioned.
 
     Parameters
     ----------

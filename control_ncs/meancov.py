@@ -1,4 +1,5 @@
-"""Exact first and second moments of a jump system (MATH §7), no sampling."""
+"""Exact first and second moments of a jump system (:ref:`theory-moments`), no
+sampling."""
 
 from __future__ import annotations
 
@@ -254,12 +255,13 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     """Exact mean and covariance of the state and output of a jump system.
 
     Propagates ``m⁺ = Σ p (A m + B w)`` and
-    ``Q⁺ = Σ p [A Q Aᵀ + A m wᵀBᵀ + B w mᵀAᵀ + B (w wᵀ + W) Bᵀ]`` (MATH §7,
-    written for the generic modes of §10), where ``w`` is deterministic and
-    ``W`` the covariance of an added white part. For Markov modes (MATH
-    §11) the same recursion runs per mode on ``E[ξ 1{σ = i}]`` and
-    ``E[ξξᵀ 1{σ = i}]``, redistributed by the transition at every step,
-    from the mode law ``sys.modes.initial`` (independent of ``ξ_0``).
+    ``Q⁺ = Σ p [A Q Aᵀ + A m wᵀBᵀ + B w mᵀAᵀ + B (w wᵀ + W) Bᵀ]``
+    (:ref:`theory-moments`, written for the generic modes of
+    :ref:`theory-jump-system`), where ``w`` is deterministic and ``W`` the
+    covariance of an added white part. For Markov modes (:ref:`theory-markov`)
+    the same recursion runs per mode on ``E[ξ 1{σ = i}]`` and
+    ``E[ξξᵀ 1{σ = i}]``, redistributed by the transition at every step, from
+    the mode law ``sys.modes.initial`` (independent of ``ξ_0``).
 
     Parameters
     ----------
@@ -294,6 +296,11 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
         symmetric positive semidefinite.
     ControlDimension
         Arrays of the wrong shape.
+
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------
@@ -342,9 +349,10 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
 
 
 def _markov_moments(modes, w, x0, P0, W, mean_x, mean_z, Sx, Sz) -> None:
-    """Fill the moments of a Markov jump system (MATH §11): per mode ``i``,
-    ``μ_i = E[ξ 1{σ = i}]``, ``Q_i = E[ξξᵀ 1{σ = i}]`` and ``π_i = P(σ = i)``;
-    one step applies mode ``i``'s matrices to its share, then the chain
+    """Fill the moments of a Markov jump system (:ref:`theory-markov`): per
+    mode ``i``, ``μ_i = E[ξ 1{σ = i}]``, ``Q_i = E[ξξᵀ 1{σ = i}]`` and
+    ``π_i = P(σ = i)``; one step applies mode ``i``'s matrices to its share,
+    then the chain
     ``T_k`` redistributes the shares."""
     A, B, C, D, T = modes.A, modes.B, modes.C, modes.D, modes.transitions()
     N = modes.period

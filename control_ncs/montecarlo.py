@@ -1,9 +1,9 @@
 """The Monte Carlo engine behind :func:`control_ncs.simulate`.
 
-Draws sample paths of a :class:`~control_ncs.jump.JumpStateSpace` (MATH
-§10) for many trials at once: the random streams, the low-rank step of all
-trials, the time-major storage, chunks and threads. The public functions
-and their result types are in :mod:`control_ncs.responses`.
+Draws sample paths of a :class:`~control_ncs.jump.JumpStateSpace`
+(:ref:`theory-jump-system`) for many trials at once: the random streams, the
+low-rank step of all trials, the time-major storage, chunks and threads. The
+public functions and their result types are in :mod:`control_ncs.responses`.
 
 Random numbers
 --------------
@@ -303,9 +303,10 @@ def _mode_masks(run: Run, a: int, c: int) -> np.ndarray:
 
 
 def _markov_masks(run: Run, a: int, c: int, q: int) -> np.ndarray:
-    """As :func:`_mode_masks` for Markov modes (MATH §11): per trial the
-    chain starts from ``modes.start()`` and moves by ``T_k``; uniform ``t``
-    of a trial draws its mode at step ``t`` (inverse CDF), so the stream is
+    """As :func:`_mode_masks` for Markov modes (:ref:`theory-markov`): per
+    trial the chain starts from ``modes.start()`` and moves by ``T_k``; uniform
+    ``t`` of a trial draws its mode at step ``t`` (inverse CDF), so the stream
+    is
     the i.i.d. engine's."""
     modes = run.sys.modes
     T, N, M = run.time.size, modes.period, modes.count

@@ -1,4 +1,5 @@
-"""Communication schedules and loss models (MATH §1, §3, §11).
+"""Communication schedules and loss models (:ref:`theory-conventions`,
+:ref:`theory-network`, :ref:`theory-markov`).
 
 A schedule says, for each phase ``k`` of a period ``N``, which sensors (or
 actuators) may send. A loss model says how likely a message is to be lost:
@@ -309,7 +310,7 @@ def warn_silent_nodes(S: Schedule, what: str, labels: Sequence[str]) -> None:
 
 
 def common_period(*schedules: Schedule) -> int:
-    """Least common multiple of the periods (MATH §3)."""
+    """Least common multiple of the periods (:ref:`theory-network`)."""
     return math.lcm(*(s.period for s in schedules))
 
 
@@ -337,6 +338,12 @@ def mode_probabilities(sensor_loss: float, actuator_loss: float) -> dict:
     dict
         ``{(θ1, θ2): probability}`` for ``θ1, θ2 ∈ {0, 1}`` (1 = arrived).
 
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+
     Examples
     --------
     >>> p = mode_probabilities(0.1, 0.2)
@@ -350,7 +357,8 @@ def mode_probabilities(sensor_loss: float, actuator_loss: float) -> dict:
 
 
 class GilbertElliott:
-    """A link that loses packets in bursts: a two-state Markov chain (MATH §11).
+    """A link that loses packets in bursts: a two-state Markov chain
+    (:ref:`theory-markov`).
 
     ``θ = 0`` (lost) or ``1`` (delivered); ``P(θ⁺ = 0 | θ = 1) = fail``,
     ``P(θ⁺ = 1 | θ = 0) = recover``. Build one with :func:`gilbert_elliott`.
@@ -463,6 +471,15 @@ def gilbert_elliott(fail: float | None = None, recover: float | None = None,
         A value outside its range, or ``loss`` and ``burst`` that need
         ``f > 1``.
 
+    References
+    ----------
+    .. [1] E. N. Gilbert, "Capacity of a burst-noise channel", *Bell System
+           Technical Journal* 39(5), 1960.
+    .. [2] E. O. Elliott, "Estimates of error rates for codes on burst-noise
+           channels", *Bell System Technical Journal* 42(5), 1963.
+    .. [3] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+
     Examples
     --------
     >>> gilbert_elliott(loss=0.25, burst=2.0)
@@ -545,7 +562,7 @@ _TOL = 1e-9
 
 
 def mode_transition(sensor_link: Any, actuator_link: Any) -> np.ndarray:
-    """Transition matrix of the four network modes (MATH §11).
+    """Transition matrix of the four network modes (:ref:`theory-markov`).
 
     The links are independent chains, so
     ``T[(a1, a2), (b1, b2)] = T1[a1, b1] · T2[a2, b2]``, modes in the order

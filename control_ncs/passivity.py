@@ -1,14 +1,16 @@
-"""Stochastic passivity analysis of jump systems (MATH §6), certified.
+"""Stochastic passivity analysis of jump systems (:ref:`theory-passivity`),
+certified.
 
 Names and signatures mirror :mod:`control.passivity`:
 ``ispassive(sys, ofp_index=0, ifp_index=0)``, :func:`get_input_ff_index`
 and :func:`get_output_fb_index`, with the supply rate
-``wᵀz - ρ zᵀz - ν wᵀw`` (MATH's ``2wᵀz - 2ρ zᵀz - 2η wᵀw``), so that for a
-loss-free, time-invariant loop the numbers coincide with python-control's.
-When *both* indices are nonzero, python-control weights ``wᵀz`` by
-``1 + ρν`` (Kottenstette & Antsaklis' IF-OFP); here the weight stays 1, the
-rate whose expectation MATH §6 takes. With either index 0 (every index
-computation, and ``ispassive``'s defaults) the two conventions agree.
+``wᵀz - ρ zᵀz - ν wᵀw`` (:ref:`theory-conventions`:
+``2wᵀz - 2ρ zᵀz - 2η wᵀw``), so that for a loss-free, time-invariant loop the
+numbers coincide with python-control's. When *both* indices are nonzero,
+python-control weights ``wᵀz`` by ``1 + ρν`` (Kottenstette & Antsaklis'
+IF-OFP); here the weight stays 1, the rate whose expectation
+:ref:`theory-passivity` takes. With either index 0 (every index computation,
+and ``ispassive``'s defaults) the two conventions agree.
 
 Two different indices exist for a lossy loop, and they are named apart:
 
@@ -16,16 +18,16 @@ Two different indices exist for a lossy loop, and they are named apart:
   supply inequality holds in expectation for every input adapted to the past,
   as in a feedback interconnection. Certified by ``P_k`` with ``Θ_k ≺ 0``;
   for Markov (bursty) modes by ``P_{k,ℓ}`` per previous mode with
-  ``Θ_{k,ℓ} ≺ 0`` (MATH §11, the seed's Lemma 2 in full).
+  ``Θ_{k,ℓ} ≺ 0`` (:ref:`theory-markov`, the seed's Lemma 2 in full).
 * :func:`mean_input_ff_index` -- the index of the *mean system* (the
-  StateSpace face, MATH §7): a statement about ``E z`` for deterministic
-  inputs only. It is never smaller than the stochastic one.
+  StateSpace face, :ref:`theory-moments`): a statement about ``E z`` for
+  deterministic inputs only. It is never smaller than the stochastic one.
 
 Two routes produce a certificate, both checked exactly by
 :mod:`control_ncs.verify`:
 
-* ``'lmi'`` -- the LMI of MATH §6 (§11 for Markov modes) solved by an
-  interior-point solver (any jump system);
+* ``'lmi'`` -- the LMI of :ref:`theory-passivity` (:ref:`theory-markov` for
+  Markov modes) solved by an interior-point solver (any jump system);
 * ``'riccati'`` -- for a deterministic system (one mode, period 1): the KYP
   frequency test gives the index from above, and one discrete algebraic
   Riccati equation just below it gives ``P`` (see :func:`control_ncs.riccati.dare_storage`);
@@ -211,7 +213,8 @@ class PassivityResult:
 
 def _feedthrough_refutes(sys, ifp_index, ofp_index=0.0) -> bool:
     """The necessary feedthrough condition fails for ``(ρ, η)``: no
-    certificate (MATH §6, :func:`control_ncs.verify.supply_feedthrough_bound`)."""
+    certificate (:ref:`theory-passivity`,
+    :func:`control_ncs.verify.supply_feedthrough_bound`)."""
     if ifp_index is None or ofp_index is None:
         return False
     return not supply_feedthrough_bound(sys, ofp_index) > ifp_index
@@ -235,8 +238,8 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
                           **solver_options: Any) -> PassivityResult:
     """Search for and exactly verify a stochastic passivity certificate.
 
-    Finds ``P_k`` with ``Θ_k(P; ρ, η) ≺ 0`` (MATH §6, supply rate
-    ``2wᵀz - 2ρ zᵀz - 2η wᵀw``, see
+    Finds ``P_k`` with ``Θ_k(P; ρ, η) ≺ 0`` (:ref:`theory-passivity`, supply
+    rate ``2wᵀz - 2ρ zᵀz - 2η wᵀw``, see
     :func:`control_ncs.verify.dissipation_blocks`; ``η`` maximised when
     ``ifp_index`` is None, ``ρ`` when ``ofp_index`` is None), then checks
     it with :func:`control_ncs.verify.check_certificate`. Necessary
@@ -320,6 +323,16 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     (its unit-circle eigenvalues are the frequencies where
     ``G + Gᴴ - 2ηI`` is singular), ``ν̂`` is lowered and the levels are
     tried again; then larger back-offs.
+
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+    .. [2] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+    .. [3] A. Rantzer, "On the Kalman-Yakubovich-Popov lemma", *Systems &
+           Control Letters* 28(1), 1996.
 
     Examples
     --------
@@ -466,8 +479,9 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
         if level_rho == 0.0 and sys.modes.is_iid:
             model = analysis_model(sys, eta, level, decay)
         else:
-            # zᵀz needs every mode's output matrices (MATH §6); Markov
-            # modes need P_{k,ℓ} per previous mode (MATH §11)
+            # zᵀz needs every mode's output matrices (theory: passivity);
+            # Markov modes need P_{k,ℓ} per previous mode (theory: Markov
+            # losses)
             model = supply_model(sys, eta, level_rho, level, decay)
         # the caller's options are for the solver the caller chose
         report = solve(model.problem, name,
@@ -520,10 +534,10 @@ def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
     """True if ``sys`` is certified strictly passive with these indices.
 
     Same signature as :func:`control.ispassive`. Stochastic strict
-    passivity (MATH §6): mean-square stability and an ``ε > 0`` such that
-    ``E Σ_t (wᵀz - ρ zᵀz - ν wᵀw) ≥ ε E Σ_t wᵀw`` from rest, for every
-    input adapted to the past (``ρ = ofp_index``, ``ν = ifp_index``). True
-    only with a certificate that passed the exact checks (see
+    passivity (:ref:`theory-passivity`): mean-square stability and an ``ε > 0``
+    such that ``E Σ_t (wᵀz - ρ zᵀz - ν wᵀw) ≥ ε E Σ_t wᵀw`` from rest, for
+    every input adapted to the past (``ρ = ofp_index``, ``ν = ifp_index``).
+    True only with a certificate that passed the exact checks (see
     :func:`passivity_certificate`, which also returns the figures).
 
     Parameters
@@ -555,6 +569,16 @@ def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
     With both indices nonzero, :func:`control.ispassive` weights ``wᵀz``
     by ``1 + ρν``; here it stays 1 (see the module's docstring).
 
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+    .. [2] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+    .. [3] A. Rantzer, "On the Kalman-Yakubovich-Popov lemma", *Systems &
+           Control Letters* 28(1), 1996.
+
     Examples
     --------
     ``G(z) = 2z/(z - 0.5)`` has output-feedback index 1/4 and
@@ -583,8 +607,8 @@ def _index(sys: Any, result: PassivityResult, name: str) -> None:
             dict(ms_radius=ms_radius(square_system(sys))))
     if not result.passive:
         # sys is mean-square stable, so for ρ = 0 some η is certifiable
-        # (MATH §6: the (1,1) block is Lemma 1); an infeasible LMI here is
-        # numerical, or, for ρ, the level of η held fixed is too high.
+        # (theory: passivity: the (1,1) block is Lemma 1); an infeasible LMI
+        # here is numerical, or, for ρ, the level of η held fixed is too high.
         report = result.report
         status = None if report is None else report.status
         why = f": {report.message}" if report is not None and \
@@ -599,11 +623,11 @@ def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
     """Largest certified input-feedforward passivity index (stochastic).
 
     The supremum of ``η`` for which a certificate ``P_k`` with ``Θ_k ≺ 0``
-    exists (MATH §6). The value returned is certified exactly: it lies
-    below the supremum that the found ``P_k`` proves by the first back-off
-    of ``verify.INDEX_BACKOFFS`` that passes the exact check (``1e-6``,
-    else ``1e-5`` or ``1e-4``, times ``max(1, |sup|)``: absolute below 1,
-    relative above), which leaves room for a later check, e.g.
+    exists (:ref:`theory-passivity`). The value returned is certified exactly:
+    it lies below the supremum that the found ``P_k`` proves by the first
+    back-off of ``verify.INDEX_BACKOFFS`` that passes the exact check
+    (``1e-6``, else ``1e-5`` or ``1e-4``, times ``max(1, |sup|)``: absolute
+    below 1, relative above), which leaves room for a later check, e.g.
     :func:`ispassive`, to re-certify it. For a loss-free ``N = 1`` loop
     it equals :func:`control.get_input_ff_index` and, for a stable system,
     :func:`frequency_ff_index`; such a deterministic system takes the
@@ -627,6 +651,16 @@ def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
         ``reason='not_mss'`` if ``sys`` is not mean-square stable (no
         index exists); see :func:`passivity_certificate` for the others.
 
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+    .. [2] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+    .. [3] A. Rantzer, "On the Kalman-Yakubovich-Popov lemma", *Systems &
+           Control Letters* 28(1), 1996.
+
     Examples
     --------
     ``G(z) = 1 + 1/(z - 0.5)`` has ``min Re G = 1/3`` on the unit circle:
@@ -645,8 +679,8 @@ def get_output_fb_index(sys: Any, **kwargs: Any) -> float:
     """Largest certified output-feedback passivity index (stochastic).
 
     The supremum of ``ρ`` for which a certificate ``P_k`` exists with the
-    supply rate ``2wᵀz - 2ρ zᵀz`` (MATH §6 with ``η = 0``): the largest
-    gain that can be put in positive feedback around ``sys`` leaving it
+    supply rate ``2wᵀz - 2ρ zᵀz`` (:ref:`theory-passivity` with ``η = 0``): the
+    largest gain that can be put in positive feedback around ``sys`` leaving it
     passive. ``E zᵀz`` takes every mode's output matrices, not their
     mean, so for a lossy loop this is not the mean system's index. The
     value is computed from the found ``P_k`` exactly and certified by
@@ -675,6 +709,14 @@ def get_output_fb_index(sys: Any, **kwargs: Any) -> float:
         and its zero dynamics ``A - BD⁻¹C`` are not Schur stable (no ``ρ``
         works); see :func:`passivity_certificate` for the others.
 
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+    .. [2] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+
     Examples
     --------
     ``G(z) = 2z/(z - 0.5)``: ``Re 1/G = 0.5 - 0.25 cos θ ≥ 1/4``:
@@ -696,7 +738,8 @@ def mean_input_ff_index(sys: Any, **kwargs: Any) -> float:
     mean, lifted over the period if ``N > 1``) is an ordinary LTI system;
     this is its passivity index, certified the same way. It bounds ``E z``
     for deterministic ``w`` only, and is never below
-    :func:`get_input_ff_index` (MATH §6-§7).
+    :func:`get_input_ff_index` (:ref:`theory-passivity`,
+    :ref:`theory-moments`).
 
     Parameters
     ----------
@@ -733,7 +776,7 @@ def mean_input_ff_index(sys: Any, **kwargs: Any) -> float:
     >>> round(mean_input_ff_index(sys), 4), round(get_input_ff_index(sys), 4)
     (0.2, 0.1791)
     """
-    sys = square_system(sys)   # the mean face is exact (§11)
+    sys = square_system(sys)   # the mean face is exact (theory: Markov losses)
     return get_input_ff_index(sys.mean(), **kwargs)
 
 
@@ -775,6 +818,11 @@ def frequency_ff_index(sys: Any, omega: Any = None, *,
     ValueError
         If the system is not Schur stable (the test does not apply), or
         ``omega`` is empty, complex or not finite.
+
+    References
+    ----------
+    .. [1] A. Rantzer, "On the Kalman-Yakubovich-Popov lemma", *Systems &
+           Control Letters* 28(1), 1996.
 
     Examples
     --------

@@ -1,4 +1,5 @@
-"""The generalized plant with its network (MATH §2, §3; paper eq. 1-2)."""
+"""The generalized plant with its network (:ref:`theory-plant`,
+:ref:`theory-network`; paper eq. 1-2)."""
 
 from __future__ import annotations
 
@@ -28,13 +29,14 @@ class NetworkedStateSpace(ct.StateSpace):
         z  = C1 x + D11 w + D12 u     outputs [z; y],  y = last nmeas
         y  = C2 x                     (D21 = 0, D22 = 0)
 
-    The network (MATH §3): at time ``t`` only the sensors in
+    The network (:ref:`theory-network`): at time ``t`` only the sensors in
     ``sensor_schedule`` phase ``t mod N`` send, in one packet lost with
     probability ``sensor_loss``; the controller's packet reaches the
     actuators of ``actuator_schedule`` unless lost (``actuator_loss``).
     Each link loses packets i.i.d. (Bernoulli, a float) or in bursts (a
-    Gilbert–Elliott chain, MATH §11); the two links are independent. The
-    matrices are read-only: the network was validated against them.
+    Gilbert–Elliott chain, :ref:`theory-markov`); the two links are
+    independent. The matrices are read-only: the network was validated against
+    them.
 
     Use :func:`nss` to create one.
 
@@ -128,7 +130,7 @@ class NetworkedStateSpace(ct.StateSpace):
         if np.any(D[p1:, :] != 0):
             raise ValueError(f"D: the measured outputs y must not depend on "
                              f"the inputs (D21 = 0 and D22 = 0 are required, "
-                             f"MATH §2); {split}: check nmeas and ncon")
+                             f"theory: plant); {split}: check nmeas and ncon")
         self.sensor_schedule = schedule(sensor_schedule, self.nmeas,
                                         "sensor_schedule")
         self.actuator_schedule = schedule(actuator_schedule, self.ncon,
@@ -180,7 +182,7 @@ class NetworkedStateSpace(ct.StateSpace):
         for X in (self.A, self.B, self.C, self.D):
             X.setflags(write=False)
 
-    # -- partition (MATH §2) -------------------------------------------------
+    # -- partition (theory: plant) --------------------------------------------
     @property
     def period(self) -> int:
         """Common period ``N`` of the schedules."""
@@ -251,7 +253,7 @@ class NetworkedStateSpace(ct.StateSpace):
 
     def mode_transition(self) -> np.ndarray | None:
         """Transition matrix of the four network modes (eq. 14 order), or
-        None when both links are i.i.d. (MATH §11).
+        None when both links are i.i.d. (:ref:`theory-markov`).
 
         Returns
         -------
@@ -432,6 +434,12 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         bool.
     TypeError
         Unknown keyword.
+
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
 
     Examples
     --------

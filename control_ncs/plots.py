@@ -35,8 +35,8 @@ def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
 
     One axes per output, each with ``paths`` thin sample paths, the band
     between the lowest and highest quantile (``fill_between``), the sample
-    mean (solid) and the exact mean of MATH §7 (dashed, black) -- so
-    ``paths + 2`` lines and one filled band per axes.
+    mean (solid) and the exact mean of :ref:`theory-moments` (dashed, black) --
+    so ``paths + 2`` lines and one filled band per axes.
 
     Parameters
     ----------
@@ -134,7 +134,7 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
     """Plot the sensor and actuator schedules of ``P`` as a timeline.
 
     One row per sensor and per actuator; a filled cell at step ``t`` means
-    that node may send at ``t`` (MATH §3).
+    that node may send at ``t`` (:ref:`theory-network`).
 
     Parameters
     ----------

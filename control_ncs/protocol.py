@@ -23,7 +23,8 @@ Plant (discrete time; sensor ``i`` measures ``y_i = (C2 x)_i``, by default
     y(k)   = C2 x(k)
 
 Controllers: a static gain on the received measurement, the model-based
-predictor (MATH §8b), the estimator (MATH §12: the predictor corrected by
+predictor (:ref:`theory-predictor`), the estimator
+(:ref:`theory-output-feedback`: the predictor corrected by
 ``L_k (y - C2 xhat)``) and any discrete-time LTI controller fed with the
 received measurements (a lost one is 0 or the last received value).
 
@@ -222,8 +223,8 @@ def simulate_protocol(
         and the estimator with ``actuator='hold'``, where ``nk = n + m2``
         and the gain acts on ``[xhat; u_{k-1}]``. Ignored (pass ``None``)
         for ``controller='lti'``. A 4-D stack holds gains ``K_{k,ℓ}`` on
-        the previous network mode (MATH §11), which the controller knows
-        from arrivals and acknowledgements: ``ℓ`` indexes
+        the previous network mode (:ref:`theory-markov`), which the controller
+        knows from arrivals and acknowledgements: ``ℓ`` indexes
         ``(θ1, θ2) = (0, 0), (1, 0), (0, 1), (1, 1)`` of the static
         controller's previous step, ``(θ1,k, θ2,k-1)`` for the predictor
         and the estimator; the channels are then drawn once more before
@@ -493,7 +494,7 @@ def simulate_protocol(
         Kk = K[phase]
         if by_mode:
             # ℓ = σ_{k-1}: (θ1,k-1, θ2,k-1) for the static gain, (θ1,k,
-            # θ2,k-1) for the model-based controllers (MATH §11)
+            # θ2,k-1) for the model-based controllers (theory: Markov losses)
             seen1 = th1 if predictor else before1
             Kk = Kk[np.asarray(seen1, int) + 2 * np.asarray(before2, int)]
         w = W[:, k]

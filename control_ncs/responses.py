@@ -1,13 +1,14 @@
 """Monte Carlo sample paths and ensemble responses of a jump system.
 
-A :class:`~control_ncs.jump.JumpStateSpace` (MATH §10) draws its mode
-independently at every step. :func:`simulate` draws many such realisations
-at once and returns them as a multi-trace :class:`control.TimeResponseData`
-(one trace per trial). :func:`step_response`, :func:`impulse_response`,
+A :class:`~control_ncs.jump.JumpStateSpace` (:ref:`theory-jump-system`) draws
+its mode independently at every step. :func:`simulate` draws many such
+realisations at once and returns them as a multi-trace
+:class:`control.TimeResponseData` (one trace per trial). :func:`step_response`,
+:func:`impulse_response`,
 :func:`initial_response` and :func:`forced_response` mirror python-control's
 functions of the same names: they return an :class:`EnsembleResponse` with
 the sample mean, quantile bands and, beside them, the *exact* mean and
-standard deviation of MATH §7 (:func:`control_ncs.moments`), so
+standard deviation of :ref:`theory-moments` (:func:`control_ncs.moments`), so
 that every picture shows how far sampling is from the truth.
 :func:`control_ncs.plot_ensemble` draws the usual figure: exact mean,
 sample mean, band and a few sample paths. The engine (random streams,
@@ -203,8 +204,8 @@ class EnsembleResponse:
         Sample quantiles of each output (``numpy.quantile``, linear).
     states_sample_mean : ndarray, shape (n, T)
     exact : MomentsResponse
-        Exact mean and covariance (MATH §7) for the same inputs, initial
-        state, noise and initial covariance.
+        Exact mean and covariance (:ref:`theory-moments`) for the same inputs,
+        initial state, noise and initial covariance.
     paths : SamplePaths
         The first ``keep_paths`` sample paths.
     title : str
@@ -271,7 +272,7 @@ class EnsembleResponse:
 
     @property
     def exact_mean(self) -> np.ndarray:
-        """``E z`` (MATH §7), shape (p, T).
+        """``E z`` (:ref:`theory-moments`), shape (p, T).
 
         The outputs' mean of :attr:`exact`, computed without sampling.
 
@@ -287,7 +288,7 @@ class EnsembleResponse:
     def exact_std(self) -> np.ndarray:
         """Exact standard deviation of each output, shape (p, T).
 
-        From the exact covariance of :attr:`exact` (MATH §7).
+        From the exact covariance of :attr:`exact` (:ref:`theory-moments`).
 
         Examples
         --------
@@ -451,10 +452,11 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     Simulates ``ξ[t+1] = A[k,i] ξ[t] + B[k,i] w[t]``,
     ``z[t] = C[k,i] ξ[t] + D[k,i] w[t]`` (``k = t mod N``) with the mode ``i``
     of every trial drawn at every step with probability
-    ``sys.modes.probabilities[k, i]``, or, for Markov modes (MATH §11),
-    a chain per trial started from ``sys.modes.initial`` and moved by
-    ``sys.modes.transition``. All trials advance together, one
-    matrix product per step for all modes (see :mod:`control_ncs.montecarlo`).
+    ``sys.modes.probabilities[k, i]``, or, for Markov modes
+    (:ref:`theory-markov`), a chain per trial started from
+    ``sys.modes.initial`` and moved by ``sys.modes.transition``. All trials
+    advance together, one matrix product per step for all modes (see
+    :mod:`control_ncs.montecarlo`).
 
     Parameters
     ----------

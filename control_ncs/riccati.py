@@ -1,19 +1,22 @@
 """A certified Riccati-type iteration for full-information synthesis.
 
-The LMI of MATH §8 has ``N·n(n+1)/2`` unknowns and PSD blocks of side
-``2n + m1``; an interior-point solver factors a dense ``s(s+1)/2`` block per
-cone, so its time grows like ``n⁵``-``n⁶`` and its memory like ``n³``-``n⁴``
-(docs/benchmarks.md §2a: at ``n = 64, N = 4`` Clarabel cannot allocate its
-KKT system). When the gain sees the whole state at every phase
+The LMI of :ref:`theory-synthesis` has ``N·n(n+1)/2`` unknowns and PSD blocks
+of side ``2n + m1``; an interior-point solver factors a dense ``s(s+1)/2``
+block per cone, so its time grows like ``n⁵``-``n⁶`` and its memory like
+``n³``-``n⁴`` (docs/benchmarks.md §2a: at ``n = 64, N = 4`` Clarabel cannot
+allocate its KKT system). When the gain sees the whole state at every phase
 (``structure='full'``: ``E_k = I``, any actuator schedule) the same problem
 is solved here by a monotone matrix iteration with ``O(N·M·n³)`` work per
 sweep and ``O(N·n²)`` memory, numpy only.
 
-Derivation (MATH §6, §8, §10)
------------------------------
+Derivation
+----------
+The theory: :ref:`theory-passivity`, :ref:`theory-synthesis`,
+:ref:`theory-jump-system`.
+
 For the closed loop ``Ā_i = A_i + Bu_i K``, ``C̄ = C̄z + D̄u K`` (bars: means
 over the modes of the phase, ``p_i`` their probabilities), the dissipation
-matrix of MATH §6 is::
+matrix of :ref:`theory-passivity` is::
 
     Θ_k = [ Σ p Ā_iᵀ P⁺ Ā_i − r² P_k     M12        ]    P⁺ = P_{k+1}
           [ M12ᵀ                  −R_k(P⁺)           ]
@@ -72,9 +75,9 @@ certified, only possibly below the supremum by more than ``rtol``).
 
 Markov modes (coupled Riccati equations)
 ----------------------------------------
-With a Markov chain of modes (MATH §11) the certificate is ``P_{k,ℓ}`` per
-previous mode ``ℓ`` and the gain ``K_{k,ℓ}``: for each ``ℓ`` the quadratic
-form above takes the row ``t = T_{k-1}[ℓ]`` in place of ``p`` and
+With a Markov chain of modes (:ref:`theory-markov`) the certificate is
+``P_{k,ℓ}`` per previous mode ``ℓ`` and the gain ``K_{k,ℓ}``: for each ``ℓ``
+the quadratic form above takes the row ``t = T_{k-1}[ℓ]`` in place of ``p`` and
 ``P_{k+1,i}`` per next mode ``i`` in place of ``P⁺``
 (``Σ t_i F_iᵀ P_{k+1,i} F_i``). Previous modes with equal rows share one
 equation (``lmi.mode_classes``); i.i.d. modes have one per phase, the
@@ -83,7 +86,12 @@ test carry over unchanged, one equation at a time.
 
 References
 ----------
-MATH §6 (analysis LMI), §8 (synthesis), §10 (generic jump plant), §11;
+O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time Markov Jump
+Linear Systems*, Springer, 2005 (coupled Riccati equations); S. Bittanti and
+P. Colaneri, *Periodic Systems: Filtering and Control*, Springer, 2009
+(periodic Riccati iterations);
+:ref:`theory-passivity` (analysis LMI), :ref:`theory-synthesis` (synthesis),
+:ref:`theory-jump-system` (generic jump plant), :ref:`theory-markov`;
 docs/benchmarks.md §2 and §7.1 (measurements of this route against the LMI).
 """
 
@@ -394,11 +402,11 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
                       probe_sweeps: int = 3000) -> RiccatiResult:
     """Full-information periodic gain by the monotone Riccati iteration.
 
-    Finds ``K_k`` and ``P_k`` with ``Θ_k ≺ 0`` (MATH §6) for the plant's
-    closed loop, at the given ``η`` or for the largest ``η`` the bisection
-    reaches (see the module docstring for the derivation). Markov modes
-    (MATH §11): ``K_{k,ℓ}`` and ``P_{k,ℓ}`` per previous mode, from the
-    coupled equations. The result is not checked here:
+    Finds ``K_k`` and ``P_k`` with ``Θ_k ≺ 0`` (:ref:`theory-passivity`) for
+    the plant's closed loop, at the given ``η`` or for the largest ``η`` the
+    bisection reaches (see the module docstring for the derivation). Markov
+    modes (:ref:`theory-markov`): ``K_{k,ℓ}`` and ``P_{k,ℓ}`` per previous
+    mode, from the coupled equations. The result is not checked here:
     :func:`control_ncs.passivesyn` checks it exactly.
 
     Parameters
@@ -472,7 +480,8 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
 def _phases(plant: JumpPlant) -> tuple[list, list]:
     """The equations of each phase: one :class:`_Phase` (i.i.d. modes), or
     one per class of previous modes with equal rows ``T_{k-1}[ℓ]``
-    (Markov, MATH §11), and the class of each ``ℓ`` per phase (empty list
+    (Markov, :ref:`theory-markov`), and the class of each ``ℓ`` per phase
+    (empty list
     for i.i.d. modes)."""
     N = plant.period
     if plant.transition is None:
@@ -519,8 +528,9 @@ def dare_storage(resp: FrequencyResponse, eta: float, eps: float
                      ) -> np.ndarray | None:
     """``P ≻ 0`` with ``Θ(P, η) ≺ 0`` from one Riccati equation, or None.
 
-    Derivation. For ``ξ⁺ = Aξ + Bw``, ``z = Cξ + Dw`` (MATH §6 with one
-    mode and ``N = 1``; the matrix of ``verify.dissipation_matrices``)::
+    Derivation. For ``ξ⁺ = Aξ + Bw``, ``z = Cξ + Dw`` (:ref:`theory-passivity`
+    with one mode and ``N = 1``; the matrix of
+    ``verify.dissipation_matrices``)::
 
         Θ(P, η) = [ AᵀPA - P    AᵀPB - Cᵀ           ] = [ Θ11  L  ]
                   [ BᵀPA - C    BᵀPB + 2ηI - D - Dᵀ ]   [ Lᵀ   -W ]

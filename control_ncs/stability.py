@@ -1,4 +1,4 @@
-"""Exact mean-square stability (MATH §5).
+"""Exact mean-square stability (:ref:`theory-mss`).
 
 The second moment ``Q = E ξξᵀ`` of the unforced system evolves by
 ``Q⁺ = 𝒯_k(Q) = Σ_i p_ki A_ki Q A_kiᵀ``. Over one period this is the
@@ -12,7 +12,7 @@ stable exactly when its spectral radius is below one. Two routes compute it:
   (:func:`scipy.sparse.linalg.eigs`) for the eigenvalue of largest modulus,
   which for this positive map is the spectral radius itself.
 
-Markov modes (MATH §11) carry the second moment per mode,
+Markov modes (:ref:`theory-markov`) carry the second moment per mode,
 ``Q_i = E[ξξᵀ 1{σ = i}]``, and ``Q⁺_j = Σ_i T_k[i, j] A_ki Q_i A_kiᵀ``: the
 same two routes on ``M``-tuples (Kronecker size ``M·n²``). i.i.d. modes use
 the ``n²`` operator above, so their numbers do not change.
@@ -51,12 +51,17 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
     -------
     LinearOperator of shape (n², n²), or (M·n², M·n²) for Markov modes
         For Markov modes it acts on the tuple ``(vec Q_0, …, vec Q_{M-1})``
-        stacked, ``Q_i = E[ξξᵀ 1{σ = i}]`` (MATH §11).
+        stacked, ``Q_i = E[ξξᵀ 1{σ = i}]`` (:ref:`theory-markov`).
 
     Raises
     ------
     ValueError
         ``k`` is not an int.
+
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------
@@ -158,14 +163,14 @@ def _deterministic_monodromy(sys: JumpStateSpace) -> np.ndarray | None:
 
 def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
               **kwargs: Any) -> float:
-    """Per-step mean-square spectral radius ``ρ(𝒯)^(1/N)`` (MATH §5).
+    """Per-step mean-square spectral radius ``ρ(𝒯)^(1/N)`` (:ref:`theory-mss`).
 
     ``E‖ξ_t‖²`` of the unforced system decays (or grows) like this number to
     the power ``t``; the system is mean-square stable exactly when it is
     below 1. For a deterministic system it is ``ρ(A)²``. A periodic system
     is judged over its whole period, never by the average of its phases.
-    Markov modes (MATH §11) are judged by the operator on ``M``-tuples of
-    second moments, from every initial state and mode.
+    Markov modes (:ref:`theory-markov`) are judged by the operator on
+    ``M``-tuples of second moments, from every initial state and mode.
 
     Parameters
     ----------
@@ -196,6 +201,11 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
         ``tol`` is not a positive finite number.
     RuntimeError
         If ARPACK does not converge (the message gives its best estimate).
+
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------
@@ -277,6 +287,11 @@ def is_mss(sys: Any, **kwargs: Any) -> bool:
     ------
     TypeError, ControlArgument, ValueError, RuntimeError
         As :func:`ms_radius`.
+
+    References
+    ----------
+    .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------

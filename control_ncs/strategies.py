@@ -1,4 +1,6 @@
-"""Network strategies as builders of the generic jump system (MATH §4, §8b, §10).
+"""Network strategies as builders of the generic jump system
+(:ref:`theory-static-loop`, :ref:`theory-predictor`,
+:ref:`theory-jump-system`).
 
 Each builder turns a :class:`~control_ncs.plant.NetworkedStateSpace` into a
 :class:`~control_ncs.jump.JumpPlant` with the four network modes of each
@@ -47,13 +49,14 @@ def build(P: NetworkedStateSpace, controller: str = "static",
         Plant with its network.
     controller : {'static', 'predictor', 'estimator', 'lti'}
         ``'static'``: ``v = K_k ŷ`` with ``ŷ = θ1 Σ1 y`` (paper eq. 2-3,
-        MATH §4). ``'predictor'``: the model-based controller of MATH §8b,
-        ``v = K_k x̂`` (needs ``y = x``). ``'estimator'``: MATH §12, the
-        predictor corrected through ``estimator_gain`` ``L_k`` for any
-        ``y = C2 x``; ``v = K_k x̂``. ``'lti'``: a discrete-time LTI
-        controller ``xc⁺ = Ac xc + Bc ŷ``, ``v = Cc xc + Dc ŷ`` of order
-        ``controller_order``; its gain is ``[[Dc, Cc], [Bc, Ac]]`` acting
-        on ``[ŷ; xc]`` (use :func:`feedback` with the controller itself).
+        :ref:`theory-static-loop`). ``'predictor'``: the model-based controller
+        of :ref:`theory-predictor`, ``v = K_k x̂`` (needs ``y = x``).
+        ``'estimator'``: :ref:`theory-output-feedback`, the predictor corrected
+        through ``estimator_gain`` ``L_k`` for any ``y = C2 x``;
+        ``v = K_k x̂``. ``'lti'``: a discrete-time LTI controller
+        ``xc⁺ = Ac xc + Bc ŷ``, ``v = Cc xc + Dc ŷ`` of order
+        ``controller_order``; its gain is ``[[Dc, Cc], [Bc, Ac]]`` acting on
+        ``[ŷ; xc]`` (use :func:`feedback` with the controller itself).
     actuator : {'zero', 'hold'}
         What an actuator applies when its message is lost or not scheduled.
     period : int, optional
@@ -142,9 +145,9 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     a1, a2 = P.sensor_loss, P.actuator_loss
     prob = P.mode_probabilities()
     p = np.tile([prob[m] for m in MODES], (N, 1))
-    # bursty links (MATH §11): the channels evolve at every step whether or
-    # not a node is scheduled; the predictor's mode (θ1,k+1, θ2,k) follows
-    # the same Kronecker chain as the static one's (θ1,k, θ2,k)
+    # bursty links (theory: Markov losses): the channels evolve at every step
+    # whether or not a node is scheduled; the predictor's mode (θ1,k+1, θ2,k)
+    # follows the same Kronecker chain as the static one's (θ1,k, θ2,k)
     T = P.mode_transition()
     transition = None if T is None else np.tile(T, (N, 1, 1))
     info = dict(controller=controller, actuator=actuator, sensor_loss=a1,
@@ -234,7 +237,7 @@ def _measures_state(P: NetworkedStateSpace) -> bool:
 
 def _static_phase(P: NetworkedStateSpace, k: int, t1: int, t2: int, *,
                   actuator: str, **_: Any) -> dict:
-    """Memoryless gain, MATH §4: ``u = θ2 Σ2 K θ1 Σ1 y``."""
+    """Memoryless gain, :ref:`theory-static-loop`: ``u = θ2 Σ2 K θ1 Σ1 y``."""
     n, m2 = P.nstates, P.ncon
     S1 = P.sensor_schedule.selection(k)
     S2 = P.actuator_schedule.selection(k)
@@ -272,13 +275,15 @@ def _held(P: NetworkedStateSpace) -> np.ndarray:
 
 def _predictor_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int,
                      *, actuator: str, L: np.ndarray | None = None) -> dict:
-    """Model-based controller, MATH §8b; the mode is ``(θ1,k+1, θ2,k)``.
+    """Model-based controller, :ref:`theory-predictor`; the mode is
+    ``(θ1,k+1, θ2,k)``.
 
     State ``[x̂; e]`` (zero actuator) or ``[x̂; u⁻; e]`` (hold; ``u⁻`` the
     last inputs of the actuators some phase addresses), with ``x̂`` the
     estimate after the sensor update and ``e = x - x̂``. With estimator
-    gains ``L`` (MATH §12) the correction is ``R = θ1 L_{k+1} Σ1 C2``
-    instead of §8b's ``θ1 Σ1`` (which is ``C2 = I``, ``L = I``).
+    gains ``L`` (:ref:`theory-output-feedback`) the correction is
+    ``R = θ1 L_{k+1} Σ1 C2`` instead of :ref:`theory-predictor`'s ``θ1 Σ1``
+    (which is ``C2 = I``, ``L = I``).
     """
     n, m2 = P.nstates, P.ncon
     S2 = P.actuator_schedule.selection(k)
@@ -428,7 +433,8 @@ class Strategy:
         ``states(P, **options)`` -> names of the state ``ξ``.
     memoryless : bool
         The controller keeps nothing between messages, so it acts only at
-        phases that schedule a sensor and an actuator together (MATH §4).
+        phases that schedule a sensor and an actuator together
+        (:ref:`theory-static-loop`).
     needs_state : bool
         The controller needs ``y = x`` (``C2 = I``).
     """
@@ -492,7 +498,7 @@ def loop_closes(P: NetworkedStateSpace) -> bool:
     """Whether a memoryless (static) gain can act on the loop of ``P``.
 
     It can only at a phase that schedules a sensor and an actuator together
-    (MATH §4).
+    (:ref:`theory-static-loop`).
 
     Parameters
     ----------
@@ -537,10 +543,10 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     K : PeriodicGain, array_like, control.StateSpace or TransferFunction
         A gain from :func:`control_ncs.passivesyn`, or gains of shape
         ``(m2, nk)`` (constant), ``(N_K, M, m2, nk)`` (per phase and
-        previous network mode ``ℓ``, MATH §11: the loop is then a Markov
-        jump system on pair modes ``(ℓ, i)``, for i.i.d. links too, where
-        ``ℓ`` is extra information) or ``(N_K, m2, nk)`` (periodic; the loop's
-        period is the least common multiple of ``N_K``, ``P.period`` and
+        previous network mode ``ℓ``, :ref:`theory-markov`: the loop is then a
+        Markov jump system on pair modes ``(ℓ, i)``, for i.i.d. links too,
+        where ``ℓ`` is extra information) or ``(N_K, m2, nk)`` (periodic; the
+        loop's period is the least common multiple of ``N_K``, ``P.period`` and
         the estimator gain's period). ``nk`` is ``nmeas`` for the static
         controller, ``n`` for the predictor and the estimator, plus ``m2``
         for those with a hold actuator. Or a discrete-time LTI controller
@@ -558,7 +564,7 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         measurement, 0 (default, the paper's eq. 2) or the last received
         value.
     estimator_gain : array_like, shape (n, nmeas) or (N_L, n, nmeas), optional
-        The estimator's ``L_k`` (MATH §12), e.g. from
+        The estimator's ``L_k`` (:ref:`theory-output-feedback`), e.g. from
         :func:`control_ncs.estimator_gain` or ``ct.dlqe``'s gain (see its
         notes); default ``K.estimator_gain`` when ``K`` carries one.
     **kwargs
@@ -578,14 +584,20 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     ------
     ValueError
         If a static gain can never close the loop because no phase schedules
-        a sensor and an actuator together (e.g. a shared channel, MATH §4),
-        or if ``K`` has non-finite entries.
+        a sensor and an actuator together (e.g. a shared channel,
+        :ref:`theory-static-loop`), or if ``K`` has non-finite entries.
     ControlDimension
         If the gain, the estimator gain or the controller has the wrong
         shape.
     ControlArgument
         If an LTI controller is continuous-time or has another ``dt`` than
         the plant, or an option does not fit the controller.
+
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
 
     Examples
     --------
@@ -652,7 +664,7 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         raise ValueError(
             "K: a memoryless (static) gain never closes this loop: no phase "
             "schedules a sensor and an actuator together (a shared channel "
-            "forces this, MATH §4), so F_k = Σ2 K Σ1 = 0 and the plant runs "
+            "forces this, theory: static-gain loop), so F_k = Σ2 K Σ1 = 0 and the plant runs "
             "open loop. Use controller='predictor', which keeps a model-based "
             "estimate between messages.")
     NL = 1
@@ -663,7 +675,7 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
                   estimator_gain=estimator_gain)
     want: tuple[int, ...] = plant.gain_shape()[1:]
     if gains.ndim == 4:
-        # K_{k,ℓ}: one gain per previous mode ℓ (MATH §11)
+        # K_{k,ℓ}: one gain per previous mode ℓ (theory: Markov losses)
         want = (plant.probabilities.shape[1],) + want
     if gains.shape[1:] != want:
         raise ControlDimension(

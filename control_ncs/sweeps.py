@@ -497,7 +497,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
             P.actuator_schedule.pattern.any(axis=1)):
         raise ValueError(
             "P: a memoryless (static) gain never closes this loop: no phase "
-            "schedules a sensor and an actuator together (MATH §4). Use "
+            "schedules a sensor and an actuator together (theory: static-gain loop). Use "
             "controller='predictor'.")
     start = time.perf_counter()
     tasks = [(P.with_network(sensor_loss=x, actuator_loss=y), eta, decay,
@@ -682,8 +682,8 @@ def _prune(P: NetworkedStateSpace, s1: np.ndarray, s2: np.ndarray,
     if _pbh_fails(Phi, Obs, dual=True):
         return NOT_DETECTABLE
     if controller == "predictor":
-        # MATH §8b: e⁺ = (I − θ1 Σ1,k+1) A e, a loop no gain can touch; the
-        # closed loop's rate is at least its exact rate
+        # theory: predictor: e⁺ = (I − θ1 Σ1,k+1) A e, a loop no gain can
+        # touch; the closed loop's rate is at least its exact rate
         lost, heard = [], []
         for k in range(N):
             S = np.diag(s1[(k + 1) % N].astype(float))
@@ -947,8 +947,8 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     """Rank every sensor/actuator schedule of one period by verified design.
 
     Enumerates the index schedules ``s1 ∈ {0..p2}^N``, ``s2 ∈ {0..m2}^N``
-    (one sensor and one actuator message per phase, MATH §3) up to
-    symmetry, removes those for which no gain can exist by cheap exact
+    (one sensor and one actuator message per phase, :ref:`theory-network`) up
+    to symmetry, removes those for which no gain can exist by cheap exact
     tests, designs the rest with :func:`passivesyn` and ranks the certified
     ones.
 
@@ -974,8 +974,9 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     at every phase, a relaxation); ``'not_detectable'``: the dual test with
     what the gain hears (``Σ1,k``, for a static gain only where an actuator
     listens); ``'estimation_not_mss'`` (predictor): the estimation-error
-    loop ``e⁺ = (I − θ1 Σ1,k+1) A e`` of MATH §8b, which no gain changes,
-    has an exact :func:`ms_radius` ``≥ 1`` (``≥ r²`` with ``decay=r``).
+    loop ``e⁺ = (I − θ1 Σ1,k+1) A e`` of :ref:`theory-predictor`, which no gain
+    changes, has an exact :func:`ms_radius` ``≥ 1`` (``≥ r²`` with
+    ``decay=r``).
 
     Parameters
     ----------
@@ -1045,7 +1046,8 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     shared = _flag(shared_channel, "shared_channel")
     if (sensor_loss is None or actuator_loss is None) and not P.is_iid:
         # the pruning and the synthesis are written for Bernoulli losses;
-        # P's stationary loss would silently drop its bursts (MATH §11)
+        # P's stationary loss would silently drop its bursts (theory: Markov
+        # losses)
         raise ControlArgument(
             "P: its links are Markov (bursty); schedule_search works with "
             "Bernoulli losses only: pass sensor_loss= and actuator_loss= "

@@ -1,15 +1,16 @@
-"""Positive-real (passive) synthesis over a lossy network (MATH §8, §8b, §11).
+"""Positive-real (passive) synthesis over a lossy network
+(:ref:`theory-synthesis`, :ref:`theory-predictor`, :ref:`theory-markov`).
 
 ``K, CL, eta = passivesyn(P, ...)`` in the manner of :func:`control.hinfsyn`.
-The LMI is built for the generic plant of MATH §10 (``lmi.py``), so every
-controller kind and schedule goes through one code path; every gain returned
-has passed the exact checks of ``verify.py``. Loops whose gain sees the
-whole state (``structure='full'``) can instead go through the monotone
-Riccati iteration of ``riccati.py`` (``solver='riccati'``, chosen
+The LMI is built for the generic plant of :ref:`theory-jump-system`
+(``lmi.py``), so every controller kind and schedule goes through one code path;
+every gain returned has passed the exact checks of ``verify.py``. Loops whose
+gain sees the whole state (``structure='full'``) can instead go through the
+monotone Riccati iteration of ``riccati.py`` (``solver='riccati'``, chosen
 automatically above ``RICCATI_THRESHOLD`` states); its gains pass the same
 checks. Over bursty (Markov) links both routes design gains ``K_{k,ℓ}`` on
-the previous network mode (MATH §11), checked on the closed loop on pair
-modes (:meth:`control_ncs.jump.JumpPlant.close`).
+the previous network mode (:ref:`theory-markov`), checked on the closed loop on
+pair modes (:meth:`control_ncs.jump.JumpPlant.close`).
 """
 
 from __future__ import annotations
@@ -117,8 +118,8 @@ class SynthesisResult:
     gain_kind : {'phase', 'mode'}
         Which kind of gain was certified: ``K_k`` per phase, or
         ``K_{k,ℓ}`` per phase and previous network mode (Markov links,
-        MATH §11; the closed loop is then a jump system on pair modes
-        ``(ℓ, i)`` and ``certificate.P`` is ``P_{k,(ℓ',ℓ)} = P_{k,ℓ}``).
+        :ref:`theory-markov`; the closed loop is then a jump system on pair
+        modes ``(ℓ, i)`` and ``certificate.P`` is ``P_{k,(ℓ',ℓ)} = P_{k,ℓ}``).
         On Markov links ``'phase'`` is sufficient only.
     note : str
         Why the call took another route than asked or than usual (e.g. the
@@ -213,7 +214,8 @@ class SynthesisResult:
                  f"{r.compile_time:.3f} s, solve {r.solve_time:.3f} s, "
                  f"{len(self.attempts)} attempt(s)"]
         if self.gain.estimator_gain is not None:
-            # MATH §12: the loop's rate is the larger of these two loops'
+            # theory: output feedback: the loop's rate is the larger of these
+            # two loops'
             lines.append(f"  estimator gain L_k of shape "
                          f"{self.gain.estimator_gain.shape} (N_L, n, nmeas)")
         if self.note:
@@ -262,8 +264,9 @@ def _plant_arrays(plant: JumpPlant) -> None:
 
 
 def _feedthrough(plant: JumpPlant) -> tuple[float, int]:
-    """The feedthrough bound on ``η`` (MATH §6); Markov modes: per phase
-    and previous mode, with the laws ``T_{k-1}[ℓ]`` (MATH §11)."""
+    """The feedthrough bound on ``η`` (:ref:`theory-passivity`); Markov modes:
+    per phase
+    and previous mode, with the laws ``T_{k-1}[ℓ]`` (:ref:`theory-markov`)."""
     if plant.transition is None:
         return feedthrough_bound(plant.probabilities, plant.Dw)
     N, M = plant.probabilities.shape
@@ -281,7 +284,7 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant,
         if not plant.is_selection():
             raise ControlArgument(
                 "P: synthesis needs each E_k to be a coordinate selection "
-                "(what the controller knows of the state, MATH §10)")
+                "(what the controller knows of the state, theory: jump system)")
     elif not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()) "
                               f"or a JumpPlant (see build()), got "
@@ -298,7 +301,7 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant,
         if not bound > eta:
             raise ValueError(
                 f"eta: D11 + D11ᵀ ≻ 2·eta·I is necessary (paper's Assumption 1, "
-                f"MATH §6), but λmin(D11 + D11ᵀ)/2 = {bound:.6g} ≤ eta = "
+                f"theory: passivity), but λmin(D11 + D11ᵀ)/2 = {bound:.6g} ≤ eta = "
                 f"{eta:.6g}")
     decay = decay_bound(decay)
     choice(form, "form", FORMS)
@@ -309,7 +312,7 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant,
                for k in range(plant.period)):
         raise ValueError(
             "P: the gain never closes this loop: no phase schedules a sensor "
-            "and an actuator together (MATH §4)"
+            "and an actuator together (theory: static-gain loop)"
             + (". Use controller='predictor'." if controller == "static"
                else ""))
     structured = any(plant.known_coordinates(k).size < plant.shape["nx"]
@@ -320,7 +323,7 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant,
         raise ValueError(
             "structure: 'full' needs every state known at every phase; this "
             f"loop (controller={controller!r}, sensor schedule) needs 'block' "
-            "or 'extended' (MATH §8)")
+            "or 'extended' (theory: synthesis)")
     return eta, decay, structure
 
 
@@ -340,15 +343,15 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     is for ``u = -K x``; negate such a gain before using it here, see the
     Examples).
 
-    Solves the LMI of MATH §8 (paper Theorem 1, corrected) for ``X_k ≻ 0``,
-    ``Y_k`` and, when ``eta`` is None, the largest dissipation ``η``; reads
-    ``K_k = Y_k X_k⁻¹`` (or ``Y_k G_k⁻¹`` in the extended form); then checks
-    the closed loop exactly: ``λmax(Θ_k) < 0`` with ``P_k = X_k⁻¹`` for every
-    phase and ``ms_radius < 1`` (``< r²`` with ``decay=r``). A gain that fails
-    is never returned. Over Markov (Gilbert–Elliott) links the LMI is MATH
-    §11's, with ``X_{k,ℓ}``, ``Y_{k,ℓ}`` per previous mode ``ℓ`` (see
-    ``gain``), and the check is ``Θ_{k,ℓ}`` of the closed loop on pair modes
-    with ``P_{k,(ℓ',ℓ)} = X_{k,ℓ}⁻¹``.
+    Solves the LMI of :ref:`theory-synthesis` (paper Theorem 1, corrected) for
+    ``X_k ≻ 0``, ``Y_k`` and, when ``eta`` is None, the largest dissipation
+    ``η``; reads ``K_k = Y_k X_k⁻¹`` (or ``Y_k G_k⁻¹`` in the extended form);
+    then checks the closed loop exactly: ``λmax(Θ_k) < 0`` with ``P_k = X_k⁻¹``
+    for every phase and ``ms_radius < 1`` (``< r²`` with ``decay=r``). A gain
+    that fails is never returned. Over Markov (Gilbert–Elliott) links the LMI
+    is :ref:`theory-markov`'s, with ``X_{k,ℓ}``, ``Y_{k,ℓ}`` per previous mode
+    ``ℓ`` (see ``gain``), and the check is ``Θ_{k,ℓ}`` of the closed loop on
+    pair modes with ``P_{k,(ℓ',ℓ)} = X_{k,ℓ}⁻¹``.
 
     The LMI is solved in balanced coordinates (a diagonal similarity by
     powers of two, exact in floating point) and every solve goes through
@@ -383,11 +386,11 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``r^(2t)``, i.e. ``ms_radius < r²``.
     controller : {'static', 'predictor', 'estimator'}
         The paper's memoryless gain, the model-based predictor of
-        MATH §8b (needed under a shared channel), or the estimator-based
-        controller of MATH §12 for ``y = C2 x`` with any ``C2`` (the
-        predictor corrected through ``L_k``; ``K.estimator_gain`` holds
-        ``L_k`` and :func:`control_ncs.feedback` closes the same loop).
-        ``'static'`` and ``'predictor'`` need ``y = x``.
+        :ref:`theory-predictor` (needed under a shared channel), or the
+        estimator-based controller of :ref:`theory-output-feedback` for
+        ``y = C2 x`` with any ``C2`` (the predictor corrected through ``L_k``;
+        ``K.estimator_gain`` holds ``L_k`` and :func:`control_ncs.feedback`
+        closes the same loop). ``'static'`` and ``'predictor'`` need ``y = x``.
     actuator : {'zero', 'hold'}
         What actuators apply when their message is lost or not addressed.
     form : {'merged', 'paper'}
@@ -397,17 +400,17 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     structure : {'auto', 'full', 'block', 'extended'}
         ``'auto'``: ``'full'`` (exact) when the controller knows every
         coordinate at every phase, else ``'extended'``. ``'block'`` and
-        ``'extended'`` are sufficient conditions (MATH §8).
+        ``'extended'`` are sufficient conditions (:ref:`theory-synthesis`).
     gain : {'mode', 'phase'}
-        Markov (bursty) links, MATH §11: ``'mode'`` (default) designs
-        gains ``K_{k,ℓ}`` that also use the previous network mode
+        Markov (bursty) links, :ref:`theory-markov`: ``'mode'`` (default)
+        designs gains ``K_{k,ℓ}`` that also use the previous network mode
         ``ℓ = σ_{k-1}`` (known through acknowledgements and arrivals;
         exact with structure ``'full'``), returned as a 4-D
         :class:`PeriodicGain` of shape ``(N, M, m2, nk)``; ``'phase'``
         designs ``K_k`` for every ``ℓ`` (sufficient: a common slack
         ``G_k``, or a common ``X_k`` with ``structure='block'``). For
-        i.i.d. links both are the LMI of MATH §8 and the gain is ``K_k``.
-        ``K.result.gain_kind`` says which kind was certified.
+        i.i.d. links both are the LMI of :ref:`theory-synthesis` and the gain
+        is ``K_k``. ``K.result.gain_kind`` says which kind was certified.
     solver : str, optional
         An installed cvxpy solver for the LMI, or ``'riccati'``
         (case-insensitive) for the monotone Riccati iteration of
@@ -473,11 +476,12 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         fallbacks above; ``'time_limit'`` when ``time_limit`` ran out.
         ``'infeasible'`` also when a given ``estimator_gain``'s error loop
         is not mean-square stable (within ``r²``): by separation no ``K``
-        helps (MATH §12). Riccati route: ``'infeasible'`` when some ``R_k`` loses positive
-        definiteness (a proof that the LMI with its margin is infeasible),
-        ``'solver_failed'`` when it runs out of sweeps or ``P`` grows beyond
-        what double precision can certify (inconclusive),
-        ``'not_verified'`` when its gain fails the exact checks (no retries).
+        helps (:ref:`theory-output-feedback`). Riccati route: ``'infeasible'``
+        when some ``R_k`` loses positive definiteness (a proof that the LMI
+        with its margin is infeasible), ``'solver_failed'`` when it runs out of
+        sweeps or ``P`` grows beyond what double precision can certify
+        (inconclusive), ``'not_verified'`` when its gain fails the exact checks
+        (no retries).
     ValueError, ControlDimension, ControlArgument
         The pre-solve checks: ``dim w ≠ dim z``, ``D11 + D11ᵀ ⊁ 2ηI``,
         ``y ≠ x`` (``'static'``, ``'predictor'``), a static gain that can
@@ -489,6 +493,19 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     TypeError
         A solver option the chosen solver (or the Riccati iteration) does
         not know.
+
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+    .. [2] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
+    .. [3] S. Boyd, L. El Ghaoui, E. Feron and V. Balakrishnan, *Linear Matrix
+           Inequalities in System and Control Theory*, SIAM, 1994.
+    .. [4] S. Bittanti and P. Colaneri, *Periodic Systems: Filtering and
+           Control*, Springer, 2009 (periodic Riccati equations and their
+           iterations).
 
     Examples
     --------
@@ -593,7 +610,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                 f"solver: 'riccati' needs structure 'full'; this loop "
                 f"resolves to structure {structure0!r}: use an LMI solver")
         note = ("solver='riccati' designs gains K_{k,l} on Markov links; "
-                "gain='phase' was solved by the LMI of MATH §11 instead")
+                "gain='phase' was solved by the LMI of theory: Markov losses instead")
         solver_options, solver, riccati = {}, None, False
     if riccati and structure0 != "full":
         raise ValueError(
@@ -633,8 +650,9 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
 
 def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
                      decay: Any, solver: Any) -> JumpPlant:
-    """The open loop of MATH §12 with ``L_k`` given or designed, after the
-    pre-solve refusals (Markov links, unstabilisable or undetectable modes,
+    """The open loop of :ref:`theory-output-feedback` with ``L_k`` given or
+    designed, after the pre-solve refusals (Markov links, unstabilisable or
+    undetectable modes,
     a given ``L`` whose error loop alone is too slow)."""
     from .estimator import (EstimatorGain, estimation_error_loop,
                             estimator_gain, unobservable_modes)
@@ -642,7 +660,7 @@ def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
         raise ControlArgument(
             "passivesyn: P has Markov (bursty) links; the estimator design "
             "is written for i.i.d. losses only and would answer for the "
-            "stationary marginals, which is wrong for bursts (MATH §11)")
+            "stationary marginals, which is wrong for bursts (theory: Markov losses)")
     r = decay_bound(decay)
     N = P.period
     # dual PBH: what B2 Σ2,k never reaches over a period (lifted pair)
@@ -666,13 +684,13 @@ def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
     NL = L.shape[0] if L.ndim == 3 else 1
     plant = build(P, "estimator", actuator, period=math.lcm(N, NL),
                   estimator_gain=L)
-    # separation (MATH §12): the loop's rate is at least the error loop's,
-    # whatever K is: a proof of infeasibility, before any solve
+    # separation (theory: output feedback): the loop's rate is at least the
+    # error loop's, whatever K is: a proof of infeasibility, before any solve
     rate = ms_radius(estimation_error_loop(P, plant.info["estimator_gain"]))
     if not rate < r ** 2:
         raise SynthesisError(
             f"estimator_gain: the estimation-error loop of the given L has "
-            f"ms_radius {rate:.6g} >= {r ** 2:.6g}; by separation (MATH §12) "
+            f"ms_radius {rate:.6g} >= {r ** 2:.6g}; by separation (theory: output feedback) "
             f"no gain K makes the loop mean-square stable"
             + (f" with decay {r}" if r < 1 else ""),
             INFEASIBLE, dict(error_loop_ms_radius=rate, bound=r ** 2,
@@ -825,11 +843,11 @@ def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
     every gain. The second-moment operator of any closed loop,
     ``X ↦ Σ_i p_ki Ā_ki X Ā_kiᵀ`` per phase, dominates the sum over those
     modes alone in the positive-semidefinite order, so its spectral radius
-    (MATH §5) is at least that of the gain-independent part (monotonicity
-    of the spectral radius of cone-preserving maps). When that part's
-    per-step radius is ``≥ min(1, r²)`` no gain can be certified: a proof,
-    with the figure on the error. A loss of exactly 1 on an unstable plant
-    is the special case where every mode is gain-independent.
+    (:ref:`theory-mss`) is at least that of the gain-independent part
+    (monotonicity of the spectral radius of cone-preserving maps). When that
+    part's per-step radius is ``≥ min(1, r²)`` no gain can be certified: a
+    proof, with the figure on the error. A loss of exactly 1 on an unstable
+    plant is the special case where every mode is gain-independent.
     """
     n = plant.shape["nx"]
     p, N = plant.probabilities, plant.period
@@ -865,12 +883,12 @@ def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
 def _open_loop_rate_markov(plant: JumpPlant) -> float:
     """Per-step rate of the gain-independent part on Markov modes.
 
-    With ``S_{k,ℓ} = E[ξ ξᵀ 1{σ_{k-1} = ℓ}]`` (MATH §11),
+    With ``S_{k,ℓ} = E[ξ ξᵀ 1{σ_{k-1} = ℓ}]`` (:ref:`theory-markov`),
     ``S_{k+1,i} = Σ_ℓ T_{k-1}[ℓ, i] Acl S_{k,ℓ} Aclᵀ`` dominates the same
     sum over the modes ``i`` in which ``Acl = A_{k,i}`` whatever the gain
     (also a gain using ``ℓ``); the operator on ``M``-tuples restricted to
     them bounds every closed loop's rate from below. For the scalar
-    ``x⁺ = a x + u`` it is ``a² ρ(T_oo)`` (MATH §11).
+    ``x⁺ = a x + u`` it is ``a² ρ(T_oo)`` (:ref:`theory-markov`).
     """
     n = plant.shape["nx"]
     N, M = plant.probabilities.shape
@@ -893,7 +911,7 @@ def _pair_certificate(P: np.ndarray, CL: JumpStateSpace) -> np.ndarray:
     """``P_{k,ℓ}`` (shape (N, M, n, n)) as the certificate of the closed
     loop of gains ``K_{k,ℓ}`` on (lumped) pair modes (``JumpPlant.close``):
     a previous pair mode whose current plant mode was ``ℓ`` gets
-    ``P_{k,ℓ}`` (MATH §11: ``P_{k,(ℓ',ℓ)} = P_{k,ℓ}``)."""
+    ``P_{k,ℓ}`` (:ref:`theory-markov`: ``P_{k,(ℓ',ℓ)} = P_{k,ℓ}``)."""
     if CL.modes.is_iid:
         # lumped to i.i.d. modes: a single class of ℓ at every phase
         return P[:, 0]
@@ -1058,7 +1076,8 @@ def _riccati(plant, eta, decay, margin, options):
     report = SolveReport("optimal", "RICCATI", 0.0, res.time, res.time,
                          res.sweeps, res.eta, options=dict(options))
     CL = plant.close(res.gains)
-    # Markov modes: K_{k,ℓ}, checked on the pair-mode loop (MATH §11)
+    # Markov modes: K_{k,ℓ}, checked on the pair-mode loop (theory: Markov
+    # losses)
     Pv = _pair_certificate(res.P, CL) if res.gains.ndim == 4 else res.P
     cert = (certify_index(CL, Pv, decay=decay) if eta is None
             else check_certificate(CL, Pv, eta, decay=decay))

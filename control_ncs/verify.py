@@ -1,11 +1,11 @@
 """Exact, solver-independent checks of passivity and stability certificates.
 
-A solver's status is not a proof (MATH §8). Every verdict the library returns
-is re-checked here with plain linear algebra on the *closed-loop* jump
-system: the eigenvalues of the dissipation matrices ``Θ_k`` of MATH §6 for
-the certificate ``P_k``, the eigenvalues of ``P_k`` themselves, and the
-spectral radius of the second-moment operator (MATH §5). The figures are
-kept on a :class:`Certificate`.
+A solver's status is not a proof (:ref:`theory-synthesis`). Every verdict the
+library returns is re-checked here with plain linear algebra on the
+*closed-loop* jump system: the eigenvalues of the dissipation matrices ``Θ_k``
+of :ref:`theory-passivity` for the certificate ``P_k``, the eigenvalues of
+``P_k`` themselves, and the spectral radius of the second-moment operator
+(:ref:`theory-mss`). The figures are kept on a :class:`Certificate`.
 
 One algebra kernel serves every route: :func:`dissipation_blocks` (``Θ_k``
 of one phase from raw per-mode arrays), :func:`ifp_supremum` (the Schur
@@ -55,7 +55,8 @@ def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
                        P: np.ndarray, P_next: np.ndarray, eta: float, *,
                        ofp_index: float = 0.0, decay: float = 1.0
                        ) -> np.ndarray:
-    """``Θ_k`` of one phase from raw per-mode arrays (MATH §6, §10).
+    """``Θ_k`` of one phase from raw per-mode arrays (:ref:`theory-passivity`,
+    :ref:`theory-jump-system`).
 
     The dissipation inequality ``E V(ξ⁺) - r² V(ξ) < E s(w, z)`` for
     ``V(ξ) = ξᵀPξ`` and the supply rate ``s = 2wᵀz - 2ρ zᵀz - 2η wᵀw``
@@ -156,7 +157,8 @@ def ifp_supremum(theta0: np.ndarray, n: int) -> float:
 
 def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
                       ofp_index: float = 0.0) -> tuple[float, int]:
-    """The necessary feedthrough condition of MATH §6, as a bound on ``η``.
+    """The necessary feedthrough condition of :ref:`theory-passivity`, as a
+    bound on ``η``.
 
     ``Θ_k ≺ 0`` needs its ``(2,2)`` block negative, hence
     ``D̄_k + D̄_kᵀ - 2ρ Σ_i p_i D_iᵀD_i ≻ 2ηI`` at every phase (``ρ = 0``:
@@ -207,8 +209,9 @@ def level_floor(bound: float, *mats: np.ndarray) -> float:
     """The lowest level ``η0`` solved and checked for a requested ``η``.
 
     ``Θ(η) = Θ(η0) + 2(η - η0) diag(0, I) ≼ Θ(η0)`` for ``η ≤ η0``: a
-    certificate at ``η0`` certifies every lower ``η`` exactly (MATH §6).
-    Callers solve at ``max(η, level_floor(...))`` and return ``η``.
+    certificate at ``η0`` certifies every lower ``η`` exactly
+    (:ref:`theory-passivity`). Callers solve at ``max(η, level_floor(...))``
+    and return ``η``.
 
     Parameters
     ----------
@@ -238,8 +241,9 @@ def level_floor(bound: float, *mats: np.ndarray) -> float:
 def square_system(sys: Any, name: str = "sys") -> JumpStateSpace:
     """``sys`` as a square jump system (a TransferFunction via control.ss).
 
-    i.i.d. and Markov modes alike: the dissipation matrices are MATH §6's
-    ``Θ_k`` for i.i.d. modes and §11's ``Θ_{k,ℓ}`` for a chain (see
+    i.i.d. and Markov modes alike: the dissipation matrices are
+    :ref:`theory-passivity`'s ``Θ_k`` for i.i.d. modes and
+    :ref:`theory-markov`'s ``Θ_{k,ℓ}`` for a chain (see
     :func:`supply_rows`).
     """
     sys = as_jump(sys, name)
@@ -256,11 +260,12 @@ def supply_rows(modes: Modes) -> np.ndarray:
 
     A storage ``V = ξᵀ P ξ`` may depend on what is known before the mode
     is drawn. For i.i.d. modes that is nothing new: one inequality per
-    phase, averaged with ``p_k`` (MATH §6, §10). For Markov modes it is
-    the previous mode ``ℓ = σ_{k-1}``: one inequality per ``(k, ℓ)``,
-    averaged with the row ``t = T_{k-1}[ℓ, ·]`` (MATH §11, ``Θ_{k,ℓ}`` with
-    ``P_{k,ℓ}`` and ``P_{k+1,i}`` per next mode). Every ``ℓ`` is kept, so a
-    certificate covers any initial mode.
+    phase, averaged with ``p_k`` (:ref:`theory-passivity`,
+    :ref:`theory-jump-system`). For Markov modes it is the previous mode
+    ``ℓ = σ_{k-1}``: one inequality per ``(k, ℓ)``, averaged with the row
+    ``t = T_{k-1}[ℓ, ·]`` (:ref:`theory-markov`, ``Θ_{k,ℓ}`` with ``P_{k,ℓ}``
+    and ``P_{k+1,i}`` per next mode). Every ``ℓ`` is kept, so a certificate
+    covers any initial mode.
 
     Parameters
     ----------
@@ -298,7 +303,7 @@ def supply_feedthrough_bound(sys: JumpStateSpace, ofp_index: float = 0.0
     """:func:`feedthrough_bound` of a jump system, over its supply rows.
 
     Markov modes average the feedthrough with each row ``T_{k-1}[ℓ, ·]``
-    (MATH §11: ``H̄ = Σ t_i H_{k,i}``), i.i.d. modes with ``p_k``.
+    (:ref:`theory-markov`: ``H̄ = Σ t_i H_{k,i}``), i.i.d. modes with ``p_k``.
 
     Parameters
     ----------
@@ -349,7 +354,7 @@ def _certificate_array(P: Any, sys: JumpStateSpace) -> np.ndarray:
         P = np.repeat(P, M, axis=1)
     if P.shape != (N, M if markov else 1, n, n):
         want = (f"({N}, {M}, {n}, {n}) (P_k,ℓ per phase k and previous mode "
-                f"ℓ: Markov modes, MATH §11)" if markov else
+                f"ℓ: Markov modes, theory: Markov losses)" if markov else
                 f"({N}, {n}, {n}) (one P_k per phase)")
         raise ControlDimension(f"P: expected shape {want}, ({N}, {n}, {n}) "
                                f"or ({n}, {n}), got {np.shape(P)}")
@@ -376,7 +381,8 @@ def _thetas(sys: JumpStateSpace, P: np.ndarray, eta: float, rho: float,
     out = []
     for k in range(N):
         Pn = P[(k + 1) % N]
-        # i.i.d.: one P_{k+1}; Markov: P_{k+1,i} per next mode i (MATH §11)
+        # i.i.d.: one P_{k+1}; Markov: P_{k+1,i} per next mode i (theory:
+        # Markov losses)
         P_next = Pn[0] if m.is_iid else Pn
         out += [dissipation_blocks(t, m.A[k], m.B[k], m.C[k], m.D[k],
                                    P[k, l], P_next, eta, ofp_index=rho,
@@ -395,7 +401,8 @@ def _sup(sys: JumpStateSpace, P: np.ndarray, rho: float, decay: float
 def dissipation_matrices(sys: Any, P: Any, eta: float, *,
                          decay: float = 1.0, ofp_index: float = 0.0
                          ) -> list[np.ndarray]:
-    """The matrices ``Θ_k`` of MATH §6 for a closed-loop jump system.
+    """The matrices ``Θ_k`` of :ref:`theory-passivity` for a closed-loop jump
+    system.
 
     ``Θ_k = Σ_i p_i [A_i B_i]ᵀ P_{k+1} [A_i B_i]
     + [[-r² P_k, -C̄ᵀ], [-C̄, 2ηI - D̄ - D̄ᵀ]]
@@ -408,10 +415,10 @@ def dissipation_matrices(sys: Any, P: Any, eta: float, *,
     Lemma 1, so mean-square stability follows, with ``E V`` decaying at
     least like ``r^(2t)``).
 
-    Markov modes (MATH §11): one ``Θ_{k,ℓ}`` per phase ``k`` and previous
-    mode ``ℓ``, with ``P_{k,ℓ}`` in place of ``P_k``, ``P_{k+1,i}`` per next
-    mode in the quadratic term, and the row ``t = T_{k-1}[ℓ, ·]`` in place
-    of ``p`` (:func:`supply_rows`); ``P`` then has shape (N, M, n, n).
+    Markov modes (:ref:`theory-markov`): one ``Θ_{k,ℓ}`` per phase ``k`` and
+    previous mode ``ℓ``, with ``P_{k,ℓ}`` in place of ``P_k``, ``P_{k+1,i}``
+    per next mode in the quadratic term, and the row ``t = T_{k-1}[ℓ, ·]`` in
+    place of ``p`` (:func:`supply_rows`); ``P`` then has shape (N, M, n, n).
 
     Parameters
     ----------
@@ -440,6 +447,14 @@ def dissipation_matrices(sys: Any, P: Any, eta: float, *,
     ValueError
         If ``P``, ``eta`` or ``ofp_index`` is not finite and real, or
         ``decay`` is not in (0, 1].
+
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+    .. [2] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------
@@ -513,9 +528,9 @@ class Certificate:
     P_min : ndarray, shape (N,), or (N, M) for Markov modes
         ``λmin(P_k)`` (``λmin(P_{k,ℓ})``); must be > 0.
     ms_radius : float
-        Per-step spectral radius of the second-moment operator (MATH §5),
-        computed independently of ``P``; must be < 1, and ``< r²`` with a
-        decay bound (``E‖ξ‖²`` decays like ``r^(2t)``).
+        Per-step spectral radius of the second-moment operator
+        (:ref:`theory-mss`), computed independently of ``P``; must be < 1, and
+        ``< r²`` with a decay bound (``E‖ξ‖²`` decays like ``r^(2t)``).
     eta_sup : float
         Supremum of the ``η`` certified by ``P`` at this ``ofp_index``
         (:func:`certified_index`).
@@ -589,12 +604,12 @@ class Certificate:
         --------
         >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
         >>> print(check_certificate(G, [[1.0]], 0.3).summary())
-        Certificate of stochastic passivity (MATH §6): verified
+        Certificate of stochastic passivity (theory: passivity): verified
           eta = 0.3 (sup proved by P: 0.333333), ofp_index = 0, decay = 1
           max_k λmax(Θ_k) = -4.526e-02 < 0, min_k λmin(P_k) = 1.000e+00 > 0
           ms_radius = 0.25 < 1
         """
-        lines = [f"Certificate of stochastic passivity (MATH §6): "
+        lines = [f"Certificate of stochastic passivity (theory: passivity): "
                  f"{'verified' if self.verified else 'NOT verified'}",
                  f"  eta = {self.eta:.6g} (sup proved by P: "
                  f"{self.eta_sup:.6g}), ofp_index = {self.ofp_index:.6g}, "
@@ -687,6 +702,14 @@ def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0,
     ------
     ControlArgument, ControlDimension, ValueError
         As :func:`dissipation_matrices`.
+
+    References
+    ----------
+    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
+           Control System: An LMI Approach* (the seed paper; its errors and
+           their corrections: :ref:`errata`).
+    .. [2] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
+           Markov Jump Linear Systems*, Springer, 2005.
 
     Examples
     --------

@@ -1,0 +1,146 @@
+"""The documentation site (docs/) is complete and its links resolve.
+
+The Sphinx build itself runs in ``.ci/run`` with warnings as errors; these
+checks are the fast ones that need no build: every public name has an API
+entry, every theory anchor that code, notebooks or README point to exists,
+and every test the docs name as evidence exists.
+"""
+
+from __future__ import annotations
+
+import ast
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+import control_ncs
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = ROOT / "docs"
+THEORY = DOCS / "theory.md"
+
+# a cross-reference (docstrings, .rst, MyST) to a label of the docs
+REF = re.compile(r"(?::ref:|\{ref\})`(?:[^`<]*<)?([a-z0-9-]+)>?`")
+# a Markdown link to a section of the theory page
+THEORY_LINK = re.compile(r"\]\((?:\.\./)?(?:docs/)?theory\.md#([a-z0-9-]+)\)")
+
+
+def _labels() -> set[str]:
+    labels = set()
+    for page in list(DOCS.glob("*.md")) + list(DOCS.glob("*.rst")):
+        text = page.read_text(encoding="utf-8")
+        labels |= set(re.findall(r"^\(([a-z0-9-]+)\)=\s*$", text, re.M))
+        labels |= set(re.findall(r"^\.\. _([a-z0-9-]+):\s*$", text, re.M))
+    return labels
+
+
+def _slug(title: str) -> str:
+    """MyST's heading anchors (myst_heading_anchors), GitHub's slugs."""
+    return re.sub(r"[^\w\- ]", "", title.strip().lower()).replace(" ", "-")
+
+
+def _theory_slugs() -> set[str]:
+    text = THEORY.read_text(encoding="utf-8")
+    return {_slug(t) for t in re.findall(r"^#{1,3} (.+)$", text, re.M)}
+
+
+def _notebook_markdown() -> dict[str, str]:
+    out = {}
+    for path in sorted((ROOT / "notebooks").glob("*.ipynb")):
+        cells = json.loads(path.read_text(encoding="utf-8"))["cells"]
+        out[path.name] = "\n".join("".join(c["source"]) for c in cells
+                                   if c["cell_type"] == "markdown")
+    return out
+
+
+def _sources() -> dict[str, str]:
+    """Every text that may point into the docs, by name."""
+    texts = {p.relative_to(ROOT).as_posix(): p.read_text(encoding="utf-8")
+             for p in sorted((ROOT / "control_ncs").glob("*.py"))}
+    texts.update({f"notebooks/{k}": v for k, v in _notebook_markdown().items()})
+    texts["README.md"] = (ROOT / "README.md").read_text(encoding="utf-8")
+    for page in sorted(DOCS.glob("*.md")) + sorted(DOCS.glob("*.rst")):
+        texts[page.relative_to(ROOT).as_posix()] = page.read_text(
+            encoding="utf-8")
+    return texts
+
+
+def _api_names() -> set[str]:
+    text = (DOCS / "api.rst").read_text(encoding="utf-8")
+    names = set()
+    for block in re.findall(r"\.\. autosummary::\n((?:\n|   .*\n)+)", text):
+        names |= {line.strip() for line in block.splitlines()
+                  if line.strip() and not line.strip().startswith(":")}
+    return names
+
+
+def test_theory_page_has_one_label_per_section():
+    text = THEORY.read_text(encoding="utf-8")
+    headings = re.findall(r"^(?:\(([a-z0-9-]+)\)=\n)?#{2,3} (.+)$", text, re.M)
+    unlabelled = [title for label, title in headings
+                  if not label and title != "References"]
+    assert not unlabelled
+    assert len({label for label, _ in headings if label}) >= 12
+
+
+def test_every_label_referenced_exists():
+    labels = _labels()
+    missing = {f"{name}: {ref}" for name, text in _sources().items()
+               for ref in REF.findall(text) if ref not in labels}
+    assert not missing, sorted(missing)
+
+
+def test_every_theory_link_points_to_a_heading():
+    slugs = _theory_slugs()
+    missing = {f"{name}: #{slug}" for name, text in _sources().items()
+               for slug in THEORY_LINK.findall(text) if slug not in slugs}
+    assert not missing, sorted(missing)
+
+
+def test_api_reference_lists_exactly_the_public_names():
+    listed = _api_names()
+    assert listed >= set(control_ncs.__all__), \
+        sorted(set(control_ncs.__all__) - listed)
+    assert listed <= set(control_ncs.__all__), \
+        sorted(listed - set(control_ncs.__all__))
+
+
+def _named_tests() -> set[tuple[str, str]]:
+    found = set()
+    for page in sorted(DOCS.glob("*.md")):
+        found |= set(re.findall(r"(tests/test_\w+\.py)::(test_\w+)",
+                                page.read_text(encoding="utf-8")))
+    return found
+
+
+def test_the_docs_name_tests_as_evidence():
+    assert len(_named_tests()) >= 10
+
+
+@pytest.mark.parametrize("path, name", sorted(_named_tests()))
+def test_every_test_named_in_the_docs_exists(path, name):
+    tree = ast.parse((ROOT / path).read_text(encoding="utf-8"))
+    assert name in {node.name for node in ast.walk(tree)
+                    if isinstance(node, ast.FunctionDef)}
+
+
+BUILD = "python -m sphinx -W --keep-going -b html docs docs/_build/html"
+
+
+def test_ci_builds_the_site_with_warnings_as_errors():
+    assert BUILD in (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+
+
+def test_readme_gives_the_one_local_build_command():
+    assert BUILD in (ROOT / "README.md").read_text(encoding="utf-8")
+
+
+def test_no_math_section_reference_is_left():
+    """Users never receive MATH.md: code, notebooks and README point to the
+    theory page instead (/work/briefs/mathrefs.py rewrites them)."""
+    left = {name for name, text in _sources().items()
+            if not name.startswith("docs/")
+            and re.search(r"MATH\s*(#\s*)?§|MATH\.md", text)}
+    assert not left, sorted(left)
