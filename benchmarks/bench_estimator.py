@@ -1,4 +1,4 @@
-"""Benchmark 9: estimator synthesis (MATH §12) at n = 4, 8, 16 against the
+"""Benchmark 9: estimator synthesis (theory: output feedback) at n = 4, 8, 16 against the
 predictor's.
 
 A section of the runner (``python -m benchmarks --only estimator``); also
@@ -12,10 +12,10 @@ estimator. Timed (median of ``repeats`` warm runs after a cold one):
 
 * ``estimator_gain`` — the exact LMI for ``L`` and its exact verification;
 * ``passivesyn(controller='predictor')`` at a fixed ``η`` on the same plant
-  with ``y = x`` (MATH §8b's LMI);
+  with ``y = x`` (theory: predictor's LMI);
 * ``passivesyn(controller='estimator')`` at the same ``η`` on the plant with
   ``y = C2 x``: ``L`` by ``estimator_gain``, then §8b's LMI for ``K`` on the
-  estimator's loop (MATH §12); one cold run, in this process, with
+  estimator's loop (theory: output feedback); one cold run, in this process, with
   ``time_limit=ESTIMATOR_LIMIT``;
 * the ratios to the predictor: the price of output feedback.
 
@@ -132,7 +132,7 @@ def estimator_section(quick: bool) -> Section:
     sec = Section("9. Estimator synthesis: estimator_gain vs the "
                   "predictor's passivesyn")
     rows = run(sizes, repeats, capped_from=8 if quick else 16)
-    sec.add("`estimator_gain` (the LMI for L, MATH §12, and its exact "
+    sec.add("`estimator_gain` (the LMI for L, theory: output feedback, and its exact "
             "verification) on `random_plant(n)` measured through n // 2 "
             "random outputs (`bench_estimator.output_version`), against "
             f"`passivesyn(controller='predictor')` at η = {ETA} on the same "

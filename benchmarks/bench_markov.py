@@ -13,7 +13,7 @@ Two figures, each against its target:
   modes, period N = 10 (target under 10 s): operator on 4-tuples of
   100 × 100 matrices, 40 000 unknowns, inside ARPACK.
 * ``passivesyn`` over two bursty links at n = 8, 16, 32 (gains ``K_{k,ℓ}``
-  on the previous mode, MATH §11), the default call, against the same
+  on the previous mode, theory: Markov losses), the default call, against the same
   plant over Bernoulli links of the same stationary losses.
 """
 
@@ -164,7 +164,7 @@ def markov_section(quick: bool) -> Section:
             "full-information plant over the two links above "
             "(`bench_markov.synthesis_plant`: random A of spectral radius "
             "1.02, one actuator, scalar w and z with D11 = 1): gains "
-            "K_{k,ℓ} on the previous mode (MATH §11), the LMI up to n = 8, "
+            "K_{k,ℓ} on the previous mode (theory: Markov losses), the LMI up to n = 8, "
             "the coupled Riccati equations above (`RICCATI_THRESHOLD`), each "
             "verified on the lumped pair-mode loop; against the same plant "
             "over Bernoulli links of the same stationary losses. One cold "

@@ -324,7 +324,7 @@ def loss_probability(value: Any, name: str) -> float:
 
 
 def mode_probabilities(sensor_loss: float, actuator_loss: float) -> dict:
-    """Probabilities of the four network modes (paper eq. 14).
+    """Probabilities of the four network modes (the paper's equation 14).
 
     Parameters
     ----------

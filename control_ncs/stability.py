@@ -23,7 +23,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
+from scipy.sparse.linalg import (ArpackError, ArpackNoConvergence,
+                                  LinearOperator, eigs)
 
 from ._checks import choice, no_extra_kwargs, positive_real
 from .jump import JumpStateSpace, as_jump
@@ -264,6 +265,15 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
                 "ms_radius: ARPACK did not converge on the second-moment "
                 f"operator (n = {n}); partial estimates {err.eigenvalues}. "
                 "Try method='dense' for small n, or a larger tol.") from None
+        except ArpackError as err:
+            # ARPACK's restart can fail outright on a small operator whose
+            # dominant eigenvalues share a modulus (𝒯 = A ⊗ A with a complex
+            # pair: λ², λ̄², |λ|²); the dense route is exact and cheap there
+            if size <= DENSE_MAX_STATES ** 2:
+                return ms_radius(sys, method="dense")
+            raise RuntimeError(
+                f"ms_radius: ARPACK failed on the second-moment operator "
+                f"(n = {n}, {size} unknowns): {err}") from None
         rho = float(np.abs(vals[0]))
     return rho ** (1.0 / sys.period)
 

@@ -60,9 +60,6 @@ myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence"]
 # GitHub's heading slugs: docs/theory.md#mean-square-stability works on
 # GitHub, in the README and on the rendered site alike
 myst_heading_anchors = 3
-# notebooks/05 steps from its title (#) to a ### heading; the heading levels
-# of the notebooks are theirs, not the site's
-suppress_warnings = ["myst.header"]
 
 # -- notebooks -----------------------------------------------------------------
 # Executed once per build: they are committed without outputs, and the test

@@ -1,7 +1,7 @@
 """Seeded generators and independent reference routines shared by the tests.
 
 Everything random takes a ``numpy.random.Generator`` (never the global RNG).
-The samplers here are written from the definitions (MATH §1, §10), not from
+The samplers here are written from the definitions (theory: conventions, §10), not from
 the package's moment or stability code, so that tests can compare the two.
 """
 
@@ -95,7 +95,7 @@ def plant_state_selector(CL, n):
 
 
 # --------------------------------------------------------------------------
-# an independent Monte Carlo sampler of a jump system (MATH §10)
+# an independent Monte Carlo sampler of a jump system (theory: jump system)
 # --------------------------------------------------------------------------
 def sample_jump(sys, steps, trials, rng, *, x0=None, inputs=None,
                 noise_covariance=None, initial_covariance=None):
@@ -194,7 +194,7 @@ def fourth_moment_rate(sys):
 
 
 def kron_ms_radius(phases):
-    """``ρ(Π_k Σ_i p_i A_i ⊗ A_i)^(1/N)`` (MATH §5, Kronecker form), written
+    """``ρ(Π_k Σ_i p_i A_i ⊗ A_i)^(1/N)`` (theory: mean-square stability, Kronecker form), written
     independently of ``control_ncs.ms_radius``: ``phases[k]`` lists
     ``(p_i, A_i, ...)`` per mode."""
     n = phases[0][0][1].shape[0]

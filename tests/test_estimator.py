@@ -1,4 +1,4 @@
-"""Output feedback through an estimator at the controller (MATH §12, issue 14).
+"""Output feedback through an estimator at the controller (theory: output feedback, issue 14).
 
 The builder ``controller='estimator'`` (gains ``K_k`` on ``x̂``, estimator
 gains ``L_k``), its separation property and closed forms, the event-level
@@ -42,7 +42,7 @@ def output_plant(rng, **network):
 
 
 def hat_loop(P, K):
-    """x̂⁺ = (A + θ2,k B2 Σ2,k K) x̂, written from MATH §12 directly."""
+    """x̂⁺ = (A + θ2,k B2 Σ2,k K) x̂, written from theory: output feedback directly."""
     N = P.period
     A = np.array([[P.A + t2 * P.B2 @ P.actuator_schedule.selection(k) @ K
                    for t2 in (0, 1)] for k in range(N)])
@@ -66,7 +66,7 @@ def test_identity_measurement_and_gain_reproduce_the_predictor(actuator):
 
 
 def test_loop_rate_is_the_larger_of_the_error_and_estimate_loops():
-    """Separation (MATH §12), with sensor and actuator schedules, any L, K."""
+    """Separation (theory: output feedback), with sensor and actuator schedules, any L, K."""
     rng = np.random.default_rng(5)
     P = output_plant(rng, sensor_schedule=[[1, 0], [0, 1]],
                      actuator_schedule=[[1, 1], [0, 1]], sensor_loss=0.15,
@@ -255,7 +255,7 @@ def measured_first(a1=0.1, a2=0.1, **network):
 
 
 def estimate_loop(P, K):
-    """x̂⁺ = (A + θ2,k B2 Σ2,k K_k) x̂ (zero actuator), from MATH §12."""
+    """x̂⁺ = (A + θ2,k B2 Σ2,k K_k) x̂ (zero actuator), from theory: output feedback."""
     N = K.period
     A = np.array([[P.A + t2 * P.B2 @ P.actuator_schedule.selection(k) @ K[k]
                    for t2 in (0, 1)] for k in range(N)])

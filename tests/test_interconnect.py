@@ -1,6 +1,6 @@
 """Interconnections with deterministic LTI systems (control_ncs.connect).
 
-MATH §7: the mean of a jump system interconnected with a deterministic LTI
+theory: moments: the mean of a jump system interconnected with a deterministic LTI
 system is the interconnection of the means.
 """
 
@@ -102,7 +102,7 @@ def test_every_mode_is_the_feedback_of_that_mode(sign):
 
 
 def test_control_feedback_step_response_is_the_sample_mean_of_the_loop():
-    # MATH §7 through python-control alone: the step response of
+    # theory: moments through python-control alone: the step response of
     # control.feedback(CL, G) is E z of the sampled interconnection.
     CL, G = loop("static-zero"), filter_G()
     T = 20

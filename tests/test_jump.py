@@ -1,4 +1,4 @@
-"""The generic periodic jump system and its mean-system face (MATH §7, §10)."""
+"""The generic periodic jump system and its mean-system face (theory: moments, §10)."""
 
 import copy
 import pickle
@@ -269,7 +269,7 @@ def test_feedback_records_what_built_it():
     assert np.array_equal(CL.info["gains"], [[[0.1, 0.2, 0.3]]])
 
 
-# -- the StateSpace face is E z (MATH §7) -----------------------------------
+# -- the StateSpace face is E z (theory: moments) -----------------------------------
 def test_step_response_equals_the_monte_carlo_mean_of_the_loop():
     """control.step_response of the N = 1 loop vs 20000 event-level paths
     with w = 1: every time point within 4 sample standard errors."""

@@ -1,6 +1,6 @@
-"""Bursty (Markov) losses, analysis side (issue 13, MATH §11).
+"""Bursty (Markov) losses, analysis side (issue 13, theory: Markov losses).
 
-Closed forms of MATH §11, equal rows against the i.i.d. numbers, dense
+Closed forms of theory: Markov losses, equal rows against the i.i.d. numbers, dense
 against matrix-free, exact moments against two independent samplers (the
 package's engine and the event-level protocol), and bad input.
 """
@@ -31,7 +31,7 @@ def markov_jss(rng, n=2, N=1, M=3, radius=0.8):
 
 
 def sample_markov(sys, steps, trials, rng, x0, w):
-    """Paths of a Markov jump system written from the definition (MATH §11):
+    """Paths of a Markov jump system written from the definition (theory: Markov losses):
     σ_0 from the initial law, σ_{t+1} ~ T_k[σ_t], one mode at a time."""
     m = sys.modes
     N, M = m.period, m.count
@@ -159,7 +159,7 @@ def test_bernoulli_links_given_as_chains_give_the_iid_loop():
 
 def test_a_markov_chain_on_the_stationary_law_keeps_iid_marginals_apart():
     """Same stationary law, different futures: the chain is not i.i.d. and
-    its ms_radius differs from the Bernoulli one (MATH §11)."""
+    its ms_radius differs from the Bernoulli one (theory: Markov losses)."""
     P = scalar_plant(2.0, actuator_loss=gilbert_elliott(fail=0.05, recover=0.74))
     CL = feedback(P, [[-2.0]])
     iid = feedback(scalar_plant(2.0, actuator_loss=P.actuator_loss), [[-2.0]])
@@ -170,7 +170,7 @@ def test_a_markov_chain_on_the_stationary_law_keeps_iid_marginals_apart():
     assert ms_radius(CL) == pytest.approx(4 * (1 - 0.74))
 
 
-# -- closed forms (MATH §11) ---------------------------------------------------
+# -- closed forms (theory: Markov losses) ---------------------------------------------------
 @pytest.mark.parametrize("a, f, r", [(2.0, 0.05, 0.74), (2.0, 0.3, 0.8),
                                      (1.5, 0.5, 0.2), (3.0, 0.9, 0.95)])
 def test_deadbeat_gain_over_an_actuator_chain_has_rate_one_minus_r_a2(a, f, r):
@@ -205,7 +205,7 @@ def test_both_links_markov_deadbeat_rate_is_a2_rho_of_t_oo(f1, r1, f2, r2):
 
 
 def test_bursty_six_percent_cannot_be_stabilised_but_spread_27_percent_can():
-    """MATH §11's numbers: a = 2; f = 0.05, r = 0.74 (6.3 % loss, bursts)
+    """theory: Markov losses's numbers: a = 2; f = 0.05, r = 0.74 (6.3 % loss, bursts)
     has (1-r) a² > 1; f = 0.3, r = 0.8 (27 %) has (1-r) a² < 1, while
     Bernoulli at 27 % has α a² > 1."""
     bursty = scalar_plant(2.0, actuator_loss=gilbert_elliott(fail=0.05,
@@ -469,7 +469,7 @@ def _bursty_loop():
 
 
 def test_passivesyn_designs_for_markov_links_and_markov_jump_plants():
-    """MATH §11 (tests/test_markov_synthesis.py has the closed forms); the
+    """theory: Markov losses (tests/test_markov_synthesis.py has the closed forms); the
     estimator design is still written for i.i.d. links and refuses them."""
     P, _ = _bursty_loop()
     for plant in (P, ncs.build(P, "static", "zero")):

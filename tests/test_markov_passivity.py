@@ -1,4 +1,4 @@
-"""Passivity analysis of Markov jump systems (MATH §11, the seed's Lemma 2).
+"""Passivity analysis of Markov jump systems (theory: Markov losses, the seed's Lemma 2).
 
 The dissipation inequality of a chain has one matrix ``Θ_{k,ℓ}`` per phase
 and previous mode, with a storage ``P_{k,ℓ}``. The checks here compare it
@@ -11,7 +11,7 @@ with routes that do not share its code path:
 * a chain with equal rows and another initial law is the i.i.d. system
   (same ``Θ``, same index), though it runs through the Markov code;
 * the certified index never exceeds the mean system's (deterministic
-  inputs are adapted inputs, MATH §6), and a certificate implies
+  inputs are adapted inputs, theory: passivity), and a certificate implies
   mean-square stability.
 """
 

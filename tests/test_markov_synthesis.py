@@ -1,5 +1,5 @@
 """Synthesis over bursty (Markov) links: gains K_{k,ℓ} on the previous mode
-(MATH §11), the LMI written once for i.i.d. and Markov modes, the closed
+(theory: Markov losses), the LMI written once for i.i.d. and Markov modes, the closed
 forms of §11, and the pair-mode closed loop against sampling and the
 event-level protocol."""
 
@@ -116,7 +116,7 @@ def test_periodic_gain_refuses_five_dimensions():
         PeriodicGain(np.zeros((1, 1, 4, 1, 1)))
 
 
-# -- closed forms (MATH §11) ----------------------------------------------------
+# -- closed forms (theory: Markov losses) ----------------------------------------------------
 @pytest.mark.parametrize("fail", [0.05, 0.6])
 @pytest.mark.parametrize("recover, feasible", [(0.78, True), (0.72, False)])
 def test_actuator_chain_has_a_gain_iff_one_minus_r_times_a2_below_one(
@@ -180,7 +180,7 @@ def test_both_links_markov_need_a2_times_rho_of_t_oo_below_one(links,
 
 
 def test_bursts_matter_six_percent_in_bursts_loses_to_27_percent_spread():
-    """MATH §11: a = 2; f = 0.05, r = 0.74 (6 % loss, long bursts) cannot be
+    """theory: Markov losses: a = 2; f = 0.05, r = 0.74 (6 % loss, long bursts) cannot be
     stabilised; f = 0.3, r = 0.8 (27 %, short bursts) can, although
     Bernoulli at 27 % cannot."""
     bursty = gilbert_elliott(fail=0.05, recover=0.74)
@@ -376,7 +376,7 @@ def test_event_level_protocol_validates_the_loop_with_mode_gains():
 
 
 def test_event_level_protocol_validates_the_predictor_with_mode_gains():
-    """The predictor's previous mode is (θ1,k, θ2,k-1) (MATH §11): the
+    """The predictor's previous mode is (θ1,k, θ2,k-1) (theory: Markov losses): the
     protocol applies K_{k,ℓ} with it and matches the pair-mode loop."""
     P = two_state()
     K, CL, _ = passivesyn(P, controller="predictor", decay=0.95)

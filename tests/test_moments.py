@@ -1,4 +1,4 @@
-"""Exact first and second moments (MATH §7)."""
+"""Exact first and second moments (theory: moments)."""
 
 import numpy as np
 import control as ct

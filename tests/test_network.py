@@ -1,4 +1,4 @@
-"""Schedules and loss models (MATH §1, §3; paper eq. 14)."""
+"""Schedules and loss models (theory: conventions, §3; paper eq. 14)."""
 
 import pickle
 
@@ -19,7 +19,7 @@ def senders_by_time(sched, times):
     return {k: (sched.senders(k) + 1).tolist() for k in times}
 
 
-# -- the paper's example (MATH §3) -----------------------------------------
+# -- the paper's example (theory: network) -----------------------------------------
 def test_paper_schedule_sensor_one_sends_at_k_1_and_5():
     s = schedule(PAPER_S1, nodes=2)
     times = [k for k in range(12) if 1 in senders_by_time(s, [k])[k]]
@@ -50,7 +50,7 @@ def test_paper_schedule_through_nss():
 
 def test_selection_matrix_is_the_diagonal_of_the_pattern_row():
     s = schedule(PAPER_S1, nodes=2)
-    # Σ1,k = S1ᵀ S1 with S1 the paper's row selector e_i ᵀ (MATH §3)
+    # Σ1,k = S1ᵀ S1 with S1 the paper's row selector e_i ᵀ (theory: network)
     for k, who in enumerate(PAPER_S1 * 2):
         S_row = np.zeros((1, 2)) if who == 0 else np.eye(2)[[who - 1]]
         assert np.array_equal(s.selection(k), S_row.T @ S_row)
@@ -140,7 +140,7 @@ def test_eq14_probabilities_at_worked_points(a1, a2, expected):
 def test_eq14_probabilities_are_the_product_of_independent_bernoullis(a1, a2):
     p = mode_probabilities(a1, a2)
     for (t1, t2), value in p.items():
-        # θ = 1 (arrived) has probability 1 - α (MATH §1)
+        # θ = 1 (arrived) has probability 1 - α (theory: conventions)
         expect = (a1 if t1 == 0 else 1 - a1) * (a2 if t2 == 0 else 1 - a2)
         assert value == pytest.approx(expect, abs=1e-15)
 

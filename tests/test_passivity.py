@@ -1,4 +1,4 @@
-"""Stochastic passivity analysis, certified (MATH §6, §7).
+"""Stochastic passivity analysis, certified (theory: passivity, §7).
 
 Reference values come from outside the package's LMI: python-control's
 cvxopt LMI (``control.get_input_ff_index``) and the KYP frequency test for
@@ -332,7 +332,7 @@ def test_negative_index_of_first_order_system(method):
 def test_decay_bound_index_is_the_index_of_the_scaled_system(method):
     a, b, c, d, r = 0.5, 1.0, 1.0, 1.0, 0.9
     G = ct.ss([[a]], [[b]], [[c]], [[d]], True)
-    nu = first_order_index(a / r, b / r, c, d)  # MATH §6: A/r, B/r
+    nu = first_order_index(a / r, b / r, c, d)  # theory: passivity: A/r, B/r
     eta = get_input_ff_index(G, decay=r, method=method)
     assert nu - 3e-6 <= eta < nu
 

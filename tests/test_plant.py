@@ -1,4 +1,4 @@
-"""The networked generalized plant (MATH §2, §3)."""
+"""The networked generalized plant (theory: plant, §3)."""
 
 import copy
 import pickle

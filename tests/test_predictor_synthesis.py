@@ -1,9 +1,9 @@
-"""Passive synthesis of the model-based predictor (MATH §8b, issue 4).
+"""Passive synthesis of the model-based predictor (theory: predictor, issue 4).
 
-The closed loops are rebuilt here from the event order of MATH §8b
+The closed loops are rebuilt here from the event order of theory: predictor
 (sensor update, control, actuator, plant step), independently of
 ``strategies.py``; the certificate ``P_k = X_k⁻¹`` is checked on them with
-``Θ_k`` of MATH §6 and the Kronecker second-moment operator of MATH §5.
+``Θ_k`` of theory: passivity and the Kronecker second-moment operator of theory: mean-square stability.
 """
 
 import itertools
@@ -42,7 +42,7 @@ def predictor_modes(gains, actuator, a1=ALPHA1, a2=ALPHA2, plant=None):
     """Per phase k: [(p, A_cl, B_cl, C_cl, D_cl)] over (θ2,k, θ1,k+1).
 
     State [x̂; e] (zero) or [x̂; u⁻; e] (hold), x̂ the estimate after the
-    sensor update, e = x - x̂ (MATH §8b, written from the event order).
+    sensor update, e = x - x̂ (theory: predictor, written from the event order).
     """
     A_, B1_, B2_, C1_, D11_, D12_, S1, S2 = plant or (
         A, B1, B2, C1, D11, D12, SENSORS, ACTUATORS)
@@ -146,7 +146,7 @@ def test_predictor_with_decay_bound_is_verified():
 
 
 def test_predictor_modes_match_the_package_closed_loop():
-    """The jump system the package builds is the one of MATH §8b."""
+    """The jump system the package builds is the one of theory: predictor."""
     rng = np.random.default_rng(0)
     for actuator, nk in (("zero", 2), ("hold", 3)):
         gains = rng.standard_normal((3, 1, nk))
@@ -165,7 +165,7 @@ def test_predictor_modes_match_the_package_closed_loop():
                 Cbar, sum(p * Cc for p, _, _, Cc, _ in modes), atol=1e-12)
 
 
-# -- x⁺ = a x + u: where memory helps (MATH §8b) -------------------------------------
+# -- x⁺ = a x + u: where memory helps (theory: predictor) -------------------------------------
 def scalar(a, a1, a2):
     """Pure stabilization data, no schedules."""
     return nss([[a]], [[0.0, 1.0]], [[0.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
@@ -202,7 +202,7 @@ def test_predictor_feasible_exactly_when_each_loss_below_one_over_a_squared(
                  np.ones((1, 1)), np.ones((1, 1)))
         rho = assert_predictor_verified(K, CL, eta, "zero", a1=a1, a2=a2,
                                         plant=plant)
-        # the estimation error alone decays like α1 a² (MATH §8b)
+        # the estimation error alone decays like α1 a² (theory: predictor)
         assert rho >= a1 * a * a - 1e-12
 
 
@@ -228,7 +228,7 @@ def test_only_the_predictor_stabilises_at_twenty_percent_loss_on_both_links():
 
 
 def test_predictor_ms_radius_reaches_the_larger_loss_rate_with_decay():
-    """x̂ and e separate (MATH §8b): the best rate is max(α1, α2)·a², so a
+    """x̂ and e separate (theory: predictor): the best rate is max(α1, α2)·a², so a
     decay bound r² just above it is feasible and just below is not."""
     a, a1, a2 = 2.0, 0.1, 0.2
     best = max(a1, a2) * a * a

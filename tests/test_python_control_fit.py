@@ -1,7 +1,7 @@
 """control_ncs fits python-control like a native (issue 16).
 
 python-control's own calls on a closed loop keep the randomness where the
-result is exact (mode by mode, MATH §7, §10), refuse clearly where it is
+result is exact (mode by mode, theory: moments, §10), refuse clearly where it is
 not, and the package's objects print, warn and accept inputs as
 python-control's do.
 """

@@ -1,4 +1,4 @@
-"""The Riccati route of passivesyn (control_ncs.riccati, MATH §6, §8).
+"""The Riccati route of passivesyn (control_ncs.riccati, theory: passivity, §8).
 
 It must agree with the LMI where both apply, decide feasibility where the
 theory knows the answer, and return only gains that an independent exact
@@ -36,7 +36,7 @@ def recheck(K, CL, eta, decay=1.0):
 
 def grid_plant(n, N, seed):
     """Seeded full-information plant: two inputs, two w's; for N = 2 an
-    actuator schedule [1, 2] (exact LMI, MATH §8); losses 0.1 and 0.2."""
+    actuator schedule [1, 2] (exact LMI, theory: synthesis); losses 0.1 and 0.2."""
     rng = np.random.default_rng([seed, n, N, 11])
     return random_plant(rng, n, m1=2, m2=2, radius=1.1,
                         actuator_schedule=None if N == 1 else [1, 2],
@@ -74,7 +74,7 @@ def test_fixed_eta_returns_that_eta_verified():
     recheck(K, CL, eta)
 
 
-# -- the scalar loop of MATH §8: critical actuator loss 1/a² = 0.25 ----------------
+# -- the scalar loop of theory: synthesis: critical actuator loss 1/a² = 0.25 ----------------
 def test_scalar_loop_feasible_below_critical_loss():
     P = scalar_plant(2.0, actuator_loss=0.24)
     K, CL, eta = passivesyn(P, solver="riccati")
@@ -93,7 +93,7 @@ def test_scalar_loop_infeasible_above_critical_loss(eta):
 @settings(max_examples=15, deadline=None, derandomize=True)
 @given(a=st.floats(0.5, 3.0), loss=st.floats(0.0, 0.6))
 def test_scalar_loops_feasible_exactly_below_critical_loss(a, loss):
-    """Static gain, actuator loss α: a gain exists iff α a² < 1 (MATH §8);
+    """Static gain, actuator loss α: a gain exists iff α a² < 1 (theory: synthesis);
     within 2 % of the boundary either answer is allowed."""
     P = scalar_plant(a, actuator_loss=loss)
     critical = loss * a * a

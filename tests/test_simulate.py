@@ -94,7 +94,7 @@ def check_moments(paths, exact_mean, exact_cov, k=5.0):
                                   products, k)
 
 
-# -- convergence to the exact moments (MATH §7) --------------------------------
+# -- convergence to the exact moments (theory: moments) --------------------------------
 @pytest.mark.parametrize("noise", [None, W_SINGULAR], ids=["no-noise", "noise"])
 @pytest.mark.parametrize("kind", KINDS)
 def test_sample_mean_and_covariance_converge_to_exact_moments(kind, noise):

@@ -2,7 +2,7 @@
 
 ``control_ncs.protocol.simulate_protocol`` simulates the network packet by
 packet from the protocol description alone; ``feedback`` builds the jump
-system of MATH §4 / §8b. Exact moments of the latter must match the sample
+system of theory: static-gain loop / §8b. Exact moments of the latter must match the sample
 moments of the former.
 """
 
@@ -112,7 +112,7 @@ def test_loss_free_loop_is_the_deterministic_simulation(controller, actuator):
     assert np.allclose(mom.states_cov, 0, atol=1e-10)
 
 
-# -- x⁺ = a x + u without schedules (MATH §8b) -----------------------------
+# -- x⁺ = a x + u without schedules (theory: predictor) -----------------------------
 @pytest.mark.parametrize("a, a1, a2", [(1.5, 0.3, 0.3), (2.0, 0.2, 0.1),
                                        (1.2, 0.0, 0.5), (0.8, 0.6, 0.0)])
 def test_memoryless_loop_with_k_equal_a_has_rate_one_minus_q_times_a2(a, a1,

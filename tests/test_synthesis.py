@@ -1,7 +1,7 @@
-"""Verified positive-real synthesis over a lossy, scheduled network (MATH §8).
+"""Verified positive-real synthesis over a lossy, scheduled network (theory: synthesis).
 
 Every gain that :func:`control_ncs.passivesyn` returns is re-checked here
-with linear algebra written in this file from MATH §4-§6 (closed-loop modes
+with linear algebra written in this file from theory: static-gain loop to passivity (closed-loop modes
 built from the plant matrices and the schedules as given, ``Θ_k`` with
 ``P_k = X_k⁻¹``, the Kronecker second-moment operator), independently of
 ``verify.py``, ``stability.py`` and the builders.
@@ -38,7 +38,7 @@ class Spec:
         self.n, self.m1, self.m2 = (self.A.shape[0], self.B1.shape[1],
                                     self.B2.shape[1])
         self.a1, self.a2 = sensor_loss, actuator_loss
-        # 0/1 rows per phase, written here from MATH §3 (not network.py)
+        # 0/1 rows per phase, written here from theory: network (not network.py)
         self.sensor_rows = self._rows(sensors, self.n)
         self.actuator_rows = self._rows(actuators, self.m2)
         N = np.lcm(len(self.sensor_rows), len(self.actuator_rows))
@@ -110,7 +110,7 @@ def stabilization_spec(a, sensor_loss=0.0, actuator_loss=0.0):
                 sensor_loss=sensor_loss, actuator_loss=actuator_loss)
 
 
-# -- independent exact checks (MATH §4-§6, written from scratch) -------------
+# -- independent exact checks (theory: static-gain loop to passivity, written from scratch) -------------
 def modes(spec, gains):
     """Per phase: [(probability, A_cl, C_cl)] of the static zero-actuator loop."""
     q = (1 - spec.a1) * (1 - spec.a2)
@@ -124,7 +124,7 @@ def modes(spec, gains):
 
 
 def thetas(phases, B, D, P, eta, decay=1.0):
-    """``Θ_k`` of MATH §6 for closed-loop modes sharing ``B`` and ``D``."""
+    """``Θ_k`` of theory: passivity for closed-loop modes sharing ``B`` and ``D``."""
     N, out = len(phases), []
     m = B.shape[1]
     for k, phase in enumerate(phases):
@@ -177,7 +177,7 @@ def test_every_gain_passes_independent_verification_and_ispassive(n, losses):
         try:
             K, CL, eta = passivesyn(spec.plant())
         except SynthesisError as err:
-            # a sensor schedule can leave no structured gain (MATH §8)
+            # a sensor schedule can leave no structured gain (theory: synthesis)
             assert err.reason == "infeasible", (N, seed, err)
             outcomes.append("infeasible")
             continue
@@ -194,7 +194,7 @@ def test_every_gain_passes_independent_verification_and_ispassive(n, losses):
 @pytest.mark.parametrize("n, N, seed", [(2, 1, 0), (3, 1, 1), (3, 2, 2),
                                         (5, 1, 3), (2, 1, 4)])
 def test_merged_and_paper_forms_give_the_same_optimal_eta(n, N, seed):
-    """Equivalent LMIs (MATH §8); the strictness margin ε·I is imposed on
+    """Equivalent LMIs (theory: synthesis); the strictness margin ε·I is imposed on
     more blocks in the paper form, so compare them with a small margin."""
     spec = random_spec(seed, n, N, 0.1, 0.2)
     if N > 1:
@@ -520,7 +520,7 @@ def test_decay_bound_is_tight_at_smallest_ms_rate(factor, feasible):
 
 
 def test_maximising_eta_need_not_drive_ms_radius_to_one():
-    """MATH §8 says maximising η drives the mean-square margin to zero
+    """theory: synthesis says maximising η drives the mean-square margin to zero
     (ρ(𝒯) → 1). It can (scalar w: ms_radius = 1 - 5e-7 below), but need
     not: this unstructured (exact) problem's optimum has ms_radius 0.435.
     Measured over the 48 feasible plants of the grid above: 0.28 to 0.99."""
