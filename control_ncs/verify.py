@@ -342,6 +342,7 @@ def _certificate_array(P: Any, sys: JumpStateSpace) -> np.ndarray:
     """
     n, N, M = sys.modes.A.shape[-1], sys.period, sys.modes.count
     markov = not sys.modes.is_iid
+    given = np.shape(P)
     P = real_array(P, "P", ndim=(2, 3, 4) if markov else (2, 3))
     if P.ndim == 2:
         P = P[None]
@@ -354,10 +355,10 @@ def _certificate_array(P: Any, sys: JumpStateSpace) -> np.ndarray:
         P = np.repeat(P, M, axis=1)
     if P.shape != (N, M if markov else 1, n, n):
         want = (f"({N}, {M}, {n}, {n}) (P_k,ℓ per phase k and previous mode "
-                f"ℓ: Markov modes, theory: Markov losses)" if markov else
+                f"ℓ: Markov modes, theory: Markov losses), ({N}, {n}, {n})" if markov else
                 f"({N}, {n}, {n}) (one P_k per phase)")
-        raise ControlDimension(f"P: expected shape {want}, ({N}, {n}, {n}) "
-                               f"or ({n}, {n}), got {np.shape(P)}")
+        raise ControlDimension(f"P: expected shape {want} or ({n}, {n}), "
+                               f"got {given}")
     return 0.5 * (P + P.swapaxes(-1, -2))
 
 

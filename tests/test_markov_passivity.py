@@ -177,3 +177,11 @@ def test_certified_index_of_a_chain_is_below_its_mean_systems(seed, n, M):
     assert cert.verified and np.all(cert.theta_max < 0)
     assert np.all(cert.P_min > 0) and cert.ms_radius < 1
     assert result.eta <= ncs.mean_input_ff_index(sys) + 1e-6
+
+
+@pytest.mark.parametrize("markov", [True, False])
+def test_certificate_shape_error_names_the_shape_given(markov):
+    sys = (_bursty_loop() if markov
+           else ncs.jss([[0.5]], [[1.0]], [[1.0]], [[1.0]], [1.0]))
+    with pytest.raises(ControlDimension, match=r"got \(3, 1, 1\)$"):
+        ncs.check_certificate(sys, np.ones((3, 1, 1)), 0.1)
