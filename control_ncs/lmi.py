@@ -637,6 +637,48 @@ def mode_classes(T_prev: np.ndarray) -> tuple[np.ndarray, list]:
     return labels, reps
 
 
+def gain_kinds(plant: JumpPlant, gain: str) -> tuple[str, ...]:
+    """Per phase, whether the gain may use the previous mode (``'mode'``).
+
+    A gain ``K_{k,ℓ}`` may differ only between previous modes ``ℓ`` that the
+    controller can tell apart. Acknowledgements and arrivals reveal a
+    link's state only at steps where it carries a message: a link idle the
+    step before hides its bit of ``ℓ`` (:ref:`theory-markov`). A builder
+    records what is observed as ``plant.info['observed']``, shape (N, M):
+    the observation class of each ``ℓ`` per phase (no entry: all of ``ℓ``
+    is known). A phase keeps ``'mode'`` when every observation class lies
+    in one class of equal rows ``T_{k-1}[ℓ]`` (:func:`mode_classes`: there
+    the optimal gain is a function of what is observed); otherwise it
+    takes one gain for every ``ℓ`` (``'phase'``, sufficient).
+
+    Parameters
+    ----------
+    plant : JumpPlant
+    gain : {'mode', 'phase'}
+        What the caller asked for.
+
+    Returns
+    -------
+    tuple of str
+        ``'mode'`` or ``'phase'`` per phase.
+    """
+    N = plant.period
+    if gain == "phase":
+        return ("phase",) * N
+    observed = plant.info.get("observed")
+    if plant.transition is None or observed is None:
+        return ("mode",) * N
+    T = plant.transitions()
+    kinds = []
+    for k in range(N):
+        rows, _ = mode_classes(T[k - 1])
+        obs = np.asarray(observed[k])
+        fine = all(np.unique(rows[obs == o]).size == 1
+                   for o in np.unique(obs))
+        kinds.append("mode" if fine else "phase")
+    return tuple(kinds)
+
+
 def synthesis_model(plant: JumpPlant, eta: float | None, decay: float,
                     margin: float, structure: str, form: str,
                     gain: str = "mode") -> SynthesisModel:
@@ -694,11 +736,12 @@ def synthesis_model(plant: JumpPlant, eta: float | None, decay: float,
             spec.append(tuple(r[2] for r in merged.values()))
         rows.append(rows_k)
         phases.append((tuple(known), tuple(active), tuple(spec)))
-    kind = gain if any(len(c[1]) > 1 for c in classes) else "mode"
-    key = ("synthesis", form, structure, kind, N, nx, nu, nw, nz,
+    kinds = tuple(k if len(c[1]) > 1 else "mode"
+                  for k, c in zip(gain_kinds(plant, gain), classes))
+    key = ("synthesis", form, structure, kinds, N, nx, nu, nw, nz,
            eta is None, tuple(phases))
     template = _template(key, lambda: _synthesis_template(
-        N, nx, nu, nw, nz, phases, eta is None, structure, kind))
+        N, nx, nu, nw, nz, phases, eta is None, structure, kinds))
     eps = margin * data_scale(plant.A, plant.Bu, plant.Bw, plant.Cz,
                               plant.Du, plant.Dw)
     values: dict[Any, Any] = {"margin": eps, "decay2": float(decay) ** 2}
@@ -770,7 +813,7 @@ def _shared_slack(nx, known, k):
 
 
 def _synthesis_template(N, nx, nu, nw, nz, phases, maximise_eta, structure,
-                        gain="mode"):
+                        kinds):
     params: dict = {}
     eps = _param(params, "margin")
     d2 = _param(params, "decay2")
@@ -778,7 +821,7 @@ def _synthesis_template(N, nx, nu, nw, nz, phases, maximise_eta, structure,
     X, Z, Y, blocks = [], [], [], []
     for k, (known, active, spec) in enumerate(phases):
         known, active = np.array(known, int), np.array(active, int)
-        if gain == "phase" and len(spec) > 1:
+        if kinds[k] == "phase" and len(spec) > 1:
             # K_k for every ℓ (theory: Markov losses): non-convex; sufficient
             # with a common X_k ('block') or a common slack G_k, Y_k = K_k G_k
             Xk, Zk, Zs, Yv = _gain_variables(nx, known, active, structure, k,

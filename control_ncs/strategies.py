@@ -153,7 +153,8 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     info = dict(controller=controller, actuator=actuator, sensor_loss=a1,
                 actuator_loss=a2, plant_period=P.period, plant=P.name)
     if T is not None:
-        info.update(sensor_link=P.sensor_link, actuator_link=P.actuator_link)
+        info.update(sensor_link=P.sensor_link, actuator_link=P.actuator_link,
+                    observed=_observed(P, controller, N))
     if controller == "lti":
         info["sensor"] = sensor
     if "L" in opts:
@@ -163,6 +164,28 @@ def build(P: NetworkedStateSpace, controller: str = "static",
                      transition=transition, nominal=np.full(N, 3), inputs=P.disturbance_labels,
                      outputs=P.performance_labels,
                      states=strategy.states(P, **opts), info=info)
+
+
+def _observed(P: NetworkedStateSpace, controller: str, N: int) -> np.ndarray:
+    """What the controller observes of the previous mode, per phase.
+
+    The mode index is ``θ1 + 2θ2`` (``MODES``). The static gain's previous
+    mode is ``(θ1,k-1, θ2,k-1)``; the model-based controllers' is
+    ``(θ1,k, θ2,k-1)`` (their mode is ``(θ1,k+1, θ2,k)``,
+    :ref:`theory-markov`). A link reveals its bit only at a step where it
+    is scheduled (an arrival, or an acknowledgement). Returns the
+    observation class of each previous mode, shape (N, 4): equal labels
+    for modes the controller cannot tell apart.
+    """
+    s1 = P.sensor_schedule.pattern.any(axis=1)
+    s2 = P.actuator_schedule.pattern.any(axis=1)
+    shift = 1 if controller == "static" else 0
+    out = np.zeros((N, len(MODES)), int)
+    for k in range(N):
+        see1 = bool(s1[(k - shift) % P.period])
+        see2 = bool(s2[(k - 1) % P.period])
+        out[k] = [t1 * see1 + 2 * t2 * see2 for t1, t2 in MODES]
+    return out
 
 
 def _options(P: NetworkedStateSpace, controller: str, sensor: Any,
@@ -686,7 +709,27 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
             f"controller={controller!r}, actuator={actuator!r}, got "
             f"{gains.shape[1:]}")
     gains = np.tile(gains, (N // gains.shape[0],) + (1,) * (gains.ndim - 1))
+    observed = plant.info.get("observed")
+    if gains.ndim == 4 and observed is not None:
+        _require_observed(gains, observed)
     return plant.close(gains)
+
+
+def _require_observed(gains: np.ndarray, observed: np.ndarray) -> None:
+    """Refuse gains ``K_{k,ℓ}`` that use a bit of ``ℓ`` the controller never
+    sees (a link idle the step before, :func:`_observed`)."""
+    for k, labels in enumerate(observed):
+        for o in np.unique(labels):
+            same = np.flatnonzero(labels == o)
+            for ell in same[1:]:
+                if not np.array_equal(gains[k, ell], gains[k, same[0]]):
+                    raise ControlArgument(
+                        f"K: at phase {k} the gains for previous modes "
+                        f"{MODES[same[0]]} and {MODES[ell]} (θ1, θ2) differ, "
+                        "but the controller cannot tell these modes apart (a "
+                        "link carried no message the step before, so no "
+                        "arrival or acknowledgement revealed its state); give "
+                        "them the same gain")
 
 
 def _feedback_lti(P: NetworkedStateSpace, K: Any, controller: str | None,

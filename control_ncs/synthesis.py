@@ -30,8 +30,8 @@ from .gain import PeriodicGain, actuators, controllers
 from .jump import JumpPlant, JumpStateSpace
 from .driver import RETRIES, drive
 from .lmi import (DEFAULT_MARGIN, GAINS, SolveReport, balancing_scale,
-                  check_options, check_solver, data_scale, read_gains, solve,
-                  synthesis_model)
+                  check_options, check_solver, data_scale, gain_kinds,
+                  read_gains, solve, synthesis_model)
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
 from .strategies import build, require_state_measured
@@ -601,7 +601,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                                      form, structure, plant, gain)
     riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
     note = ""
-    if riccati and plant.transition is not None and gain == "phase":
+    kinds = gain_kinds(plant, gain)
+    if riccati and plant.transition is not None and "phase" in kinds:
         # the coupled equations give the optimal K_{k,ℓ}; a gain common to
         # the previous modes is the LMI's (sufficient) condition only
         _riccati_options(solver_options)
@@ -610,7 +611,10 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                 f"solver: 'riccati' needs structure 'full'; this loop "
                 f"resolves to structure {structure0!r}: use an LMI solver")
         note = ("solver='riccati' designs gains K_{k,l} on Markov links; "
-                "gain='phase' was solved by the LMI of theory: Markov losses instead")
+                + ("gain='phase'" if gain == "phase" else
+                   "a gain common to previous modes the controller cannot "
+                   "tell apart")
+                + " was solved by the LMI of theory: Markov losses instead")
         solver_options, solver, riccati = {}, None, False
     if riccati and structure0 != "full":
         raise ValueError(
@@ -643,6 +647,13 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     if requested != eta:
         # Θ(η) ≼ Θ(η0) for η ≤ η0: the certificate at η0 proves η exactly
         K.result.eta = K.result.eta_solver = got = float(requested)
+    hidden = [k for k, kind in enumerate(kinds) if kind == "phase"]
+    if gain == "mode" and hidden and K.gains.ndim == 4:
+        # gain='mode' kept K_{k,ℓ} where ℓ is observed; say where it is not
+        note = "; ".join(filter(None, [note, (
+            f"phases {hidden}: a link idle the step before hides part of the "
+            "previous mode, so one gain serves every previous mode there "
+            "(sufficient, theory: Markov losses)")]))
     if note:
         K.result.note = note
     return K, CL, got
@@ -704,7 +715,7 @@ def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
     if riccati:
         return _riccati(plant, eta, decay, margin, solver_options)
     # the Riccati iteration designs K_k (i.i.d.) or K_{k,ℓ} (Markov)
-    fits = plant.transition is None or gain == "mode"
+    fits = plant.transition is None or "phase" not in gain_kinds(plant, gain)
     chosen = (solver is None and not solver_options and structure0 == "full"
               and plant.shape["nx"] > RICCATI_THRESHOLD and fits)
     if chosen:

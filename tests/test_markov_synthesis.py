@@ -420,3 +420,44 @@ def test_a_jump_plant_with_a_bad_transition_is_refused_by_name():
     plant.transition = np.array([[[0.5, 0.6], [0.5, 0.5]]])
     with pytest.raises(ValueError, match="transition"):
         passivesyn(plant)
+
+
+# -- what the controller really observes of the previous mode -----------------
+@pytest.mark.parametrize("network, controller, hidden", [
+    # static gain, sensors silent at phase 1: θ1 of ℓ at phase 0 is unseen
+    (dict(sensor_schedule=[[1, 1], [0, 0]]), "static", [0]),
+    # predictor on a shared channel: at phase 2 neither bit of ℓ is seen
+    (dict(sensor_schedule=[1, 2, 0], actuator_schedule=[0, 0, 1],
+          shared_channel=True), "predictor", [2]),
+])
+def test_mode_gains_never_use_a_bit_of_the_previous_mode_that_is_not_seen(
+        network, controller, hidden):
+    # review finding: K_{k,ℓ} differed between previous modes that no arrival
+    # or acknowledgement distinguishes, and the η claimed was not that of any
+    # controller that can be built
+    P = two_state().with_network(**network)
+    K, CL, eta = ncs.passivesyn(P, controller=controller, decay=0.999)
+    assert K.mode_dependent and K.result.gain_kind == "mode"
+    for k in hidden:
+        assert np.allclose(K.gains[k], K.gains[k][0])
+    assert "idle" in K.result.note
+    # the loop closed from the gain alone is the one certified
+    assert ncs.feedback(P, K, controller=controller).equals(CL)
+    assert eta <= ncs.get_input_ff_index(CL) + 1e-6
+
+
+def test_feedback_refuses_mode_gains_that_use_an_unseen_bit():
+    P = two_state().with_network(sensor_schedule=[[1, 1], [0, 0]])
+    gains = np.zeros((2, 4, 1, 2))
+    gains[0, 1] = [[-0.5, -0.5]]       # ℓ = (1, 0) vs (0, 0): θ1 unseen
+    with pytest.raises(ControlArgument, match="cannot tell these modes apart"):
+        ncs.feedback(P, ncs.PeriodicGain(gains))
+    gains[1, 1] = [[-0.5, -0.5]]       # phase 1: ℓ = (θ1,0, θ2,0), both seen
+    gains[0, 1] = 0.0
+    assert not ncs.feedback(P, ncs.PeriodicGain(gains)).modes.is_iid
+
+
+def test_fully_observed_links_keep_gains_per_previous_mode():
+    K, CL, eta = ncs.passivesyn(two_state(), decay=0.999)
+    assert not K.result.note
+    assert not np.allclose(K.gains[0], K.gains[0][0])
