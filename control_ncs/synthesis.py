@@ -69,6 +69,10 @@ ETA_SEARCH_STEPS = 12
 
 FORMS = ("merged", "paper")
 STRUCTURES = ("auto", "full", "block", "extended")
+#: ``passivesyn(method=...)``: 'auto' takes the LMI where it is exact
+#: (structure 'full') and the refinement of :mod:`control_ncs.refine` where
+#: it is only sufficient (structure left to 'auto' on a structured loop).
+METHODS = ("auto", "lmi", "refine")
 
 
 @dataclass
@@ -123,6 +127,22 @@ class SynthesisResult:
         Every solve made, including retries.
     plant : JumpPlant
         The open-loop jump system that was designed for.
+    method : {'lmi', 'refine'}
+        What certified the gain: ``'lmi'`` the synthesis LMI (or the
+        Riccati route, see ``report.solver``); ``'refine'`` the local
+        refinement of :func:`control_ncs.refine.refine_gain`, its gain
+        certified by the analysis of its closed loop (then ``X_k = P_k⁻¹``,
+        ``Y_k = K_k E_k X_k``, ``report.solver`` is ``'REFINE'`` and
+        ``structure`` names the loop's sufficient LMI, whose gain was the
+        first start when it had one).
+    start : str or None
+        Refinement only: the starting point that led to the gain
+        (``'lmi'``, ``'full'``, ``'zero'``, ``'continuation'``,
+        ``'restart'``).
+    refinement : RefineResult or None
+        Refinement only: how far it moved the gain (``ms_radius_before``,
+        ``ms_radius``, ``eta_before``, ``eta``, ``iterations``,
+        ``message``).
 
     Examples
     --------
@@ -149,6 +169,9 @@ class SynthesisResult:
     report: SolveReport
     attempts: list = field(default_factory=list)
     plant: JumpPlant | None = None
+    method: str = "lmi"
+    start: str | None = None
+    refinement: Any = None
 
     @property
     def ms_radius(self) -> float:
@@ -288,7 +311,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                structure: str = "auto", solver: str | None = None,
                margin: float = DEFAULT_MARGIN,
                time_limit: float | None = TIME_BUDGET,
-               estimator_gain: Any = None, **solver_options: Any
+               estimator_gain: Any = None, method: str = "auto",
+               **solver_options: Any
                ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """Periodic state feedback making a networked loop strictly passive.
 
@@ -375,6 +399,18 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``(N_L, n, nmeas)`` (e.g. from :func:`control.dlqe`); default
         :func:`control_ncs.estimator_gain` ``(P, decay=decay)`` with the
         LMI ``solver`` if one is named.
+    method : {'auto', 'lmi', 'refine'}
+        ``'lmi'``: the synthesis LMI (or Riccati) routes above.
+        ``'refine'``: the local refinement of
+        :func:`control_ncs.refine.refine_gain` on the exact ``ms_radius``
+        and the analysis LMI's η, started from the sufficient LMI's gain
+        when it has one (up to ``refine.LMI_START_MAX_STATES`` states),
+        the unstructured gain restricted, a continuation in the loss; its
+        gain is certified by the analysis of its closed loop, locally
+        improved, never globally optimal, and its failure proves nothing.
+        ``'auto'`` (default): ``'lmi'`` where the LMI is exact (structure
+        ``'full'``) or a structure is named, ``'refine'`` for a
+        structured loop under ``structure='auto'``.
     **solver_options
         Passed to the solver, checked first: an option Clarabel (its
         ``DefaultSettings``), SCS or CVXOPT does not know raises
@@ -472,6 +508,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             "analyse it with feedback(P, K)")
     choice(controller, "controller", controllers())
     choice(actuator, "actuator", actuators())
+    choice(method, "method", METHODS)
     if estimator_gain is not None and (controller != "estimator"
                                        or isinstance(P, JumpPlant)):
         raise ControlArgument(
@@ -533,9 +570,17 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         eta = max(eta, level_floor(bound, plant.A, plant.Bu, plant.Bw,
                                    plant.Cz, plant.Du, plant.Dw))
     try:
-        K, CL, got = _routes(plant, eta, decay, margin, structure,
-                             structure0, form, solver, solver_options,
-                             deadline, riccati)
+        if method == "refine" or (method == "auto" and structure0 != "full"
+                                  and structure == "auto"):
+            from .refine import refined_synthesis
+            K, CL, got = refined_synthesis(plant, eta, decay, deadline, (
+                lambda limit: _routes(plant, eta, decay, margin, structure,
+                                      structure0, form, solver,
+                                      solver_options, limit, riccati)))
+        else:
+            K, CL, got = _routes(plant, eta, decay, margin, structure,
+                                 structure0, form, solver, solver_options,
+                                 deadline, riccati)
     except SynthesisError as err:
         if requested == eta or err.reason != INFEASIBLE:
             raise
