@@ -77,7 +77,7 @@ from .gain import PeriodicGain, actuators, controllers
 from .jump import JumpPlant
 from .plant import NetworkedStateSpace
 from .stability import ms_radius as exact_ms_radius
-from .verify import Certificate, certify_index, check_certificate
+from .verify import Certificate
 
 __all__ = ["refine_gain", "RefineResult"]
 
@@ -310,16 +310,14 @@ class _Loop:
         Qs = [Q0]
         for k in range(self.N - 1):
             Qs.append(self._step(Acl, k, Qs[-1]))
-        Vs = [None] * (self.N + 1)
-        Vs[self.N] = V0
+        Vs: list[np.ndarray] = [V0] * (self.N + 1)
         for k in reversed(range(1, self.N)):
             Vs[k] = self._adjoint(Acl, k, Vs[k + 1])
         scale = float(np.sum(V0 * Q0))
         G = np.zeros(self.mask.shape)
         for k in range(self.N):
             W = self._weights(k, Vs[k + 1])                 # (M, n, n)
-            Q = Qs[k] if self.T is None else Qs[k]
-            AQ = Acl[k] @ Q if self.T is None else Acl[k] @ Q
+            AQ = Acl[k] @ Qs[k]     # Q_k shared (i.i.d.) or per mode
             G[k] = 2 * np.einsum("mxu,mxy,myz,jz->uj", self.Bu[k], W, AQ,
                                  self.E[k])
         if scale == 0 or not np.isfinite(scale):
@@ -489,7 +487,7 @@ class _Index:
                                  PFZ[:, :, :n], plant.E[k])
             G[k] -= 2 * np.einsum("m,mzu,zy,jy->uj", p, plant.Du[k],
                                   Z[n:, :n], plant.E[k])
-        return -float(report.value), G.flat[loop.free].copy()
+        return -float(report.value or 0.0), G.flat[loop.free].copy()
 
 
 def _analysis(CL, eta, decay):
@@ -552,11 +550,9 @@ def _refine(plant: JumpPlant, eta: float | None, decay: float,
     if best[0] > target and plant.nominal is not None and not out_of_time():
         # continuation in the loss probability from the best start
         x = starts[[s[0] for s in starts].index(best[2])][1]
-        f0 = None
+        f0 = loop.rate(x)[0]
         for t in CONTINUATION:
             level = _Loop(plant, *_continued(plant, t))
-            if f0 is None:
-                f0 = loop.rate(x)[0]
             x, f, its, why = _bfgs(level.rate, x,
                                    target if t == 1.0 else -np.inf,
                                    deadline, max_iterations)
@@ -637,6 +633,38 @@ def _refine(plant: JumpPlant, eta: float | None, decay: float,
                   f"refinement reached ms_radius {math.exp(f):.6g} but "
                   f"{why} at eta = {eta} (a local method: nothing is "
                   f"proven)")
+
+
+# -- a proof that no gain helps ---------------------------------------------------
+def autonomous_rate(plant: JumpPlant) -> tuple[float, np.ndarray]:
+    """The exact rate of the part of the loop no gain reaches, and its states.
+
+    The largest set ``S`` of coordinates with ``Bu_ki[S] = 0`` and
+    ``A_ki[S, not S] = 0`` for every phase and mode evolves on its own,
+    ``ξ_S⁺ = A_ki[S, S] ξ_S``, whatever ``K`` (e.g. the predictor's
+    estimation error, MATH §8b). The second moment of ``ξ_S`` is a block of
+    the loop's, so every closed loop's ``ms_radius`` is at least that of
+    this block (MATH §5): when it is ``≥ min(1, r²)`` no gain of any
+    structure is certified. Returns ``(rate, S)``; ``(0.0, [])`` when ``S``
+    is empty.
+    """
+    from .jump import jss
+    S = np.flatnonzero(~np.any(plant.Bu != 0, axis=(0, 1, 3)))
+    while S.size:
+        rest = np.setdiff1d(np.arange(plant.shape["nx"]), S)
+        coupled = np.any(plant.A[..., S, :][..., rest] != 0, axis=(0, 1, 3))
+        if not coupled.any():
+            break
+        S = S[~coupled]
+    if not S.size:
+        return 0.0, S
+    A = plant.A[..., S, :][..., S]
+    N, M = A.shape[:2]
+    zeros = np.zeros((N, M, 1, 1))
+    sub = jss(A, np.zeros((N, M, S.size, 1)), np.zeros((N, M, 1, S.size)),
+              zeros, None if plant.transition is not None
+              else plant.probabilities, transition=plant.transition)
+    return exact_ms_radius(sub), S
 
 
 # -- public entry ----------------------------------------------------------------
@@ -785,9 +813,20 @@ def refined_synthesis(plant: JumpPlant, eta: float | None, decay: float,
     certifies at a given ``eta`` is returned as is. Returns
     ``(K, CL, eta)`` with ``K.result.method`` naming what certified it.
     """
-    from .exceptions import NOT_VERIFIED, SynthesisError
+    from .exceptions import INFEASIBLE, NOT_VERIFIED, SynthesisError
     from .lmi import SolveReport
     from .synthesis import _finish
+    rate, states = autonomous_rate(plant)
+    if rate >= min(1.0, decay ** 2) * (1 + 1e-9):
+        raise SynthesisError(
+            f"passivesyn: infeasible: the states {states.tolist()} evolve "
+            f"on their own, reached by no input and driven by no other "
+            f"state, with a second-moment rate of {rate:.6g} >= "
+            f"{min(1.0, decay ** 2):.6g} per step; every closed loop's rate "
+            f"is at least that: no gain makes the loop mean-square stable"
+            + (f" with decay {decay}" if decay < 1 else ""), INFEASIBLE,
+            dict(ms_radius_without_control=rate, states=states.tolist(),
+                 bound=min(1.0, decay ** 2), proof="autonomous subsystem"))
     given = found = None
     if lmi is not None and plant.shape["nx"] <= LMI_START_MAX_STATES:
         left = None if deadline is None else deadline - time.perf_counter()
@@ -820,6 +859,7 @@ def refined_synthesis(plant: JumpPlant, eta: float | None, decay: float,
             dict(ms_radius=res.ms_radius, starts=res.starts,
                  iterations=res.iterations, method="refine"))
     cert = res.certificate
+    assert cert is not None  # verified
     X = np.linalg.inv(cert.P)
     X = 0.5 * (X + X.transpose(0, 2, 1))
     Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)

@@ -409,8 +409,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         gain is certified by the analysis of its closed loop, locally
         improved, never globally optimal, and its failure proves nothing.
         ``'auto'`` (default): ``'lmi'`` where the LMI is exact (structure
-        ``'full'``) or a structure is named, ``'refine'`` for a
-        structured loop under ``structure='auto'``.
+        ``'full'``) or where a structure, a solver or solver options are
+        named; ``'refine'`` for a structured loop otherwise.
     **solver_options
         Passed to the solver, checked first: an option Clarabel (its
         ``DefaultSettings``), SCS or CVXOPT does not know raises
@@ -571,7 +571,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                                    plant.Cz, plant.Du, plant.Dw))
     try:
         if method == "refine" or (method == "auto" and structure0 != "full"
-                                  and structure == "auto"):
+                                  and structure == "auto" and solver is None
+                                  and not solver_options):
             from .refine import refined_synthesis
             K, CL, got = refined_synthesis(plant, eta, decay, deadline, (
                 lambda limit: _routes(plant, eta, decay, margin, structure,
