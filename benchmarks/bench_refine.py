@@ -6,7 +6,8 @@ unstable plants (seeded; spectral radius 1.1, two actuators, ``y = x``,
 
 * sensor schedule: the n sensors split into N groups taking turns;
 * hold actuators, the two actuators taking turns (N = 2);
-* the predictor (MATH §8b) with the sensor schedule.
+* the predictor (MATH §8b), every sensor with 20 % loss, the actuators
+  taking turns over N phases.
 
 For each, the largest actuator loss certified at ``eta=-100`` is found by
 bisection (``STEPS`` halvings of [0, 1]) with ``passivesyn(method='lmi')``
@@ -45,6 +46,12 @@ def plant(n: int, N: int, loss: float, case: str, seed: int = 0):
     network = dict(actuator_loss=loss)
     if case == "hold":
         network["actuator_schedule"] = [1, 2]
+    elif case == "predictor":
+        # every sensor, 20 % lost (the error loop alone then decays like
+        # 0.2·1.1²; with the sensor groups it is unstable, a proof that
+        # refine.autonomous_rate finds); the actuators in turns over N
+        network.update(sensor_loss=0.2,
+                       actuator_schedule=[k % 2 + 1 for k in range(N)])
     else:
         groups = np.zeros((N, n), int)
         for j in range(n):

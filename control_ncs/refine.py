@@ -84,7 +84,7 @@ __all__ = ["refine_gain", "RefineResult"]
 #: Up to this size of the second-moment operator (``n²``, ``M n²`` for
 #: Markov modes) its eigenvectors come from the dense Kronecker monodromy;
 #: above, from ARPACK on the matrix-free operator.
-DENSE_MAX_SIZE = 100
+DENSE_MAX_SIZE = 64
 
 #: Stage 1 stops once ``ms_radius ≤ TARGET_FRACTION · min(1, r²)``: room
 #: for the analysis LMI's strictness margin near the stability edge.
@@ -207,6 +207,7 @@ class _Loop:
         self.mask = mask
         self.free = np.flatnonzero(mask)
         self.evaluations = 0
+        self._warm: list = [None, None]
 
     def gains(self, x: np.ndarray) -> np.ndarray:
         K = np.zeros(self.mask.shape)
@@ -246,12 +247,16 @@ class _Loop:
         shape = self._shape()
         size = int(np.prod(shape))
         if size <= DENSE_MAX_SIZE:
-            I = np.eye(size)
-            Mono = I
+            Mono = np.eye(size)
             for k in range(self.N):
-                Mono = np.column_stack([
-                    self._step(Acl, k, c.reshape(shape)).ravel()
-                    for c in Mono.T])
+                # row-major vec: vec(A Q Aᵀ)[a n + c] = Σ A[a,b] Q[b,d] A[c,d]
+                if self.T is None:
+                    Tk = np.einsum("m,mab,mcd->acbd", self.p[k], Acl[k],
+                                   Acl[k])
+                else:
+                    Tk = np.einsum("ij,iab,icd->jacibd", self.T[k], Acl[k],
+                                   Acl[k])
+                Mono = Tk.reshape(size, size) @ Mono
             w, vl, vr = scipy.linalg.eig(Mono, left=True, right=True)
             j = int(np.argmax(np.abs(w) + 1e-12 * (np.abs(w.imag) == 0)))
             return float(abs(w[j])), vr[:, j].real.reshape(shape), \
@@ -269,10 +274,13 @@ class _Loop:
                 V = self._adjoint(Acl, k, V)
             return V.ravel()
 
-        v0 = np.broadcast_to(np.eye(self.n), shape).ravel().copy()
+        start = np.broadcast_to(np.eye(self.n), shape).ravel().copy()
         vecs = []
         lam = 0.0
-        for apply in (forward, backward):
+        for j, apply in enumerate((forward, backward)):
+            # warm start: the last evaluation's eigenvector (the line search
+            # and BFGS move little between calls); deterministic all the same
+            v0 = self._warm[j] if self._warm[j] is not None else start
             op = LinearOperator((size, size), matvec=apply, dtype=float)
             if not np.any(apply(v0)):
                 return 0.0, v0.reshape(shape), v0.reshape(shape)
@@ -282,7 +290,12 @@ class _Loop:
             except (ArpackNoConvergence, ArpackError):
                 return self._power(forward, backward, v0, shape)
             lam = max(lam, float(abs(vals[0])))
-            vecs.append(vec[:, 0].real.reshape(shape))
+            v = vec[:, 0].real
+            # Perron vectors are PSD: the sign with positive trace
+            v = v if np.sum(v.reshape(shape) * start.reshape(shape)) >= 0 \
+                else -v
+            vecs.append(v.reshape(shape))
+        self._warm = [vecs[0].ravel().copy(), vecs[1].ravel().copy()]
         return lam, vecs[0], vecs[1]
 
     @staticmethod
@@ -518,6 +531,21 @@ def _refine(plant: JumpPlant, eta: float | None, decay: float,
     def out_of_time():
         return deadline is not None and time.perf_counter() > deadline
 
+    certified: dict = {}
+
+    def settled(f, x):
+        """At the target rate, or (a level given) already certified there:
+        further starts are not needed."""
+        if f <= target:
+            return True
+        if eta is None or not f < edge:
+            return False
+        key = x.tobytes()
+        if key not in certified:
+            certified[key] = _analysis(plant.close(loop.gains(x)), eta,
+                                       decay)
+        return certified[key] is not None
+
     # starting points, best (lowest rate) first
     starts = []
     if given is not None:
@@ -542,12 +570,13 @@ def _refine(plant: JumpPlant, eta: float | None, decay: float,
             best = (f, x, name, f0)
         if why == TIME_LIMIT:
             stopped = TIME_LIMIT
-        if f <= target or why == TIME_LIMIT:
+        if why == TIME_LIMIT or settled(f, x):
             break
     if best is None:
         f0, _, name, x = scored[0]
         best = (f0, x, name, f0)
-    if best[0] > target and plant.nominal is not None and not out_of_time():
+    if (not settled(best[0], best[1]) and plant.nominal is not None
+            and not out_of_time()):
         # continuation in the loss probability from the best start
         x = starts[[s[0] for s in starts].index(best[2])][1]
         f0 = loop.rate(x)[0]
@@ -566,7 +595,7 @@ def _refine(plant: JumpPlant, eta: float | None, decay: float,
         if f < best[0]:
             best = (f, x, "continuation", f0)
     for restart in range(RESTARTS):
-        if best[0] <= target or out_of_time():
+        if settled(best[0], best[1]) or out_of_time():
             break
         scale = max(1.0, float(np.abs(best[1]).max(initial=0.0)))
         spread = RESTART_SCALES[restart % len(RESTART_SCALES)]
@@ -596,7 +625,8 @@ def _refine(plant: JumpPlant, eta: float | None, decay: float,
                       f"refinement found no mean-square stabilising gain: "
                       f"{why} at ms_radius {math.exp(f):.6g} >= "
                       f"{bound:.6g} (a local method: nothing is proven)")
-    cert = _analysis(plant.close(K), eta, decay)
+    cert = certified.get(x.tobytes()) if x.tobytes() in certified \
+        else _analysis(plant.close(K), eta, decay)
     eta_before = float(cert.eta) if cert is not None else float("nan")
     if (cert is None or eta is None) and plant.is_iid and not out_of_time():
         # stage 2: the certified η of a fixed gain is the analysis LMI's;
