@@ -35,20 +35,24 @@ analysis η = -282.07): alternating convex steps (``P`` fixed: an LMI in
 monotone but moved η from -282.067 to -282.059 in two rounds (the P-step
 leaves the K-step no room: the constraint is tight at the optimum); the
 dual-gradient climb reached -224.4 in 16 iterations (1.7 s). A
-convex-concave (inner approximation) iteration linearises the same
-bilinear term around the current ``(P, K)`` and is likewise anchored at
-the analysis optimum. At a fixed level such as ``eta=-100`` stage 1 sets
+convex-concave (inner approximation) iteration was not implemented: it
+linearises the same bilinear term around the analysis optimum ``(P, K)``,
+where the alternation above already finds no room. At a fixed level such as ``eta=-100`` stage 1 sets
 most of the certified loss threshold and stage 2 the rest: on the sensor
 schedule case stage 1 alone certifies nothing at loss 0.55 (η = -107
 there), with stage 2 the loss 0.57 is certified.
 
-Starting points, best first: a given gain (e.g. the sufficient LMI's), the
+Starting points: a given gain (e.g. the sufficient LMI's), the
 unstructured (full-information) mean-square LQ gain restricted to the
-structure, the zero gain, and, if none reaches the target rate, a
-continuation in the loss probability (modes interpolated from the
-loss-free one to the plant's, each level started from the last) and
-seeded random restarts. Everything is deterministic given ``seed``; the
-work is bounded by ``time_limit``.
+structure and the zero gain, taken in the order of their measured rate,
+lowest first; then, if none reaches the target rate (or, ``eta`` given, a
+certificate), a continuation in the loss probability (modes interpolated
+from the loss-free one to the plant's, each level started from the last)
+and seeded random restarts. The search stops at the first gain certified
+at a given ``eta``. Everything is deterministic given ``seed``; the work
+is bounded by ``time_limit``. Before any search the synthesis checks the
+one exact refutation available without a solver
+(:func:`autonomous_rate`: states no gain reaches).
 
 What it guarantees: a gain returned as certified passed
 :func:`control_ncs.verify.check_certificate` (``Θ_k ≺ 0``, ``P_k ≻ 0``,
