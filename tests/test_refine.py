@@ -373,3 +373,30 @@ def test_refinement_failure_is_never_called_infeasible():
     with pytest.raises(SynthesisError) as info:
         ncs.passivesyn(random_scheduled(0, 0.55), -100.0, time_limit=5)
     assert info.value.reason in ("not_verified", "time_limit")
+
+
+def test_rate_gradient_is_the_perron_roots_when_others_share_its_modulus():
+    # n = 16, five sensor groups in turn, the LQ gain restricted: the
+    # monodromy has a complex pair of the same modulus as its Perron root
+    # (a cyclic structure); the gradient must be the real root's
+    rng = np.random.default_rng(16000)
+    A = rng.standard_normal((16, 16))
+    A *= 1.1 / np.max(np.abs(np.linalg.eigvals(A)))
+    B = np.hstack([rng.standard_normal((16, 1)),
+                   rng.standard_normal((16, 2))])
+    C = np.vstack([rng.standard_normal((1, 16)), np.eye(16)])
+    D = np.zeros((17, 3))
+    D[0, 0] = 1.0
+    groups = np.zeros((5, 16), int)
+    groups[np.arange(16) % 5, np.arange(16)] = 1
+    plant = ncs.build(ncs.nss(A, B, C, D, True, nmeas=16, ncon=2,
+                              sensor_schedule=groups))
+    loop = refine._Loop(plant, plant.probabilities, None)
+    x = refine._restrict(loop, refine._lq_gain(plant, plant.probabilities))
+    f, g = loop.rate(x)
+    h = 1e-6
+    for i in np.argsort(-np.abs(g))[:3]:
+        e = np.zeros(x.size)
+        e[i] = 1.0
+        fd = (loop.rate(x + h * e)[0] - loop.rate(x - h * e)[0]) / (2 * h)
+        assert g[i] == pytest.approx(fd, rel=1e-4, abs=1e-7)
