@@ -453,6 +453,12 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``'solver_failed'`` when it runs out of sweeps or ``P`` grows beyond
         what double precision can certify (inconclusive),
         ``'not_verified'`` when its gain fails the exact checks (no retries).
+        Refinement (``method``): ``'infeasible'`` only when states that no
+        input reaches evolve on their own with ``ms_radius ≥ 1`` (``≥ r²``;
+        figures ``ms_radius_without_control``, ``proof='autonomous
+        subsystem'``, e.g. a predictor's estimation error); a refinement
+        that certifies nothing raises ``'not_verified'`` or
+        ``'time_limit'``, never ``'infeasible'``.
     ValueError, ControlDimension, ControlArgument
         The pre-solve checks: ``dim w ≠ dim z``, ``D11 + D11ᵀ ⊁ 2ηI``,
         ``y ≠ x`` (``'static'``, ``'predictor'``), a static gain that can
