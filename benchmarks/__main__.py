@@ -32,6 +32,7 @@ SECTIONS = [
     ("bench_sweeps", "sweeps_section"),
     ("bench_markov", "markov_section"),
     ("bench_estimator", "estimator_section"),
+    ("bench_refine", "refine_section"),
 ]
 
 

@@ -16,8 +16,8 @@ reference simulator (``protocol``) export nothing here.
 from importlib.metadata import PackageNotFoundError, version as _version
 
 from . import (connect, estimator, exceptions, gain, jump, meancov, network,
-               passivity, plant, plots, responses, stability, strategies,
-               sweeps, synthesis, verify)
+               passivity, plant, plots, refine, responses, stability,
+               strategies, sweeps, synthesis, verify)
 from .connect import *  # noqa: F403
 from .estimator import *  # noqa: F403
 from .exceptions import *  # noqa: F403
@@ -28,6 +28,7 @@ from .network import *  # noqa: F403
 from .passivity import *  # noqa: F403
 from .plant import *  # noqa: F403
 from .plots import *  # noqa: F403
+from .refine import *  # noqa: F403
 from .responses import *  # noqa: F403
 from .stability import *  # noqa: F403
 from .strategies import *  # noqa: F403
@@ -37,8 +38,8 @@ from .verify import *  # noqa: F403
 
 __all__ = [name for module in (
     network, jump, plant, gain, strategies, stability, meancov, exceptions,
-    verify, passivity, synthesis, estimator, responses, plots, connect,
-    sweeps)
+    verify, passivity, synthesis, refine, estimator, responses, plots,
+    connect, sweeps)
     for name in module.__all__]
 
 try:

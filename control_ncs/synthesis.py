@@ -72,6 +72,10 @@ ETA_SEARCH_STEPS = 12
 
 FORMS = ("merged", "paper")
 STRUCTURES = ("auto", "full", "block", "extended")
+#: ``passivesyn(method=...)``: 'auto' takes the LMI where it is exact
+#: (structure 'full') and the refinement of :mod:`control_ncs.refine` where
+#: it is only sufficient (structure left to 'auto' on a structured loop).
+METHODS = ("auto", "lmi", "refine")
 
 
 @dataclass
@@ -137,6 +141,22 @@ class SynthesisResult:
         Every solve made, including retries.
     plant : JumpPlant
         The open-loop jump system that was designed for.
+    method : {'lmi', 'refine'}
+        What certified the gain: ``'lmi'`` the synthesis LMI (or the
+        Riccati route, see ``report.solver``); ``'refine'`` the local
+        refinement of :func:`control_ncs.refine.refine_gain`, its gain
+        certified by the analysis of its closed loop (then ``X_k = P_k⁻¹``,
+        ``Y_k = K_k E_k X_k``, ``report.solver`` is ``'REFINE'`` and
+        ``structure`` names the loop's sufficient LMI, whose gain was the
+        first start when it had one).
+    start : str or None
+        Refinement only: the starting point that led to the gain
+        (``'lmi'``, ``'full'``, ``'zero'``, ``'continuation'``,
+        ``'restart'``).
+    refinement : RefineResult or None
+        Refinement only: how far it moved the gain (``ms_radius_before``,
+        ``ms_radius``, ``eta_before``, ``eta``, ``iterations``,
+        ``message``).
 
     Examples
     --------
@@ -165,6 +185,9 @@ class SynthesisResult:
     plant: JumpPlant | None = None
     gain_kind: str = "phase"
     note: str = ""
+    method: str = "lmi"
+    start: str | None = None
+    refinement: Any = None
 
     @property
     def ms_radius(self) -> float:
@@ -334,7 +357,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                solver: str | None = None,
                margin: float = DEFAULT_MARGIN,
                time_limit: float | None = TIME_BUDGET,
-               estimator_gain: Any = None, **solver_options: Any
+               estimator_gain: Any = None, method: str = "auto",
+               **solver_options: Any
                ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """Periodic state feedback making a networked loop strictly passive.
 
@@ -437,6 +461,22 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``(N_L, n, nmeas)`` (e.g. from :func:`control.dlqe`); default
         :func:`control_ncs.estimator_gain` ``(P, decay=decay)`` with the
         LMI ``solver`` if one is named.
+    method : {'auto', 'lmi', 'refine'}
+        ``'lmi'``: the synthesis LMI (or Riccati) routes above.
+        ``'refine'``: the local refinement of
+        :func:`control_ncs.refine.refine_gain` on the exact ``ms_radius``
+        and the analysis LMI's η, started from the sufficient LMI's gain
+        when it has one (up to ``refine.LMI_START_MAX_STATES`` states),
+        the unstructured gain restricted, a continuation in the loss; its
+        gain is certified by the analysis of its closed loop, locally
+        improved, never globally optimal, and its failure proves nothing.
+        ``'auto'`` (default): ``'lmi'`` where the LMI is exact (structure
+        ``'full'``), where a structure, a solver or solver options are
+        named, and on Markov links (gains ``K_{k,ℓ}``); ``'refine'`` for a
+        structured loop otherwise. On Markov links ``'refine'`` designs
+        gains per phase and needs ``gain='phase'`` (its second stage, the
+        climb in η, is i.i.d. only: the certified η is that of the
+        stage-1 gain).
     **solver_options
         Passed to the solver, checked first: an option Clarabel (its
         ``DefaultSettings``), SCS or CVXOPT does not know raises
@@ -482,6 +522,12 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         sweeps or ``P`` grows beyond what double precision can certify
         (inconclusive), ``'not_verified'`` when its gain fails the exact checks
         (no retries).
+        Refinement (``method``): ``'infeasible'`` only when states that no
+        input reaches evolve on their own with ``ms_radius ≥ 1`` (``≥ r²``;
+        figures ``ms_radius_without_control``, ``proof='autonomous
+        subsystem'``, e.g. a predictor's estimation error); a refinement
+        that certifies nothing raises ``'not_verified'`` or
+        ``'time_limit'``, never ``'infeasible'``.
     ValueError, ControlDimension, ControlArgument
         The pre-solve checks: ``dim w ≠ dim z``, ``D11 + D11ᵀ ⊁ 2ηI``,
         ``y ≠ x`` (``'static'``, ``'predictor'``), a static gain that can
@@ -560,6 +606,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             "analyse it with feedback(P, K)")
     choice(controller, "controller", controllers())
     choice(actuator, "actuator", actuators())
+    choice(method, "method", METHODS)
     if estimator_gain is not None and (controller != "estimator"
                                        or isinstance(P, JumpPlant)):
         raise ControlArgument(
@@ -601,6 +648,11 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                                      form, structure, plant, gain)
     riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
     note = ""
+    if method == "refine" and plant.transition is not None and gain == "mode":
+        raise ControlArgument(
+            "method: 'refine' designs gains per phase K_k; on Markov links "
+            "ask for them with gain='phase', or use method='lmi' for gains "
+            "K_{k,l} that use the previous mode")
     kinds = gain_kinds(plant, gain)
     if riccati and plant.transition is not None and "phase" in kinds:
         # the coupled equations give the optimal K_{k,ℓ}; a gain common to
@@ -633,9 +685,22 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         eta = max(eta, level_floor(bound, plant.A, plant.Bu, plant.Bw,
                                    plant.Cz, plant.Du, plant.Dw))
     try:
-        K, CL, got = _routes(plant, eta, decay, margin, structure,
-                             structure0, form, solver, solver_options,
-                             deadline, riccati, gain)
+        markov = plant.transition is not None
+        if method == "refine" or (method == "auto" and structure0 != "full"
+                                  and structure == "auto" and solver is None
+                                  and not solver_options and not markov):
+            # refinement designs K_k (gains per phase); on Markov links its
+            # LMI start is the phase-gain LMI (_checks refused gain='mode')
+            from .refine import refined_synthesis
+            K, CL, got = refined_synthesis(plant, eta, decay, deadline, (
+                lambda limit: _routes(plant, eta, decay, margin, structure,
+                                      structure0, form, solver,
+                                      solver_options, limit, riccati,
+                                      "phase" if markov else gain)))
+        else:
+            K, CL, got = _routes(plant, eta, decay, margin, structure,
+                                 structure0, form, solver, solver_options,
+                                 deadline, riccati, gain)
     except SynthesisError as err:
         if requested == eta or err.reason != INFEASIBLE:
             raise

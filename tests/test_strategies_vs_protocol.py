@@ -157,8 +157,10 @@ def test_synthesised_predictor_gain_matches_the_event_level_simulation(
     from control_ncs import passivesyn
 
     _, shared, _ = plants()
+    # the LMI's gain: the refined one (η maximised) has tails too heavy for
+    # the sample sizes below
     K, CL, eta = passivesyn(shared, controller="predictor", actuator=actuator,
-                            decay=0.97)
+                            decay=0.97, method="lmi")
     assert K.result.certificate.verified and ms_radius(CL) < 0.97 ** 2
     steps = 15  # the designed loop has heavier tails: keep sample errors meaningful
     assert (fourth_moment_rate(CL) / ms_radius(CL) ** 2) ** steps < 10
