@@ -461,3 +461,16 @@ def test_fully_observed_links_keep_gains_per_previous_mode():
     K, CL, eta = ncs.passivesyn(two_state(), decay=0.999)
     assert not K.result.note
     assert not np.allclose(K.gains[0], K.gains[0][0])
+
+
+def test_refinement_on_markov_links_designs_phase_gains_only():
+    P = two_state().with_network(sensor_schedule=[[1, 1], [0, 0]])
+    with pytest.raises(ControlArgument, match="gain='phase'"):
+        ncs.passivesyn(P, method="refine")
+    K, CL, eta = ncs.passivesyn(P, method="refine", gain="phase",
+                                decay=0.999, eta=-10.0)
+    assert not K.mode_dependent and K.result.certificate.verified
+    assert ncs.ms_radius(CL) < 0.999 ** 2
+    # 'auto' keeps the LMI with gains per previous mode on Markov links
+    K2, _, _ = ncs.passivesyn(P, decay=0.999, eta=-10.0)
+    assert K2.mode_dependent and K2.result.method == "lmi"
