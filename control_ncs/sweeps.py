@@ -35,7 +35,7 @@ from .exceptions import ScheduleWarning, SynthesisError
 from .jump import jss
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
-from .synthesis import passivesyn
+from .synthesis import METHODS, passivesyn
 
 __all__ = ["design_map", "DesignMap", "schedule_search", "ScheduleSearch",
            "RankedSchedule"]
@@ -217,8 +217,8 @@ def _run(func: Callable, tasks: list, executor: Executor | None,
 
 
 def _synthesise(P: NetworkedStateSpace, eta: float | None,
-                decay: float | None, controller: str, actuator: str
-                ) -> tuple[float, float, bool, str]:
+                decay: float | None, controller: str, actuator: str,
+                method: str = "lmi") -> tuple[float, float, bool, str]:
     """One cell: ``(eta, ms_radius, feasible, reason)`` from passivesyn.
 
     Module level, so that a process pool or a Dask worker can unpickle it.
@@ -234,7 +234,7 @@ def _synthesise(P: NetworkedStateSpace, eta: float | None,
     def target() -> None:
         try:
             box["value"] = _synthesise_here(P, eta, decay, controller,
-                                            actuator)
+                                            actuator, method)
         except BaseException as err:  # re-raised in the caller's thread
             box["error"] = err
 
@@ -248,11 +248,11 @@ def _synthesise(P: NetworkedStateSpace, eta: float | None,
 
 
 def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
-                     decay: float | None, controller: str, actuator: str
-                     ) -> tuple[float, float, bool, str]:
+                     decay: float | None, controller: str, actuator: str,
+                     method: str = "lmi") -> tuple[float, float, bool, str]:
     try:
         K, _, eta_c = passivesyn(P, eta, decay=decay, controller=controller,
-                                 actuator=actuator)
+                                 actuator=actuator, method=method)
     except SynthesisError as err:
         return math.nan, math.nan, False, err.reason
     # the certificate's ms_radius is the exact one of the returned loop
@@ -422,7 +422,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
                actuator_loss: Any = (0.0,), *, eta: float | None = None,
                decay: float | None = None, controller: str = "static",
                actuator: str = "zero", executor: Executor | None = None,
-               progress: bool = True) -> DesignMap:
+               progress: bool = True, method: str = "lmi") -> DesignMap:
     """Verified passive synthesis over a grid of loss probabilities.
 
     Cell ``[i, j]`` is ``passivesyn(P.with_network(sensor_loss=a1[i],
@@ -452,6 +452,13 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         The result is identical either way.
     progress : bool
         Show a tqdm progress bar (when tqdm is installed).
+    method : {'lmi', 'auto', 'refine'}
+        :func:`control_ncs.passivesyn`'s ``method`` for every cell. Default
+        ``'lmi'``: a sweep makes hundreds of designs, and the LMI is the
+        fast, deterministic answer (exact with full information, sufficient
+        where the gain is structured); ``'auto'`` refines structured cells
+        (closer to the true limit, several times slower: measured in
+        ``docs/benchmarks.md``, section 10).
 
     Returns
     -------
@@ -492,6 +499,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     actuator = _choice(actuator, "actuator", _ACTUATORS)
     executor = _executor(executor)
     progress = _flag(progress, "progress")
+    method = _choice(method, "method", METHODS)
     if controller == "static" and not _loop_closes(
             P.sensor_schedule.pattern.any(axis=1),
             P.actuator_schedule.pattern.any(axis=1)):
@@ -501,7 +509,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
             "controller='predictor'.")
     start = time.perf_counter()
     tasks = [(P.with_network(sensor_loss=x, actuator_loss=y), eta, decay,
-              controller, actuator) for x in a1 for y in a2]
+              controller, actuator, method) for x in a1 for y in a2]
     out = _run(_synthesise, tasks, executor, progress, "design_map")
     shape = (a1.size, a2.size)
     reason = np.empty(shape, dtype=object)
@@ -943,7 +951,8 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
                     decay: float | None = None, controller: str = "static",
                     actuator: str = "zero", executor: Executor | None = None,
                     top: int = 10, limit: int | None = 5000,
-                    progress: bool = True) -> ScheduleSearch:
+                    progress: bool = True, method: str = "lmi"
+                    ) -> ScheduleSearch:
     """Rank every sensor/actuator schedule of one period by verified design.
 
     Enumerates the index schedules ``s1 ∈ {0..p2}^N``, ``s2 ∈ {0..m2}^N``
@@ -1010,6 +1019,13 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         this; None: no limit.
     progress : bool
         Show a tqdm progress bar (when tqdm is installed).
+    method : {'lmi', 'auto', 'refine'}
+        :func:`control_ncs.passivesyn`'s ``method`` for every cell. Default
+        ``'lmi'``: a sweep makes hundreds of designs, and the LMI is the
+        fast, deterministic answer (exact with full information, sufficient
+        where the gain is structured); ``'auto'`` refines structured cells
+        (closer to the true limit, several times slower: measured in
+        ``docs/benchmarks.md``, section 10).
 
     Returns
     -------
@@ -1065,6 +1081,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     if limit is not None:
         limit = _positive_int(limit, "limit")
     progress = _flag(progress, "progress")
+    method = _choice(method, "method", METHODS)
     start = time.perf_counter()
 
     p2, m2 = P.nmeas, P.ncon
@@ -1104,7 +1121,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
                                  actuator_schedule=s2[i].tolist(),
                                  sensor_loss=a1, actuator_loss=a2,
                                  shared_channel=shared),
-                  eta, decay, controller, actuator) for i in todo]
+                  eta, decay, controller, actuator, method) for i in todo]
     out = _run(_synthesise, tasks, executor, progress, "schedule_search")
     eta_a = np.full(len(words), math.nan)
     rate = np.full(len(words), math.nan)

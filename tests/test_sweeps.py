@@ -435,7 +435,8 @@ def test_ranking_is_best_eta_first_and_reports_counts():
     best = res.ranking[0]
     _, _, eta = in_fresh_thread(ncs.passivesyn, two_state_plant().with_network(
         sensor_schedule=list(best.sensor_schedule),
-        actuator_schedule=list(best.actuator_schedule)), decay=0.98)
+        actuator_schedule=list(best.actuator_schedule)), decay=0.98,
+        method="lmi")                   # the sweep's default method
     assert eta == best.eta
 
 
@@ -462,3 +463,18 @@ def test_schedule_search_to_pandas_lists_ranked_schedules_first():
     assert len(df) == res.explored
     assert df["rank"].tolist()[:2] == [1, 2]
     assert df["sensor_schedule"].iloc[0] == res.ranking[0].sensor_schedule
+
+
+def test_sweeps_pass_the_synthesis_method_and_check_it():
+    # default 'lmi' (fast); 'auto' refines structured cells: never below
+    # the LMI's certified η on the same cell
+    P = ncs.nss([[1.2, 0.3], [0.0, 0.7]], [[1.0, 1.0], [0.5, 0.0]],
+            [[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+            [[1.0, 0.0], [0.0, 0.0], [0.0, 0.0]], nmeas=2, ncon=1,
+            sensor_schedule=[[1, 1], [1, 0]])
+    with pytest.raises(ControlArgument, match="method"):
+        ncs.design_map(P, 0.1, 0.1, method="fast", progress=False)
+    lmi = ncs.design_map(P, 0.1, [0.1, 0.2], eta=-10.0, progress=False)
+    refined = ncs.design_map(P, 0.1, [0.1, 0.2], eta=-10.0, method="auto",
+                         progress=False)
+    assert np.all(refined.feasible >= lmi.feasible)
