@@ -477,6 +477,12 @@ class AnalysisModel(_Model):
         """The solved certificate ``P_k``, shape (N, n, n)."""
         return np.array([Pk.value for Pk in self.P])
 
+    def theta_duals(self) -> list[np.ndarray]:
+        """The dual variables of the ``Θ_k`` constraints, one per phase
+        (the template adds ``Θ_k ≼ …`` then ``P_k ≽ …`` for each phase)."""
+        return [np.asarray(c.dual_value, float)
+                for c in self.problem.constraints[0::2]]
+
 
 def analysis_model(sys: JumpStateSpace, eta: float | None,
                    margin: float | None, decay: float = 1.0) -> AnalysisModel:

@@ -499,14 +499,14 @@ class _Index:
         if report.status not in ("optimal", "optimal_inaccurate"):
             return np.inf, np.zeros_like(x)
         model.check_current()
-        theta = model.problem.constraints[0::2]
+        theta = model.theta_duals()
         P = np.array([Pk.value for Pk in model.P])
         n = plant.shape["nx"]
         N = plant.period
         F = np.concatenate([loop.closed(x), plant.Bw], axis=-1)
         G = np.zeros(loop.mask.shape)
         for k in range(N):
-            Z = np.asarray(theta[k].dual_value, float)
+            Z = theta[k]
             Z = 0.5 * (Z + Z.T)
             p = plant.probabilities[k]
             PFZ = P[(k + 1) % N] @ F[k] @ Z                  # (M, n, n+m)
