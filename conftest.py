@@ -17,3 +17,4 @@ def _doctest_names(doctest_namespace):
                               for name in control_ncs.__all__})
     doctest_namespace["np"] = np
     doctest_namespace["ct"] = ct
+    doctest_namespace["ncs"] = control_ncs
