@@ -274,30 +274,83 @@ def test_threads_never_share_a_problem():
         assert (info["misses"], info["hits"]) == (1, 2)
 
 
-def test_clarabel_stall_at_its_default_accuracy_is_optimal():
-    """Clarabel stalls at gap 1.19e-9 on this analysis LMI (asked for
-    1e-9, 'AlmostSolved'); asked again at its own defaults (1e-8) it
-    says 'Solved'."""
+class ScriptedClarabel:
+    """Stands in for ``problem.solve``: answers each call with the next
+    status of a script, warns as cvxpy does on an inaccurate answer, and
+    records the options it was given. Whether a real Clarabel stalls just
+    above a tolerance depends on its version; what ``lmi.solve`` does with
+    each answer does not, so the answers are scripted here."""
+
+    def __init__(self, problem, statuses):
+        self.problem = problem
+        self.statuses = list(statuses)
+        self.calls = []
+
+    def __call__(self, solver=None, **opts):
+        import warnings
+        status = self.statuses[len(self.calls)]
+        self.calls.append(dict(opts))
+        if status == "optimal_inaccurate":
+            warnings.warn("Solution may be inaccurate. Try another solver, "
+                          "adjusting the solver settings, or solve with "
+                          "verbose=True for more information.", UserWarning)
+        self.problem._status = status
+        self.problem._value = 1.0 if status.startswith("optimal") else None
+        return self.problem._value
+
+
+def scripted(statuses):
+    sys, = loops([6])
+    problem = lmi.analysis_model(sys, None, 1e-7, 1.0).problem
+    stub = ScriptedClarabel(problem, statuses)
+    problem.solve = stub        # on this instance only
+    return problem, stub
+
+
+def test_analysis_lmi_at_the_default_accuracy_is_optimal():
     sys, = loops([6])
     model = lmi.analysis_model(sys, None, 1e-7, 1.0)
     assert lmi.solve(model.problem).status == "optimal"
-    # the caller's own tolerances are taken at their word
-    strict = lmi.solve(model.problem, "CLARABEL", tol_gap_abs=1e-9,
+
+
+def test_a_stall_just_above_the_default_accuracy_is_asked_again_at_clarabels_own():
+    problem, stub = scripted(["optimal_inaccurate", "optimal"])
+    report = lmi.solve(problem)
+    assert report.status == "optimal"
+    assert len(stub.calls) == 2
+    assert stub.calls[0]["tol_gap_abs"] == lmi.CLARABEL_DEFAULTS["tol_gap_abs"]
+    assert not any(key.startswith("tol_") for key in stub.calls[1])
+    assert report.options == stub.calls[1]
+
+
+def test_a_stall_that_stays_inaccurate_keeps_the_first_answer():
+    problem, stub = scripted(["optimal_inaccurate", "optimal_inaccurate",
+                              "optimal_inaccurate"])
+    report = lmi.solve(problem)
+    assert report.status == "optimal_inaccurate"
+    # the first (strict) solve is repeated, so the problem holds its answer
+    assert stub.calls[2] == stub.calls[0]
+
+
+def test_the_callers_own_tolerances_are_taken_at_their_word():
+    problem, stub = scripted(["optimal_inaccurate"])
+    report = lmi.solve(problem, "CLARABEL", tol_gap_abs=1e-9,
                        tol_gap_rel=1e-9, tol_feas=1e-9)
-    assert strict.status == "optimal_inaccurate"
+    assert report.status == "optimal_inaccurate"
+    assert len(stub.calls) == 1
 
 
 def test_solver_accuracy_warning_never_reaches_the_caller():
-    """The strict solve above ends 'optimal_inaccurate', on which cvxpy
-    warns "Solution may be inaccurate"; the status says it already."""
+    """cvxpy warns "Solution may be inaccurate" on such an answer; the
+    status says it already."""
     import warnings
-    sys, = loops([6])
-    model = lmi.analysis_model(sys, None, 1e-7, 1.0)
+    problem, stub = scripted(["optimal_inaccurate"])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        report = lmi.solve(model.problem, "CLARABEL", tol_gap_abs=1e-9,
+        report = lmi.solve(problem, "CLARABEL", tol_gap_abs=1e-9,
                            tol_gap_rel=1e-9, tol_feas=1e-9)
     assert report.status == "optimal_inaccurate"
+    assert len(stub.calls) == 1
     assert [str(w.message) for w in caught] == []
 
 
