@@ -68,7 +68,8 @@ import control as ct
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, no_extra_kwargs, real_array
-from .jump import JumpStateSpace, lifted_names, as_jump, lift
+from .jump import (JumpStateSpace, as_jump, check_lifted_size, lift,
+                   lifted_names)
 from .plant import NetworkedStateSpace
 
 __all__ = ["jump_feedback", "lift_lti", "interconnect"]
@@ -259,7 +260,8 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
     ControlArgument
         If ``sys`` is not a deterministic LTI system.
     ValueError
-        If ``sys`` is continuous-time or ``period`` is not an int >= 1.
+        If ``sys`` is continuous-time, ``period`` is not an int >= 1, or
+        the lifted system would be too large (``MAX_LIFTED_ENTRIES``).
 
     Examples
     --------
@@ -279,6 +281,7 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
             period, (int, np.integer)) or period < 1:
         raise ValueError(f"period: expected an int >= 1, got {period!r}")
     N = int(period)
+    check_lifted_size(G.nstates, G.ninputs, G.noutputs, N, "period")
     mats = lift(*(np.repeat(np.asarray(X, float)[None], N, axis=0)
                   for X in (G.A, G.B, G.C, G.D)))
     return ct.StateSpace(*mats, True if dt is True else dt * N,

@@ -986,11 +986,22 @@ class JumpStateSpace(ct.StateSpace):
     def __getitem__(self, key: Any) -> "JumpStateSpace":
         # indices and names refer to the per-step signals z (rows) and w
         # (columns) for any N, not to the lifted face's stacked ones
-        first = self.mode_system(0, 0)[key]
+        sizes = (len(self.jump_outputs), len(self.jump_inputs))
+        if isinstance(key, tuple) and len(key) == 2:
+            for index, size, what in zip(key, sizes, ("output", "input")):
+                if isinstance(index, (int, np.integer)) and not (
+                        -size <= index < size):
+                    raise ControlDimension(
+                        f"sys[{key!r}]: {what} index {index} is out of "
+                        f"range for {size} {what}s")
+        try:
+            first = self.mode_system(0, 0)[key]
+        except (IndexError, KeyError, ValueError, TypeError) as err:
+            raise ControlDimension(f"sys[{key!r}]: {err}") from None
         if first.noutputs == 0 or first.ninputs == 0:
-            raise IndexError(f"sys[{key!r}]: selects no output or no input "
-                             f"of {len(self.jump_outputs)} outputs and "
-                             f"{len(self.jump_inputs)} inputs")
+            raise ControlDimension(
+                f"sys[{key!r}]: selects no output or no input of {sizes[0]} "
+                f"outputs and {sizes[1]} inputs")
         return self._modewise(lambda S: S[key], f"sys[{key!r}]",
                               name=first.name)
 

@@ -84,8 +84,8 @@ def _count_grid(timepts: Any, dt: float) -> np.ndarray:
     try:
         return np.arange(steps) * dt
     except (MemoryError, ValueError, OverflowError):
-        raise MemoryError(f"timepts: {steps} steps do not fit in memory"
-                          ) from None
+        raise ValueError(f"timepts: {steps} steps do not fit in memory"
+                         ) from None
 
 
 def initial_mean(initial_state: Any, n: int) -> np.ndarray:

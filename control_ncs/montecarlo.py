@@ -376,7 +376,7 @@ class Storage:
             slabs = np.empty(shape)
         except (MemoryError, ValueError):
             gib = math.prod(shape) * 8 / 2**30
-            raise MemoryError(
+            raise ValueError(
                 f"trials, timepts: {trials} paths of {run.time.size} steps "
                 f"need {gib:.3g} GiB; ask for fewer trials or steps, or use an "
                 f"ensemble response (step_response, ...) with keep_paths and "
@@ -532,7 +532,7 @@ def ensemble_statistics(run: Run, levels: tuple, kept: Storage,
     try:
         everything = np.empty((p, run.trials, T)) if levels else None
     except (MemoryError, ValueError):
-        raise MemoryError(
+        raise ValueError(
             f"quantiles: exact quantiles keep every trial's outputs "
             f"({p * run.trials * T} floats); pass quantiles=() for bounded "
             f"memory") from None

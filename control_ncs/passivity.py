@@ -51,7 +51,8 @@ from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE,
 from .driver import drive
 from .riccati import dare_certificate
 from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
-                  analysis_model, solve, supply_model)
+                  analysis_model, check_options, check_solver, solve,
+                  supply_model)
 from .jump import JumpStateSpace
 from .stability import ms_radius
 from .verify import (Certificate, certify_index, certify_ofp_index,
@@ -344,6 +345,9 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     """
     sys = square_system(sys)
     choice(method, "method", METHODS)
+    # unknown keywords are refused here, not only when a solver runs (a
+    # loop that is not mean-square stable never reaches one)
+    check_options(check_solver(solver), solver_options)
     ifp_index = finite_real(ifp_index, "ifp_index", allow_none=True)
     ofp_index = finite_real(ofp_index, "ofp_index", allow_none=True)
     if ifp_index is None and ofp_index is None:

@@ -520,7 +520,7 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
         Arrays of the wrong shape.
     ControlArgument
         Bad ``seed`` or ``progress``.
-    MemoryError
+    ValueError
         The paths do not fit in memory (the message names the size).
     ImportError
         ``progress=True`` without ``tqdm``.

@@ -20,7 +20,7 @@ import control as ct
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import choice, no_extra_kwargs, real_array
+from ._checks import choice, no_extra_kwargs, positive_int, real_array
 from .gain import PeriodicGain
 from .jump import JumpPlant, JumpStateSpace, check_lifted_size
 from .plant import NetworkedStateSpace
@@ -73,8 +73,8 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     Returns
     -------
     JumpPlant
-        Unmerged: four modes per phase, eq. 14 order; ``nominal`` is the
-        loss-free mode.
+        Unmerged: four modes per phase, ``(θ1, θ2) = (0, 0), (1, 0),
+        (0, 1), (1, 1)`` in that order; ``nominal`` is the loss-free mode.
 
     Raises
     ------
@@ -86,14 +86,14 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     ControlDimension
         If ``estimator_gain`` has the wrong shape.
     ValueError
-        If ``period`` is not a multiple of ``P.period`` or its lifted face
-        would be too large.
+        If ``period`` is not an int >= 1, not a multiple of ``P.period``, or
+        its lifted face would be too large.
 
     Examples
     --------
     The scalar plant ``x⁺ = 2x + u`` with ``y = x`` over a network that
     loses the actuator's message with probability 0.2; the modes are
-    ``(θ1, θ2) = (0, 0), (0, 1), (1, 0), (1, 1)``:
+    ``(θ1, θ2) = (0, 0), (1, 0), (0, 1), (1, 1)``:
 
     >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
     ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=0.2)
@@ -108,7 +108,7 @@ def build(P: NetworkedStateSpace, controller: str = "static",
                               f"got {type(P).__name__}")
     strategy = _strategy(controller, actuator)
     opts = _options(P, controller, sensor, controller_order, estimator_gain)
-    N = P.period if period is None else int(period)
+    N = positive_int(period, "period", allow_none=True) or P.period
     for what, NL in (("network", P.period),
                      ("estimator gain", opts["L"].shape[0] if "L" in opts
                       else 1)):

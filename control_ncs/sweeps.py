@@ -55,6 +55,10 @@ PRUNE_REASONS = (LOOP_OPEN, NOT_STABILISABLE, NOT_DETECTABLE,
 #: loop (a wrongly kept schedule only costs one synthesis).
 PBH_RTOL = 1e-9
 
+#: Most canonical schedules a search enumerates even with ``limit=None``:
+#: beyond it the enumeration alone would run for hours.
+MAX_SCHEDULES = 10**7
+
 #: Largest state dimension for which relabelling symmetries are searched
 #: (``n!`` permutations are tried, each checked exactly).
 RELABEL_MAX_STATES = 8
@@ -608,23 +612,60 @@ def _letter_maps(group: list, letters: list) -> list:
 
 
 def _orbit_count(N: int, maps: list) -> int:
-    """Number of schedules up to rotation and relabelling (Burnside): a
-    word is fixed by (rotation by r, relabelling h) iff on each of the
-    gcd(N, r) position cycles of length L = N/gcd its letter x satisfies
-    h^L(x) = x."""
+    """Number of schedules up to rotation and relabelling (Burnside).
+
+    A word is fixed by (rotation by r, relabelling h) iff on each of the
+    g = gcd(N, r) position cycles of length L = N/g its letter x satisfies
+    h^L(x) = x, i.e. the length of x's cycle under h divides L. The
+    rotations with gcd g number φ(N/g), so the sum runs over the divisors
+    of N: exact (Python ints) and fast for any period.
+    """
+    cycles = [_cycle_lengths(h) for h in maps]
     total = 0
-    for h in maps:
-        for r in range(N):
-            g = math.gcd(N, r)
-            L = N // g
-            fixed = 0
-            for x in range(len(h)):
-                y = x
-                for _ in range(L):
-                    y = h[y]
-                fixed += y == x
-            total += fixed ** g
+    for g in _divisors(N):
+        L = N // g
+        phi = _totient(L)
+        for lengths in cycles:
+            fixed = sum(1 for c in lengths if L % c == 0)
+            total += phi * fixed ** g
     return total // (N * len(maps))
+
+
+def _cycle_lengths(h: tuple) -> list:
+    """The length of the cycle of each letter under the permutation h."""
+    out = []
+    for x in range(len(h)):
+        y, c = h[x], 1
+        while y != x:
+            y, c = h[y], c + 1
+        out.append(c)
+    return out
+
+
+def _divisors(N: int) -> list:
+    small = [d for d in range(1, math.isqrt(N) + 1) if N % d == 0]
+    return sorted(set(small + [N // d for d in small]))
+
+
+def _totient(n: int) -> int:
+    """Euler's φ(n), by trial division (n is a period)."""
+    out, m, p = n, n, 2
+    while p * p <= m:
+        if m % p == 0:
+            while m % p == 0:
+                m //= p
+            out -= out // p
+        p += 1
+    if m > 1:
+        out -= out // m
+    return out
+
+
+def _big(count: int) -> str:
+    """An exact count, or its order of magnitude when it is huge."""
+    if count < 10**15:
+        return str(count)
+    return f"about 10^{count.bit_length() * math.log10(2):.4g}"
 
 
 def _canonical_schedules(N: int, maps: list, k: int):
@@ -1016,7 +1057,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         Length of the ranking.
     limit : int or None
         Refuse (ValueError) when there are more canonical schedules than
-        this; None: no limit.
+        this; None: up to ``MAX_SCHEDULES`` (10⁷).
     progress : bool
         Show a tqdm progress bar (when tqdm is installed).
     method : {'lmi', 'auto', 'refine'}
@@ -1086,16 +1127,20 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
 
     p2, m2 = P.nmeas, P.ncon
     letters = _alphabet(p2, m2, shared)
-    total = len(letters) ** N
+    total = len(letters) ** N       # an exact int, however long the period
     group = _relabellings(P)
     maps = _letter_maps(group, letters)
     count = _orbit_count(N, maps)
+    if limit is None and count > MAX_SCHEDULES:
+        raise ValueError(
+            f"period: {N} gives {_big(count)} schedules up to symmetry, more "
+            f"than MAX_SCHEDULES = {MAX_SCHEDULES}: search a shorter period")
     if limit is not None and count > limit:
         raise ValueError(
-            f"period: {N} gives {count} schedules up to symmetry ({total} "
-            f"before it) for {p2} sensor(s) and {m2} actuator(s), more than "
-            f"limit={limit}; raise limit= (or pass limit=None) to search "
-            f"them all")
+            f"period: {N} gives {_big(count)} schedules up to symmetry "
+            f"({_big(total)} before it) for {p2} sensor(s) and {m2} "
+            f"actuator(s), more than limit={limit}; raise limit= (or pass "
+            f"limit=None) to search them all")
     words = list(_canonical_schedules(N, maps, len(letters)))
     s1 = np.array([[letters[x][0] for x in w] for w in words], dtype=int)
     s2 = np.array([[letters[x][1] for x in w] for w in words], dtype=int)

@@ -383,3 +383,47 @@ def test_simulate_bad_workers_raise_before_allocating(workers):
     from control_ncs import simulate
     with pytest.raises(ValueError, match="^workers: "):
         simulate(jss(**jump_args()), 5, trials=10**9, workers=workers)
+
+
+# -- sizes that cannot be served are refused at once, naming the argument ----
+def scalar_loop():
+    P = nss([[1.1]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.5, 0.0], [0.0, 0.0]],
+            nmeas=1, ncon=1, actuator_loss=0.1)
+    return P, feedback(P, [[-1.0]])
+
+
+def test_schedule_search_over_a_hopeless_period_is_refused_at_once():
+    import time
+    from control_ncs import schedule_search
+    P, _ = scalar_loop()
+    for limit in (5000, None):
+        start = time.perf_counter()
+        with pytest.raises(ValueError, match="^period: 1000000 gives about 10"):
+            schedule_search(P, 10**6, limit=limit, progress=False)
+        # counted over the divisors of the period, not over its 10^6
+        # rotations one by one (which took minutes); generous to any machine
+        assert time.perf_counter() - start < 5.0
+
+
+def test_lift_lti_of_a_hopeless_period_is_refused_before_allocating():
+    from control_ncs import lift_lti
+    G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], True)
+    with pytest.raises(ValueError, match="^period: period N = 1000000 is too"):
+        lift_lti(G, 10**6)
+
+
+@pytest.mark.parametrize("period", [0, -1, 1.5, True])
+def test_build_refuses_a_period_that_is_not_a_positive_int(period):
+    P, _ = scalar_loop()
+    with pytest.raises(ValueError, match="^period: expected an int >= 1"):
+        build(P, "static", period=period)
+
+
+def test_unknown_keyword_is_refused_also_when_the_loop_is_not_mss():
+    from control_ncs import passivity_certificate
+    P = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.1, 0.0], [0.0, 0.0]],
+            nmeas=1, ncon=1, actuator_loss=0.9)
+    CL = feedback(P, [[0.0]])
+    assert not is_mss(CL)
+    with pytest.raises(TypeError, match="foo"):
+        passivity_certificate(CL, foo=1)

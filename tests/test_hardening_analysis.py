@@ -143,10 +143,10 @@ def test_responses_refuse_bad_timepts(respond, case):
 
 
 @pytest.mark.parametrize("func", sorted(TIME_DOMAIN))
-@pytest.mark.parametrize("steps", [10**30, 1e30])
+@pytest.mark.parametrize("steps", [10**12, 10**30, 1e30])
 def test_a_number_of_steps_beyond_memory_is_refused_naming_timepts(func,
                                                                    steps):
-    with pytest.raises(MemoryError, match="^timepts: "):
+    with pytest.raises(ValueError, match="^timepts: "):
         TIME_DOMAIN[func](scalar(), steps)
 
 
@@ -167,7 +167,7 @@ def test_a_number_of_steps_may_be_any_integral_real_number(count):
 
 
 def test_paths_that_do_not_fit_in_memory_are_refused_naming_trials():
-    with pytest.raises(MemoryError, match="^trials, timepts: .*GiB"):
+    with pytest.raises(ValueError, match="^trials, timepts: .*GiB"):
         cn.simulate(scalar(), 3, trials=10**15)
 
 

@@ -293,7 +293,8 @@ class ScriptedClarabel:
         if status == "optimal_inaccurate":
             warnings.warn("Solution may be inaccurate. Try another solver, "
                           "adjusting the solver settings, or solve with "
-                          "verbose=True for more information.", UserWarning)
+                          "verbose=True for more information.", UserWarning,
+                          stacklevel=2)
         self.problem._status = status
         self.problem._value = 1.0 if status.startswith("optimal") else None
         return self.problem._value

@@ -524,6 +524,14 @@ def test_phase_needs_an_integer_phase():
         lossy_loop().phase(1.5)
 
 
-def test_indexing_that_selects_no_signal_raises_index_error():
-    with pytest.raises(IndexError, match="selects no output"):
-        lossy_loop()[5, 0]
+@pytest.mark.parametrize("key, match", [
+    ((5, 0), r"output index 5 is out of range for \d+ outputs"),
+    ((0, -3), "input index -3 is out of range"),
+    ((slice(3, 5), 0), "selects no output"),
+])
+def test_indexing_out_of_range_raises_control_dimension(key, match):
+    """python-control raises ControlDimension for such an index too (with
+    a message about B's shape); ours names the index and the size."""
+    from control.exception import ControlDimension
+    with pytest.raises(ControlDimension, match=match):
+        lossy_loop()[key]

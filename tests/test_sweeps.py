@@ -478,3 +478,18 @@ def test_sweeps_pass_the_synthesis_method_and_check_it():
     refined = ncs.design_map(P, 0.1, [0.1, 0.2], eta=-10.0, method="auto",
                          progress=False)
     assert np.all(refined.feasible >= lmi.feasible)
+
+
+@pytest.mark.parametrize("maps", [
+    [(0, 1, 2)],                                  # no relabelling
+    [(0, 1, 2), (1, 0, 2)],                       # a swap of two letters
+    [(0, 1, 2), (1, 2, 0), (2, 0, 1)],            # a 3-cycle group
+])
+@pytest.mark.parametrize("N", [1, 2, 3, 4, 6])
+def test_schedule_count_equals_a_brute_force_count_of_orbits(maps, N):
+    import itertools
+    orbits = set()
+    for word in itertools.product(range(3), repeat=N):
+        orbits.add(min(tuple(h[x] for x in word[r:] + word[:r])
+                       for h in maps for r in range(N)))
+    assert sweeps._orbit_count(N, maps) == len(orbits)
