@@ -68,8 +68,8 @@ import control as ct
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, no_extra_kwargs, real_array
-from .jump import (JumpStateSpace, as_jump, check_lifted_size, lift,
-                   lifted_names)
+from ._lifting import check_lifted_size, lift, lifted_names
+from .jump import JumpStateSpace, as_jump
 from .plant import NetworkedStateSpace
 
 __all__ = ["jump_feedback", "lift_lti", "interconnect"]

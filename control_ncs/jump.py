@@ -1,184 +1,33 @@
-"""The generic periodic jump linear system (:ref:`theory-jump-system`), written
-once.
+"""The closed-loop jump system: :class:`JumpStateSpace` and :func:`jss`.
 
-Two objects share one shape, indexed by phase ``k = 0..N-1`` and mode ``i``
-(probability ``p[k, i]``, modes i.i.d. from step to step):
-
-* :class:`JumpPlant` -- the system before the gain is chosen::
-
-      ξ⁺ = (A_ki + Bu_ki K_k E_k) ξ + Bw_ki w
-      z  = (Cz_ki + Du_ki K_k E_k) ξ + Dw_ki w
-
-  Network strategies (``strategies.py``) build it, synthesis consumes it.
-
-* :class:`JumpStateSpace` -- the closed loop ``ξ⁺ = A_ki ξ + B_ki w``,
-  ``z = C_ki ξ + D_ki w``. It *is* a :class:`control.StateSpace`: its own
-  ``A, B, C, D`` are the exact mean (first-moment) system of
-  :ref:`theory-moments`, lifted over one period when ``N > 1``. Analysis and
-  simulation consume it.
-
-Markov-driven modes (Gilbert–Elliott losses, :ref:`theory-markov`) carry a
-transition array of shape ``(N, M, M)`` beside ``probabilities`` (then the
-per-phase marginals of the periodic stationary chain) and an initial
-distribution. i.i.d. modes are the case where every row of it equals the next
-phase's ``probabilities``: such a transition is stored as ``None``, so that
-every i.i.d. number is computed exactly as before. Code that reads only
-``probabilities`` must first test :attr:`Modes.is_iid`.
+A periodic jump linear system ``ξ⁺ = A_ki ξ + B_ki w``,
+``z = C_ki ξ + D_ki w`` with phase ``k = t mod N`` and mode ``i`` drawn
+i.i.d. or by a Markov chain (:ref:`theory-jump-system`,
+:ref:`theory-markov`). It *is* a :class:`control.StateSpace`: its own
+``A, B, C, D`` are the exact mean (first-moment) system of
+:ref:`theory-moments`, lifted over one period when ``N > 1``, so
+python-control's algebra and plots apply to ``E z``; the operations with a
+deterministic LTI system are written mode by mode here and keep the
+randomness. Analysis and simulation consume it. The law of the modes lives
+in :mod:`control_ncs.modes`, the lifting in ``_lifting``, the open loop
+that synthesis designs in :mod:`control_ncs.openloop`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 import control as ct
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, no_extra_kwargs, real_array
+from ._lifting import check_lifted_size, lift, lifted_names
+from .modes import (Modes, apply_groups, chain_law, check_probabilities,
+                    markov_mean, merge_groups)
+from .plant import NetworkedStateSpace
 
-__all__ = ["Modes", "JumpStateSpace", "JumpPlant", "jss", "lift"]
-
-_PROB_TOL = 1e-9
-
-#: Largest lifted face (entries of ``A, B, C, D`` over one period) that a
-#: JumpStateSpace builds: 5e7 float64 entries are 400 MB. The block lower
-#: triangular ``D`` of size ``N·p × N·m`` is inherent to the lifted face, so a
-#: longer period is refused at once rather than after minutes of work.
-MAX_LIFTED_ENTRIES = 50_000_000
-
-
-@dataclass(frozen=True, eq=False)
-class Modes:
-    """Per-phase, per-mode matrices of a closed-loop jump system.
-
-    Attributes
-    ----------
-    A, B, C, D : ndarray, shapes (N, M, n, n), (N, M, n, m), (N, M, p, n), (N, M, p, m)
-        ``ξ⁺ = A[k, i] ξ + B[k, i] w``, ``z = C[k, i] ξ + D[k, i] w`` in mode
-        ``i`` at phase ``k``.
-    probabilities : ndarray, shape (N, M)
-        ``P(mode i at phase k)``; rows sum to one. i.i.d. modes: the law of
-        every step; Markov modes: the marginals of the periodic stationary
-        chain.
-    transition : ndarray, shape (N, M, M), or None
-        Markov modes (:ref:`theory-markov`):
-        ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``; None for i.i.d. modes.
-    initial : ndarray, shape (M,), or None
-        Markov modes: the law of the mode at time 0 (phase 0); None for
-        i.i.d. modes.
-
-    Examples
-    --------
-    Every :class:`JumpStateSpace` holds one; here two scalar modes with
-    probabilities 0.3 and 0.7 (period 1):
-
-    >>> m = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7]).modes
-    >>> m.A.shape, m.period, m.count
-    ((1, 2, 1, 1), 1, 2)
-    >>> m.mean()[0].tolist()                 # 0.3 * 0.5 + 0.7 * 0.9
-    [[[0.78]]]
-    """
-
-    A: np.ndarray
-    B: np.ndarray
-    C: np.ndarray
-    D: np.ndarray
-    probabilities: np.ndarray
-    transition: np.ndarray | None = None
-    initial: np.ndarray | None = None
-
-    @property
-    def is_iid(self) -> bool:
-        """True for i.i.d. modes: ``probabilities`` alone says everything.
-
-        Any code that reads only ``probabilities`` (the i.i.d. formulas of
-        :ref:`theory-mss`, :ref:`theory-passivity`, :ref:`theory-moments`,
-        :ref:`theory-synthesis`) must check this first and refuse a Markov
-        system.
-        """
-        return self.transition is None
-
-    def transitions(self) -> np.ndarray:
-        """``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``, shape (N, M, M).
-
-        For i.i.d. modes every row of ``T[k]`` is ``probabilities[k + 1]``.
-        """
-        if self.transition is not None:
-            return self.transition
-        nxt = np.roll(self.probabilities, -1, axis=0)
-        return np.repeat(nxt[:, None, :], self.count, axis=1)
-
-    def start(self) -> np.ndarray:
-        """Law of the mode at time 0: ``initial``, or ``probabilities[0]``."""
-        return self.probabilities[0] if self.initial is None else self.initial
-
-    @property
-    def period(self) -> int:
-        """Number of phases ``N``."""
-        return self.probabilities.shape[0]
-
-    @property
-    def count(self) -> int:
-        """Number of modes ``M`` per phase."""
-        return self.probabilities.shape[1]
-
-    def mean(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Per-phase mean matrices ``Σ_i p_ki M_ki``.
-
-        Returns
-        -------
-        A, B, C, D : ndarray
-            Shapes (N, n, n), (N, n, m), (N, p, n), (N, p, m).
-        """
-        p = self.probabilities
-        return tuple(np.einsum("km,kmij->kij", p, M)
-                     for M in (self.A, self.B, self.C, self.D))
-
-    def __repr__(self) -> str:
-        N, M, n, m = self.B.shape
-        return (f"<Modes: period {N}, {M} modes per phase, {n} states, "
-                f"{m} inputs, {self.C.shape[2]} outputs>")
-
-    def summary(self) -> str:
-        """A few lines for humans: sizes and the probabilities per phase.
-
-        Returns
-        -------
-        str
-            At most 10 phases and 8 modes shown.
-
-        Examples
-        --------
-        >>> m = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7]).modes
-        >>> print(m.summary())
-        Modes: period 1, 2 modes per phase, 1 states, 1 inputs, 1 outputs
-          phase 0: p = 0.3, 0.7
-        """
-        lines = [repr(self)[1:-1]]
-        for k in range(min(self.period, 10)):
-            p = ", ".join(f"{x:.4g}" for x in self.probabilities[k, :8])
-            more = ", ..." if self.count > 8 else ""
-            lines.append(f"  phase {k}: p = {p}{more}")
-        if self.period > 10:
-            lines.append(f"  ... ({self.period - 10} more phases)")
-        if self.transition is not None:
-            lines.append("  Markov modes: p are the stationary marginals; "
-                         "transition T[k][i, j] = P(j next | i now)")
-        return "\n".join(lines)
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, Modes) and all(
-            np.array_equal(getattr(self, f), getattr(other, f))
-            for f in ("A", "B", "C", "D", "probabilities")) and all(
-            (a is None and b is None) or (a is not None and b is not None
-                                          and np.array_equal(a, b))
-            for a, b in ((self.transition, other.transition),
-                         (self.initial, other.initial)))
-
-    # unhashable: mutable numpy content. None is Python's documented way to
-    # say so; typeshed types object.__hash__ as a method only.
-    __hash__ = None  # type: ignore[assignment]
+__all__ = ["JumpStateSpace", "jss"]
 
 
 def _phase_mode_array(value: Any, name: str, N: int, M: int, shape: tuple
@@ -200,162 +49,6 @@ def _phase_mode_array(value: Any, name: str, N: int, M: int, shape: tuple
             f"M={M} modes (a matrix, an (M, ...) or an (N, M, ...) stack), "
             f"got {arr.shape}") from None
 
-
-def _probabilities(value: Any, name: str = "probabilities") -> np.ndarray:
-    p = real_array(value, name, ndim=(1, 2))
-    if p.ndim == 1:
-        p = p[None]
-    if np.any(p < -_PROB_TOL) or np.any(p > 1 + _PROB_TOL):
-        raise ValueError(f"{name}: probabilities must lie in [0, 1]")
-    if not np.allclose(p.sum(axis=1), 1.0, atol=_PROB_TOL, rtol=0):
-        raise ValueError(f"{name}: the mode probabilities of each phase must "
-                         f"sum to 1, got sums {p.sum(axis=1).tolist()}")
-    # rounding (e.g. merged eq. 14 modes summing to 1 + 2e-16) is tolerated
-    # as for the row sums, then removed
-    return np.clip(p, 0.0, 1.0)
-
-
-def periodic_stationary(T: np.ndarray) -> np.ndarray:
-    """Per-phase marginals ``p[k]`` of the periodic stationary law of a
-    chain with transitions ``T[k]`` (shape (N, M, M)): ``p[0] Φ = p[0]`` for
-    ``Φ = T[0] ⋯ T[N-1]``, ``p[k+1] = p[k] T[k]``. For a reducible chain the
-    law is one of several (the least-squares one)."""
-    N, M, _ = T.shape
-    phi = np.eye(M)
-    for Tk in T:
-        phi = phi @ Tk
-    lhs = np.vstack([phi.T - np.eye(M), np.ones((1, M))])
-    rhs = np.zeros(M + 1)
-    rhs[-1] = 1.0
-    pi = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
-    # rounding leaves ~1e-17 on modes the chain never visits: they are 0
-    pi[pi < M * np.finfo(float).eps] = 0.0
-    p = np.empty((N, M))
-    p[0] = pi / pi.sum()
-    for k in range(N - 1):
-        p[k + 1] = p[k] @ T[k]
-    return p
-
-
-def _chain(transition: Any, initial: Any, N: int, M: int | None
-           ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-    """``(probabilities, transition, initial)`` of a Markov jump system;
-    equal rows give the i.i.d. system (transition None) unless ``initial``
-    differs from its law."""
-    from .network import transition_matrix
-    T = transition_matrix(transition, "transition")
-    if T.ndim == 2:
-        T = T[None]
-    if T.ndim != 3 or T.shape[1] != T.shape[2] or T.shape[0] not in (1, N) \
-            or (M is not None and T.shape[1] != M):
-        raise ControlDimension(
-            f"transition: expected shape (M, M) or (N, M, M) with N = {N} "
-            f"phases" + (f" and M = {M} modes" if M is not None else "")
-            + f", got {np.shape(transition)}")
-    T = np.array(np.broadcast_to(T, (N,) + T.shape[1:]))
-    M = T.shape[1]
-    init = None
-    if initial is not None:
-        init = _probabilities(initial, "probabilities")
-        if init.shape != (1, M):
-            raise ControlDimension(
-                f"probabilities: with a transition it is the law of the "
-                f"initial mode, shape ({M},), got {np.shape(initial)}")
-        init = init[0]
-    if np.all(T == T[:, :1, :]):
-        # equal rows: i.i.d. modes, the law of phase k+1 is any row of T[k]
-        p = np.roll(T[:, 0, :], 1, axis=0)
-        if init is None or np.array_equal(init, p[0]):
-            return p, None, None
-    p = periodic_stationary(T)
-    return p, T, (p[0].copy() if init is None else init)
-
-
-def lift(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
-         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Lift an N-periodic linear system over one period.
-
-    Parameters
-    ----------
-    A, B, C, D : ndarray, shapes (N, n, n), (N, n, m), (N, p, n), (N, p, m)
-        ``x[t+1] = A[k] x[t] + B[k] w[t]``, ``z[t] = C[k] x[t] + D[k] w[t]``,
-        ``k = t mod N``.
-
-    Returns
-    -------
-    AL, BL, CL, DL : ndarray
-        The time-invariant system from ``x[jN]`` and the stacked inputs
-        ``[w[jN]; w[jN+1]; …; w[jN+N-1]]`` (time-major: all channels of
-        phase 0 first) to ``x[(j+1)N]`` and the stacked outputs
-        ``[z[jN]; …; z[jN+N-1]]``. Shapes (n, n), (n, N m), (N p, n),
-        (N p, N m); ``DL`` is block lower triangular.
-
-    Examples
-    --------
-    A scalar system with ``A = 2`` at phase 0 and ``A = 0.5`` at phase 1:
-    over one period ``x[2] = 0.5 · 2 · x[0] + 0.5 w[0] + w[1]``, and
-    ``z[1] = 2 x[0] + w[0]``:
-
-    >>> A = np.array([[[2.0]], [[0.5]]])
-    >>> B, C, D = np.ones((2, 1, 1)), np.ones((2, 1, 1)), np.zeros((2, 1, 1))
-    >>> AL, BL, CL, DL = lift(A, B, C, D)
-    >>> AL.tolist(), BL.tolist(), CL.tolist(), DL.tolist()
-    ([[1.0]], [[0.5, 1.0]], [[1.0], [2.0]], [[0.0, 0.0], [1.0, 0.0]])
-    """
-    N, n = A.shape[0], A.shape[1]
-    m, p = B.shape[2], C.shape[1]
-    # phi = A[N-1] ... A[j]: the transition from phase j to the period end
-    BL = np.zeros((n, N * m))
-    phi = np.eye(n)
-    for j in range(N - 1, -1, -1):
-        BL[:, j * m:(j + 1) * m] = phi @ B[j]
-        phi = phi @ A[j]
-    AL = phi
-    # CL[k] = C[k] A[k-1] ... A[0]
-    CL = np.zeros((N * p, n))
-    forward = np.eye(n)
-    for k in range(N):
-        CL[k * p:(k + 1) * p] = C[k] @ forward
-        forward = A[k] @ forward
-    # DL[k, j] = C[k] A[k-1] ... A[j+1] B[j] for j < k, D[k] on the diagonal.
-    # One sub-diagonal d = k - j at a time, all its blocks at once:
-    # G[j] = A[j+d-1] ... A[j+1] B[j], so the Python loop runs N times, not N²/2.
-    DL = np.zeros((N, p, N, m))
-    phases = np.arange(N)
-    DL[phases, :, phases, :] = D
-    G = np.asarray(B, float)
-    for d in range(1, N):
-        first = phases[:N - d]  # the phases j of the blocks (j + d, j)
-        if d > 1:
-            G = A[first + d - 1] @ G[:N - d]
-        else:
-            G = G[:N - 1]
-        DL[first + d, :, first, :] = C[first + d] @ G
-    return AL, BL, CL, DL.reshape(N * p, N * m)
-
-
-def lifted_size(n: int, m: int, p: int, N: int) -> int:
-    """Number of entries of the lifted face ``(AL, BL, CL, DL)``."""
-    return n * n + N * n * (m + p) + N * N * p * m
-
-
-def check_lifted_size(n: int, m: int, p: int, N: int, name: str) -> None:
-    """Refuse a period whose lifted face exceeds :data:`MAX_LIFTED_ENTRIES`."""
-    size = lifted_size(n, m, p, N)
-    if N > 1 and size > MAX_LIFTED_ENTRIES:
-        raise ValueError(
-            f"{name}: period N = {N} is too long: the lifted mean system "
-            f"(n = {n}, {m} inputs, {p} outputs per step) would have "
-            f"{size:.3g} entries, more than MAX_LIFTED_ENTRIES = "
-            f"{MAX_LIFTED_ENTRIES:.3g} (its D alone is {N * p} x {N * m}); "
-            f"use shorter schedules, whose least common multiple sets N")
-
-
-def lifted_names(names: Sequence[str], N: int) -> list[str]:
-    """Signal names of the lifted face: ``'<name>[k]'`` for phase ``k``."""
-    if N == 1:
-        return list(names)
-    return [f"{s}[{k}]" for k in range(N) for s in names]
 
 
 class JumpStateSpace(ct.StateSpace):
@@ -472,12 +165,12 @@ class JumpStateSpace(ct.StateSpace):
             if probabilities is None:
                 raise ValueError("probabilities: give the mode probabilities, "
                                  "or a transition matrix (Markov modes)")
-            p, T, init = _probabilities(probabilities), None, None
+            p, T, init = check_probabilities(probabilities), None, None
         else:
             nt = np.ndim(transition)
             N0 = max(a.shape[0] if a.ndim == 4 else 1,
                      np.shape(transition)[0] if nt == 3 else 1)
-            p, T, init = _chain(transition, probabilities, N0,
+            p, T, init = chain_law(transition, probabilities, N0,
                                 a.shape[-3] if a.ndim >= 3 else None)
         N, M = p.shape
         n = a.shape[-1]
@@ -516,7 +209,7 @@ class JumpStateSpace(ct.StateSpace):
             face_states = self.jump_states
         else:
             check_lifted_size(M * n, m, q, N, "transition")
-            Abar, Bbar, Cbar, Dbar = _markov_mean(self.modes)
+            Abar, Bbar, Cbar, Dbar = markov_mean(self.modes)
             face_states = [f"{s}#{i}" for i in range(M)
                            for s in self.jump_states]
         if N == 1:
@@ -694,13 +387,13 @@ class JumpStateSpace(ct.StateSpace):
             # Markov losses); merging is not attempted for Markov modes
             return self
         keys = (self.modes.A, self.modes.B, self.modes.C, self.modes.D)
-        groups, nominal = _merge_groups(keys, self.modes.probabilities,
+        groups, nominal = merge_groups(keys, self.modes.probabilities,
                                         self.nominal_mode)
         return self._rebuild(groups, nominal)
 
     def _rebuild(self, groups: list, nominal: np.ndarray | None
                  ) -> "JumpStateSpace":
-        (A, B, C, D), p = _apply_groups(
+        (A, B, C, D), p = apply_groups(
             (self.modes.A, self.modes.B, self.modes.C, self.modes.D),
             self.modes.probabilities, groups)
         return JumpStateSpace(A, B, C, D, p, self.dt_step, nominal=nominal,
@@ -827,7 +520,6 @@ class JumpStateSpace(ct.StateSpace):
                 f"joint modes with jss() (products of the probabilities if "
                 f"independent), or use the mean systems .mean() knowingly "
                 f"(exact for E z only without an algebraic loop)")
-        from .plant import NetworkedStateSpace  # plant.py builds on jump.py
         if isinstance(other, NetworkedStateSpace):
             raise ControlArgument(
                 f"{what}: other is a NetworkedStateSpace, a plant without its "
@@ -1137,6 +829,8 @@ class JumpStateSpace(ct.StateSpace):
         return head + what + ":\n" + ct.StateSpace.__str__(self.mean())
 
 
+
+
 def _restore_jss(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray,
                  p: np.ndarray, dt: float | bool, nominal: np.ndarray | None,
                  name: str, inputs: list[str], outputs: list[str],
@@ -1167,50 +861,6 @@ def _names(value: Any, count: int, prefix: str, argname: str) -> list[str]:
     return names
 
 
-def _merge_groups(mats: Sequence[np.ndarray], p: np.ndarray,
-                  nominal: np.ndarray | None) -> tuple[list, np.ndarray | None]:
-    """Per phase, lists of mode indices whose matrices coincide exactly.
-
-    Modes of probability zero are dropped, except the loss-free one.
-    """
-    N, M = p.shape
-    groups = []
-    new_nominal = np.zeros(N, int)
-    for k in range(N):
-        phase: list[list[int]] = []
-        for i in range(M):
-            if p[k, i] == 0 and (nominal is None or nominal[k] != i):
-                continue
-            for g in phase:
-                j = g[0]
-                if all(np.array_equal(X[k, i], X[k, j]) for X in mats):
-                    g.append(i)
-                    break
-            else:
-                phase.append([i])
-        if not phase:  # all-zero row cannot happen for valid probabilities
-            phase = [[0]]
-        if nominal is not None:
-            new_nominal[k] = next(g for g, grp in enumerate(phase)
-                                  if nominal[k] in grp)
-        groups.append(phase)
-    return groups, None if nominal is None else new_nominal
-
-
-def _apply_groups(mats: Sequence[np.ndarray], p: np.ndarray, groups: list
-                  ) -> tuple[list[np.ndarray], np.ndarray]:
-    """Merged matrices and probabilities, padded with probability-0 copies."""
-    N = p.shape[0]
-    M = max(len(g) for g in groups)
-    out = [np.zeros((N, M) + X.shape[2:]) for X in mats]
-    prob = np.zeros((N, M))
-    for k, phase in enumerate(groups):
-        for slot in range(M):
-            grp = phase[slot] if slot < len(phase) else phase[0]
-            for X, Y in zip(mats, out):
-                Y[k, slot] = X[k, grp[0]]
-            prob[k, slot] = p[k, grp].sum() if slot < len(phase) else 0.0
-    return out, prob
 
 
 def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any = None,
@@ -1282,377 +932,6 @@ def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any = None,
                           **kwargs)
 
 
-def _markov_mean(modes: Modes) -> tuple[np.ndarray, ...]:
-    """Per-phase mean system of Markov modes, state ``μ_i = E[ξ 1{σ = i}]``
-    stacked by mode (:ref:`theory-markov`):
-    ``μ⁺_j = Σ_i T[i, j] (A_i μ_i + π_i B_i w)``,
-    ``E z = Σ_i (C_i μ_i + π_i D_i w)`` with ``π`` the stationary marginals."""
-    A, B, C, D, p, T = (modes.A, modes.B, modes.C, modes.D,
-                        modes.probabilities, modes.transitions())
-    N, M, n, m = B.shape
-    q = C.shape[2]
-    Abar = np.einsum("kij,kiab->kjaib", T, A).reshape(N, M * n, M * n)
-    Bbar = np.einsum("kij,ki,kiab->kjab", T, p, B).reshape(N, M * n, m)
-    Cbar = C.transpose(0, 2, 1, 3).reshape(N, q, M * n)
-    Dbar = np.einsum("ki,kiab->kab", p, D)
-    return Abar, Bbar, Cbar, Dbar
-
-
-class JumpPlant:
-    """A periodic jump system before its gain is chosen
-    (:ref:`theory-jump-system`).
-
-    ``ξ⁺ = (A + Bu K_k E_k) ξ + Bw w``, ``z = (Cz + Du K_k E_k) ξ + Dw w``, all
-    matrices per phase ``k`` and mode ``i``. ``E_k`` says what the controller
-    knows of ``ξ``: for synthesis it must be a coordinate selection (each row
-    a unit vector or zero). Network strategies build this object
-    (``strategies.py``); :func:`control_ncs.passivesyn` designs ``K``;
-    :meth:`close` applies it.
-
-    Parameters
-    ----------
-    A, Bu, Bw, Cz, Du, Dw : array_like, shape (N, M, ., .)
-        Per-phase, per-mode matrices of the loop before the gain: shapes
-        ``(nx, nx)``, ``(nx, nu)``, ``(nx, nw)``, ``(nz, nx)``, ``(nz, nu)``,
-        ``(nz, nw)``. Taken as they are (no broadcasting, no validation):
-        builders such as :func:`control_ncs.build` check their inputs.
-    E : array_like, shape (N, nk, nx)
-        What the controller sees of ``ξ`` at each phase.
-    probabilities : array_like, shape (N, M)
-        Mode probabilities per phase; each row sums to 1.
-    dt : True or float > 0, optional
-        Sampling period of one step (default True, unspecified).
-    nominal : array_like of int, shape (N,), optional
-        The loss-free mode of each phase.
-    transition : array_like, shape (N, M, M), optional
-        Markov modes (:ref:`theory-markov`):
-        ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``; ``probabilities`` are then
-        the stationary marginals. None: i.i.d.
-    inputs, outputs, states : list of str, optional
-        Names of ``w``, ``z`` and ``ξ``, handed to the closed loop.
-    info : dict, optional
-        Strategy description, kept as the ``info`` attribute.
-
-    Attributes
-    ----------
-    A, Bu, Bw, Cz, Du, Dw : ndarray, shape (N, M, ., .)
-        The matrices above, as float arrays.
-    E : ndarray, shape (N, nk, nx)
-        The selection of ``ξ`` that the gain acts on.
-    probabilities : ndarray, shape (N, M)
-        Mode probabilities per phase.
-    transition : ndarray, shape (N, M, M), or None
-        The Markov chain of the modes; None for i.i.d. modes.
-    dt : True or float
-        Sampling period of one step.
-    nominal : ndarray of int, shape (N,), or None
-        The loss-free mode of each phase.
-    inputs, outputs, states : list of str or None
-        Signal names of ``w``, ``z`` and ``ξ``.
-    info : dict
-        Strategy description (controller, actuator, network), for reference.
-
-    Examples
-    --------
-    The scalar plant ``x⁺ = 2x + u`` whose actuator message is lost with
-    probability 0.2, closed with ``u = -2x``:
-
-    >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
-    ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=0.2)
-    >>> plant = build(P)
-    >>> plant.gain_shape(), plant.probabilities.tolist()
-    ((1, 1, 1), [[0.0, 0.2, 0.0, 0.8]])
-    >>> CL = plant.close(np.full((1, 1, 1), -2.0))
-    >>> CL.modes.A[0, :, 0, 0].tolist(), CL.modes.probabilities.tolist()
-    ([2.0, 0.0], [[0.2, 0.8]])
-    """
-
-    _FIELDS = ("A", "Bu", "Bw", "Cz", "Du", "Dw")
-
-    def __init__(self, A: Any, Bu: Any, Bw: Any, Cz: Any, Du: Any, Dw: Any,
-                 E: Any, probabilities: Any, dt: Any = True, *,
-                 transition: Any = None,
-                 nominal: Any = None, inputs: Any = None, outputs: Any = None,
-                 states: Any = None, info: dict | None = None):
-        self.A, self.Bu, self.Bw = (np.asarray(X, float) for X in (A, Bu, Bw))
-        self.Cz, self.Du, self.Dw = (np.asarray(X, float) for X in (Cz, Du, Dw))
-        self.E = np.asarray(E, float)
-        self.probabilities = np.asarray(probabilities, float)
-        self.transition = None if transition is None else np.asarray(
-            transition, float)
-        self.dt = dt
-        self.nominal = None if nominal is None else np.asarray(nominal, int)
-        self.inputs, self.outputs, self.states = inputs, outputs, states
-        self.info = dict(info or {})
-
-    @property
-    def period(self) -> int:
-        """Number of phases ``N``."""
-        return self.probabilities.shape[0]
-
-    @property
-    def is_iid(self) -> bool:
-        """True for i.i.d. modes; synthesis from ``probabilities`` alone
-        (:ref:`theory-synthesis`) is valid only then."""
-        return self.transition is None
-
-    @property
-    def shape(self) -> dict:
-        """Sizes: ``nx`` (state), ``nw``, ``nz``, ``nu`` (control), ``nk``."""
-        return dict(nx=self.A.shape[-1], nw=self.Bw.shape[-1],
-                    nz=self.Cz.shape[-2], nu=self.Bu.shape[-1],
-                    nk=self.E.shape[1])
-
-    def gain_shape(self) -> tuple[int, int, int]:
-        """Shape ``(N, nu, nk)`` of a gain sequence for :meth:`close`.
-
-        Returns
-        -------
-        tuple of int
-            ``(period, nu, nk)``.
-        """
-        s = self.shape
-        return (self.period, s["nu"], s["nk"])
-
-    def close(self, gains: np.ndarray, **info: Any) -> JumpStateSpace:
-        """The closed loop with ``v = K_k E_k ξ`` as a :class:`JumpStateSpace`.
-
-        The gain acts in positive feedback, as it is (``u = K x`` for
-        ``E = I``); negate a gain designed for ``u = -K x``, such as
-        :func:`control.dlqr`'s.
-
-        Parameters
-        ----------
-        gains : array_like, shape (N, nu, nk)
-            ``K_k`` per phase (:meth:`gain_shape`).
-        **info
-            Added to the result's ``info``.
-
-        Returns
-        -------
-        JumpStateSpace
-            Coinciding modes merged; named ``'<plant> (closed loop)'`` after
-            ``info['plant']``, the plant's name, when the builder recorded
-            it (as :func:`control_ncs.build` does).
-        """
-        K = np.asarray(gains, float)
-        plant = self.info.get("plant")
-        name = None if plant is None else f"{plant} (closed loop)"
-        if K.ndim == 4:
-            return self._close_pairs(K, name, info)
-        F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
-        A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
-        C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
-        loop = (A, self.Bw, C, self.Dw)
-        if self.transition is not None:
-            # Markov modes are not merged (their futures differ, theory: Markov
-            # losses)
-            return JumpStateSpace(*loop, None, self.dt,
-                                  transition=self.transition,
-                                  nominal=self.nominal,
-                                  inputs=self.inputs, outputs=self.outputs,
-                                  states=self.states, name=name,
-                                  info=dict(self.info, gains=K, **info))
-        # merge before building: the lifted face is then built once
-        groups, nominal = _merge_groups(loop, self.probabilities, self.nominal)
-        (A, B, C, D), p = _apply_groups(loop, self.probabilities, groups)
-        return JumpStateSpace(A, B, C, D, p, self.dt, nominal=nominal,
-                              inputs=self.inputs, outputs=self.outputs,
-                              states=self.states, name=name,
-                              info=dict(self.info, gains=K, **info))
-
-    def transitions(self) -> np.ndarray:
-        """``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``, shape (N, M, M).
-
-        For i.i.d. modes every row of ``T[k]`` is ``probabilities[k + 1]``.
-
-        Returns
-        -------
-        ndarray
-        """
-        if self.transition is not None:
-            return self.transition
-        M = self.probabilities.shape[1]
-        nxt = np.roll(self.probabilities, -1, axis=0)
-        return np.repeat(nxt[:, None, :], M, axis=1)
-
-    def _close_pairs(self, K: np.ndarray, name: Any, info: dict
-                     ) -> JumpStateSpace:
-        """The closed loop with gains ``K_{k,ℓ}`` (shape (N, M, nu, nk)) on
-        the previous mode ``ℓ = σ_{k-1}`` (:ref:`theory-markov`).
-
-        A Markov jump system on pair modes ``(ℓ, i)``, ``(ℓ, i) → (i, j)``
-        with probability ``T_k[i, j]``, mode matrices
-        ``A_{k,i} + Bu_{k,i} K_{k,ℓ} E_k``. Pairs with the same ``i`` and
-        the same matrices (e.g. every ``ℓ`` when the input is lost in
-        ``i``) have the same future and are lumped into one mode; phases
-        with fewer lumped modes repeat their last one, unreachable. The
-        current plant mode ``i`` of each lumped mode is
-        ``info['pair_modes']``, shape (N, G). The initial law is the
-        stationary one.
-        """
-        N, M = self.probabilities.shape
-        T = self.transitions()
-        F = np.einsum("kluj,kjx->klux", K, self.E)  # K_{k,ℓ} E_k
-        A = self.A[:, None] + np.einsum("kmxu,kluy->klmxy", self.Bu, F)
-        C = self.Cz[:, None] + np.einsum("kmzu,kluy->klmzy", self.Du, F)
-        # lumped mode of the pair (ℓ, i) at each phase; first member kept
-        where: list = []
-        groups: list = []
-        for k in range(N):
-            index: dict = {}
-            where.append({})
-            groups.append([])
-            for i in range(M):
-                for ell in range(M):
-                    key = (i, A[k, ell, i].tobytes(), C[k, ell, i].tobytes())
-                    if key not in index:
-                        index[key] = len(groups[k])
-                        groups[k].append((i, ell))
-                    where[k][(ell, i)] = index[key]
-        G = max(map(len, groups))
-        # unreachable copies keep the shape (N, G): no flow enters them
-        padded = [g + [g[-1]] * (G - len(g)) for g in groups]
-        cur = np.array([[i for i, _ in g] for g in padded])
-        Ap = np.array([[A[k, ell, i] for i, ell in g]
-                       for k, g in enumerate(padded)])
-        Cp = np.array([[C[k, ell, i] for i, ell in g]
-                       for k, g in enumerate(padded)])
-        Bp = np.array([[self.Bw[k, i] for i, _ in g]
-                       for k, g in enumerate(padded)])
-        Dp = np.array([[self.Dw[k, i] for i, _ in g]
-                       for k, g in enumerate(padded)])
-        Tp = np.zeros((N, G, G))
-        for k in range(N):
-            for s, (i, _) in enumerate(padded[k]):
-                for j in range(M):
-                    Tp[k, s, where[(k + 1) % N][(i, j)]] += T[k, i, j]
-        nominal = None
-        if self.nominal is not None:
-            # the loss-free mode reached from the loss-free mode
-            nominal = [where[k][(self.nominal[k - 1], self.nominal[k])]
-                       for k in range(N)]
-        return JumpStateSpace(Ap, Bp, Cp, Dp, None, self.dt, transition=Tp,
-                              nominal=nominal, inputs=self.inputs,
-                              outputs=self.outputs, states=self.states,
-                              name=name,
-                              info=dict(self.info, gains=K, pair_modes=cur,
-                                        **info))
-
-    def merged(self) -> "JumpPlant":
-        """The same plant with coinciding modes merged
-        (:ref:`theory-synthesis`, merged form).
-
-        Returns
-        -------
-        JumpPlant
-            Same ``E``, fewer modes where modes coincide.
-        """
-        if self.transition is not None:
-            return self  # Markov modes are not merged (theory: Markov losses)
-        mats = [getattr(self, f) for f in self._FIELDS]
-        groups, nominal = _merge_groups(mats, self.probabilities, self.nominal)
-        (A, Bu, Bw, Cz, Du, Dw), p = _apply_groups(mats, self.probabilities,
-                                                   groups)
-        return JumpPlant(A, Bu, Bw, Cz, Du, Dw, self.E, p, self.dt, nominal=nominal,
-                         inputs=self.inputs, outputs=self.outputs,
-                         states=self.states, info=self.info)
-
-    def mean(self) -> tuple[np.ndarray, ...]:
-        """Per-phase mean matrices ``Σ_i p_ki X_ki`` of every field.
-
-        Returns
-        -------
-        A, Bu, Bw, Cz, Du, Dw : ndarray, each shape (N, ., .)
-            In the order of the attributes, as :meth:`Modes.mean`.
-        """
-        p = self.probabilities
-        return tuple(np.einsum("km,kmij->kij", p, getattr(self, f))
-                     for f in self._FIELDS)
-
-    def known_coordinates(self, k: int) -> np.ndarray:
-        """Coordinates of ``ξ`` the controller sees at phase ``k``.
-
-        Parameters
-        ----------
-        k : int
-            Time step or phase; taken modulo the period.
-
-        Returns
-        -------
-        ndarray of int
-            Indices of the columns of ``E_k`` that are not zero.
-        """
-        return np.flatnonzero(np.any(self.E[k % self.period] != 0, axis=0))
-
-    def active_inputs(self, k: int) -> np.ndarray:
-        """Control inputs that can act at phase ``k`` (others are never applied).
-
-        Parameters
-        ----------
-        k : int
-            Time step or phase; taken modulo the period.
-
-        Returns
-        -------
-        ndarray of int
-            Indices of the columns of ``Bu`` or ``Du`` nonzero in some mode.
-        """
-        k %= self.period
-        used = np.any(self.Bu[k] != 0, axis=(0, 1)) | np.any(self.Du[k] != 0,
-                                                             axis=(0, 1))
-        return np.flatnonzero(used)
-
-    def is_selection(self) -> bool:
-        """True when every ``E_k`` is a 0/1 coordinate selection.
-
-        Returns
-        -------
-        bool
-            Whether each row and each column of every ``E_k`` holds at most
-            one 1 and otherwise zeros (required by synthesis).
-        """
-        E = self.E
-        binary = np.all((E == 0) | (E == 1))
-        return bool(binary and np.all(E.sum(axis=2) <= 1)
-                    and np.all(E.sum(axis=1) <= 1))
-
-    def __repr__(self) -> str:
-        s = self.shape
-        return (f"<JumpPlant: {s['nx']} states, {s['nw']} w, {s['nz']} z, "
-                f"{s['nu']} u, period {self.period}, "
-                f"{self.probabilities.shape[1]} modes, info={self.info}>")
-
-
-def require_iid(sys: Any, what: str, name: str = "sys") -> None:
-    """Refuse Markov modes where only the i.i.d. formulas exist yet.
-
-    For the analyses and syntheses written from ``probabilities`` alone
-    (:ref:`theory-passivity`, :ref:`theory-synthesis`): on a Markov system they
-    would silently answer for i.i.d. modes with the stationary marginals, which
-    is wrong (:ref:`theory-markov`).
-
-    Parameters
-    ----------
-    sys : JumpStateSpace or JumpPlant
-    what : str
-        The caller's name, for the message.
-    name : str
-        The argument's name, for the message.
-
-    Raises
-    ------
-    ControlArgument
-        If ``sys`` has Markov modes.
-    """
-    modes = getattr(sys, "modes", sys)
-    if getattr(modes, "transition", None) is not None:
-        from control.exception import ControlArgument
-        raise ControlArgument(
-            f"{what}: {name} has Markov (bursty) modes; {what} is written for "
-            f"i.i.d. losses only and would answer for the stationary "
-            f"marginals, which is wrong for bursts (theory: Markov losses). Exact "
-            f"mean-square analysis works: ms_radius, moments, simulate")
 
 
 def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
@@ -1663,7 +942,6 @@ def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
     if isinstance(sys, JumpStateSpace):
         return sys
     from control.exception import ControlArgument
-    from .plant import NetworkedStateSpace  # plant.py builds on jump.py
     if isinstance(sys, NetworkedStateSpace):
         # its StateSpace face is the plant without its network: analysing it
         # as a deterministic system would silently drop every loss

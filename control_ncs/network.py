@@ -19,6 +19,7 @@ import numpy as np
 
 from ._checks import caller_stacklevel, real_or_nan
 from .exceptions import ScheduleWarning
+from .modes import transition_matrix
 
 __all__ = ["Schedule", "schedule", "mode_probabilities", "GilbertElliott",
            "gilbert_elliott", "mode_transition"]
@@ -533,29 +534,6 @@ def link_model(value: Any, name: str) -> float | GilbertElliott:
         return GilbertElliott(T[1, 0], T[0, 1])
     except ValueError as err:
         raise ValueError(f"{name}: transition {T.tolist()}: {err}") from None
-
-
-def transition_matrix(value: Any, name: str) -> np.ndarray:
-    """A row-stochastic matrix (or stack), checked: finite, non-negative,
-    rows summing to one."""
-    if np.iscomplexobj(value):
-        raise ValueError(f"{name}: a transition matrix needs real entries "
-                         f"(got complex ones)")
-    try:
-        T = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a real transition matrix, got "
-                         f"{value!r}") from None
-    if T.dtype == object or not np.all(np.isfinite(T)):
-        raise ValueError(f"{name}: a transition matrix needs finite real entries")
-    if np.any(T < -_TOL):
-        raise ValueError(f"{name}: transition probabilities must be "
-                         f"non-negative, got a minimum {T.min():g}")
-    sums = T.sum(axis=-1)
-    if not np.allclose(sums, 1.0, atol=_TOL, rtol=0):
-        raise ValueError(f"{name}: each row of a transition matrix must sum "
-                         f"to 1, got row sums {np.round(sums, 12).tolist()}")
-    return np.clip(T, 0.0, 1.0)
 
 
 _TOL = 1e-9

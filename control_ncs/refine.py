@@ -81,7 +81,7 @@ from ._checks import (choice, decay_bound, finite_real, positive_int,
                       positive_real, real_array)
 from .exceptions import CERTIFIED, TIME_LIMIT, CertificationError
 from .gain import PeriodicGain, actuators, controllers
-from .jump import JumpPlant
+from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
 from .stability import ms_radius as exact_ms_radius
 from .verify import Certificate

@@ -109,7 +109,8 @@ from scipy.linalg import (LinAlgError, solve_discrete_are,
 from ._checks import decay_bound, positive_int, positive_real
 from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE, NOT_MSS,
                          SOLVER_FAILED, SynthesisError)
-from .jump import JumpPlant, JumpStateSpace
+from .jump import JumpStateSpace
+from .openloop import JumpPlant
 from .kyp import KYP_POINTS, FrequencyResponse
 from .verify import (certify_index, check_certificate, dissipation_blocks,
                      feedthrough_bound, ifp_supremum)

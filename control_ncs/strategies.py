@@ -22,7 +22,9 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import choice, no_extra_kwargs, positive_int, real_array
 from .gain import PeriodicGain
-from .jump import JumpPlant, JumpStateSpace, check_lifted_size
+from ._lifting import check_lifted_size
+from .jump import JumpStateSpace
+from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
 
 __all__ = ["build", "feedback", "loop_closes", "require_state_measured"]

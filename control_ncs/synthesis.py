@@ -27,7 +27,8 @@ from ._checks import (choice, decay_bound, finite_real, positive_real,
                       real_array)
 from .stability import ms_radius
 from .gain import PeriodicGain, actuators, controllers
-from .jump import JumpPlant, JumpStateSpace
+from .jump import JumpStateSpace
+from .openloop import JumpPlant
 from .driver import RETRIES, drive
 from .lmi import (DEFAULT_MARGIN, GAINS, SolveReport, balancing_scale,
                   check_options, check_solver, data_scale, gain_kinds,

@@ -26,7 +26,8 @@ from control.exception import ControlDimension
 
 from ._checks import decay_bound, finite_real, real_array
 from .exceptions import CERTIFIED, NOT_VERIFIED
-from .jump import JumpStateSpace, Modes, as_jump
+from .jump import JumpStateSpace, as_jump
+from .modes import Modes
 from .stability import ms_radius
 
 __all__ = ["Certificate", "dissipation_matrices", "certified_index",

@@ -11,7 +11,7 @@ import pytest
 from control.exception import ControlArgument, ControlDimension
 
 from control_ncs import build, feedback, jss, nss
-from control_ncs.jump import MAX_LIFTED_ENTRIES, lift, lifted_names
+from control_ncs._lifting import MAX_LIFTED_ENTRIES, lift, lifted_names
 
 
 # n = 2, w ∈ R¹, u ∈ R¹, z ∈ R¹, y = x ∈ R²

@@ -425,7 +425,7 @@ def test_stationary_law_of_a_closed_loop_has_exact_zeros_on_unvisited_modes():
 
 
 def test_require_iid_refuses_markov_systems_and_plants_by_name():
-    from control_ncs.jump import require_iid
+    from control_ncs.modes import require_iid
     from control_ncs.strategies import build
     P = scalar_plant(2.0, actuator_loss=gilbert_elliott(fail=0.1, recover=0.5))
     for obj in (feedback(P, [[-2.0]]), build(P)):

@@ -13,7 +13,7 @@ import control_ncs as ncs
 from control_ncs import (PeriodicGain, SynthesisError, feedback,
                          gilbert_elliott, moments, ms_radius, passivesyn,
                          simulate)
-from control_ncs.jump import JumpPlant
+from control_ncs.openloop import JumpPlant
 from control_ncs.protocol import simulate_protocol
 from control_ncs.verify import check_certificate
 

@@ -1,0 +1,353 @@
+"""The mode chain of a jump system and its law (:ref:`theory-jump-system`,
+:ref:`theory-markov`).
+
+A jump system's modes are drawn per phase ``k`` either independently
+(``probabilities[k, i]``) or by a Markov chain with transitions ``T[k]``
+and an initial law. This module owns that law: its checks, the periodic
+stationary marginals of a chain, the merging of modes whose matrices
+coincide, and the Markov mean system (state ``E[ξ 1{σ = i}]`` per mode).
+It knows nothing of plants, networks or gains.
+
+i.i.d. modes are the case where every row of ``T[k]`` equals the law of
+phase ``k + 1``: such a transition is stored as ``None``, so that every
+i.i.d. number is computed by the i.i.d. formulas. Code that reads only
+``probabilities`` must first test :attr:`Modes.is_iid`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+from control.exception import ControlArgument, ControlDimension
+
+from ._checks import real_array
+
+__all__ = ["Modes"]
+
+_PROB_TOL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class Modes:
+    """Per-phase, per-mode matrices of a closed-loop jump system.
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray, shapes (N, M, n, n), (N, M, n, m), (N, M, p, n), (N, M, p, m)
+        ``ξ⁺ = A[k, i] ξ + B[k, i] w``, ``z = C[k, i] ξ + D[k, i] w`` in mode
+        ``i`` at phase ``k``.
+    probabilities : ndarray, shape (N, M)
+        ``P(mode i at phase k)``; rows sum to one. i.i.d. modes: the law of
+        every step; Markov modes: the marginals of the periodic stationary
+        chain.
+    transition : ndarray, shape (N, M, M), or None
+        Markov modes (:ref:`theory-markov`):
+        ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``; None for i.i.d. modes.
+    initial : ndarray, shape (M,), or None
+        Markov modes: the law of the mode at time 0 (phase 0); None for
+        i.i.d. modes.
+
+    Examples
+    --------
+    Every :class:`JumpStateSpace` holds one; here two scalar modes with
+    probabilities 0.3 and 0.7 (period 1):
+
+    >>> m = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7]).modes
+    >>> m.A.shape, m.period, m.count
+    ((1, 2, 1, 1), 1, 2)
+    >>> m.mean()[0].tolist()                 # 0.3 * 0.5 + 0.7 * 0.9
+    [[[0.78]]]
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    probabilities: np.ndarray
+    transition: np.ndarray | None = None
+    initial: np.ndarray | None = None
+
+    @property
+    def is_iid(self) -> bool:
+        """True for i.i.d. modes: ``probabilities`` alone says everything.
+
+        Any code that reads only ``probabilities`` (the i.i.d. formulas of
+        :ref:`theory-mss`, :ref:`theory-passivity`, :ref:`theory-moments`,
+        :ref:`theory-synthesis`) must check this first and refuse a Markov
+        system.
+        """
+        return self.transition is None
+
+    def transitions(self) -> np.ndarray:
+        """``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``, shape (N, M, M).
+
+        For i.i.d. modes every row of ``T[k]`` is ``probabilities[k + 1]``.
+        """
+        if self.transition is not None:
+            return self.transition
+        nxt = np.roll(self.probabilities, -1, axis=0)
+        return np.repeat(nxt[:, None, :], self.count, axis=1)
+
+    def start(self) -> np.ndarray:
+        """Law of the mode at time 0: ``initial``, or ``probabilities[0]``."""
+        return self.probabilities[0] if self.initial is None else self.initial
+
+    @property
+    def period(self) -> int:
+        """Number of phases ``N``."""
+        return self.probabilities.shape[0]
+
+    @property
+    def count(self) -> int:
+        """Number of modes ``M`` per phase."""
+        return self.probabilities.shape[1]
+
+    def mean(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per-phase mean matrices ``Σ_i p_ki M_ki``.
+
+        Returns
+        -------
+        A, B, C, D : ndarray
+            Shapes (N, n, n), (N, n, m), (N, p, n), (N, p, m).
+        """
+        p = self.probabilities
+        return tuple(np.einsum("km,kmij->kij", p, M)
+                     for M in (self.A, self.B, self.C, self.D))
+
+    def __repr__(self) -> str:
+        N, M, n, m = self.B.shape
+        return (f"<Modes: period {N}, {M} modes per phase, {n} states, "
+                f"{m} inputs, {self.C.shape[2]} outputs>")
+
+    def summary(self) -> str:
+        """A few lines for humans: sizes and the probabilities per phase.
+
+        Returns
+        -------
+        str
+            At most 10 phases and 8 modes shown.
+
+        Examples
+        --------
+        >>> m = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7]).modes
+        >>> print(m.summary())
+        Modes: period 1, 2 modes per phase, 1 states, 1 inputs, 1 outputs
+          phase 0: p = 0.3, 0.7
+        """
+        lines = [repr(self)[1:-1]]
+        for k in range(min(self.period, 10)):
+            p = ", ".join(f"{x:.4g}" for x in self.probabilities[k, :8])
+            more = ", ..." if self.count > 8 else ""
+            lines.append(f"  phase {k}: p = {p}{more}")
+        if self.period > 10:
+            lines.append(f"  ... ({self.period - 10} more phases)")
+        if self.transition is not None:
+            lines.append("  Markov modes: p are the stationary marginals; "
+                         "transition T[k][i, j] = P(j next | i now)")
+        return "\n".join(lines)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Modes) and all(
+            np.array_equal(getattr(self, f), getattr(other, f))
+            for f in ("A", "B", "C", "D", "probabilities")) and all(
+            (a is None and b is None) or (a is not None and b is not None
+                                          and np.array_equal(a, b))
+            for a, b in ((self.transition, other.transition),
+                         (self.initial, other.initial)))
+
+    # unhashable: mutable numpy content. None is Python's documented way to
+    # say so; typeshed types object.__hash__ as a method only.
+    __hash__ = None  # type: ignore[assignment]
+
+
+
+def check_probabilities(value: Any, name: str = "probabilities") -> np.ndarray:
+    p = real_array(value, name, ndim=(1, 2))
+    if p.ndim == 1:
+        p = p[None]
+    if np.any(p < -_PROB_TOL) or np.any(p > 1 + _PROB_TOL):
+        raise ValueError(f"{name}: probabilities must lie in [0, 1]")
+    if not np.allclose(p.sum(axis=1), 1.0, atol=_PROB_TOL, rtol=0):
+        raise ValueError(f"{name}: the mode probabilities of each phase must "
+                         f"sum to 1, got sums {p.sum(axis=1).tolist()}")
+    # rounding (e.g. merged eq. 14 modes summing to 1 + 2e-16) is tolerated
+    # as for the row sums, then removed
+    return np.clip(p, 0.0, 1.0)
+
+
+
+def periodic_stationary(T: np.ndarray) -> np.ndarray:
+    """Per-phase marginals ``p[k]`` of the periodic stationary law of a
+    chain with transitions ``T[k]`` (shape (N, M, M)): ``p[0] Φ = p[0]`` for
+    ``Φ = T[0] ⋯ T[N-1]``, ``p[k+1] = p[k] T[k]``. For a reducible chain the
+    law is one of several (the least-squares one)."""
+    N, M, _ = T.shape
+    phi = np.eye(M)
+    for Tk in T:
+        phi = phi @ Tk
+    lhs = np.vstack([phi.T - np.eye(M), np.ones((1, M))])
+    rhs = np.zeros(M + 1)
+    rhs[-1] = 1.0
+    pi = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
+    # rounding leaves ~1e-17 on modes the chain never visits: they are 0
+    pi[pi < M * np.finfo(float).eps] = 0.0
+    p = np.empty((N, M))
+    p[0] = pi / pi.sum()
+    for k in range(N - 1):
+        p[k + 1] = p[k] @ T[k]
+    return p
+
+
+
+def chain_law(transition: Any, initial: Any, N: int, M: int | None
+           ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """``(probabilities, transition, initial)`` of a Markov jump system;
+    equal rows give the i.i.d. system (transition None) unless ``initial``
+    differs from its law."""
+    T = transition_matrix(transition, "transition")
+    if T.ndim == 2:
+        T = T[None]
+    if T.ndim != 3 or T.shape[1] != T.shape[2] or T.shape[0] not in (1, N) \
+            or (M is not None and T.shape[1] != M):
+        raise ControlDimension(
+            f"transition: expected shape (M, M) or (N, M, M) with N = {N} "
+            f"phases" + (f" and M = {M} modes" if M is not None else "")
+            + f", got {np.shape(transition)}")
+    T = np.array(np.broadcast_to(T, (N,) + T.shape[1:]))
+    M = T.shape[1]
+    init = None
+    if initial is not None:
+        init = check_probabilities(initial, "probabilities")
+        if init.shape != (1, M):
+            raise ControlDimension(
+                f"probabilities: with a transition it is the law of the "
+                f"initial mode, shape ({M},), got {np.shape(initial)}")
+        init = init[0]
+    if np.all(T == T[:, :1, :]):
+        # equal rows: i.i.d. modes, the law of phase k+1 is any row of T[k]
+        p = np.roll(T[:, 0, :], 1, axis=0)
+        if init is None or np.array_equal(init, p[0]):
+            return p, None, None
+    p = periodic_stationary(T)
+    return p, T, (p[0].copy() if init is None else init)
+
+
+
+def merge_groups(mats: Sequence[np.ndarray], p: np.ndarray,
+                  nominal: np.ndarray | None) -> tuple[list, np.ndarray | None]:
+    """Per phase, lists of mode indices whose matrices coincide exactly.
+
+    Modes of probability zero are dropped, except the loss-free one.
+    """
+    N, M = p.shape
+    groups = []
+    new_nominal = np.zeros(N, int)
+    for k in range(N):
+        phase: list[list[int]] = []
+        for i in range(M):
+            if p[k, i] == 0 and (nominal is None or nominal[k] != i):
+                continue
+            for g in phase:
+                j = g[0]
+                if all(np.array_equal(X[k, i], X[k, j]) for X in mats):
+                    g.append(i)
+                    break
+            else:
+                phase.append([i])
+        if not phase:  # all-zero row cannot happen for valid probabilities
+            phase = [[0]]
+        if nominal is not None:
+            new_nominal[k] = next(g for g, grp in enumerate(phase)
+                                  if nominal[k] in grp)
+        groups.append(phase)
+    return groups, None if nominal is None else new_nominal
+
+
+def apply_groups(mats: Sequence[np.ndarray], p: np.ndarray, groups: list
+                  ) -> tuple[list[np.ndarray], np.ndarray]:
+    """Merged matrices and probabilities, padded with probability-0 copies."""
+    N = p.shape[0]
+    M = max(len(g) for g in groups)
+    out = [np.zeros((N, M) + X.shape[2:]) for X in mats]
+    prob = np.zeros((N, M))
+    for k, phase in enumerate(groups):
+        for slot in range(M):
+            grp = phase[slot] if slot < len(phase) else phase[0]
+            for X, Y in zip(mats, out):
+                Y[k, slot] = X[k, grp[0]]
+            prob[k, slot] = p[k, grp].sum() if slot < len(phase) else 0.0
+    return out, prob
+
+
+
+def markov_mean(modes: Modes) -> tuple[np.ndarray, ...]:
+    """Per-phase mean system of Markov modes, state ``μ_i = E[ξ 1{σ = i}]``
+    stacked by mode (:ref:`theory-markov`):
+    ``μ⁺_j = Σ_i T[i, j] (A_i μ_i + π_i B_i w)``,
+    ``E z = Σ_i (C_i μ_i + π_i D_i w)`` with ``π`` the stationary marginals."""
+    A, B, C, D, p, T = (modes.A, modes.B, modes.C, modes.D,
+                        modes.probabilities, modes.transitions())
+    N, M, n, m = B.shape
+    q = C.shape[2]
+    Abar = np.einsum("kij,kiab->kjaib", T, A).reshape(N, M * n, M * n)
+    Bbar = np.einsum("kij,ki,kiab->kjab", T, p, B).reshape(N, M * n, m)
+    Cbar = C.transpose(0, 2, 1, 3).reshape(N, q, M * n)
+    Dbar = np.einsum("ki,kiab->kab", p, D)
+    return Abar, Bbar, Cbar, Dbar
+
+
+
+def require_iid(sys: Any, what: str, name: str = "sys") -> None:
+    """Refuse Markov modes where only the i.i.d. formulas exist yet.
+
+    For the analyses and syntheses written from ``probabilities`` alone
+    (:ref:`theory-passivity`, :ref:`theory-synthesis`): on a Markov system they
+    would silently answer for i.i.d. modes with the stationary marginals, which
+    is wrong (:ref:`theory-markov`).
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or JumpPlant
+    what : str
+        The caller's name, for the message.
+    name : str
+        The argument's name, for the message.
+
+    Raises
+    ------
+    ControlArgument
+        If ``sys`` has Markov modes.
+    """
+    modes = getattr(sys, "modes", sys)
+    if getattr(modes, "transition", None) is not None:
+        raise ControlArgument(
+            f"{what}: {name} has Markov (bursty) modes; {what} is written for "
+            f"i.i.d. losses only and would answer for the stationary "
+            f"marginals, which is wrong for bursts (theory: Markov losses). Exact "
+            f"mean-square analysis works: ms_radius, moments, simulate")
+
+
+
+def transition_matrix(value: Any, name: str) -> np.ndarray:
+    """A row-stochastic matrix (or stack), checked: finite, non-negative,
+    rows summing to one."""
+    if np.iscomplexobj(value):
+        raise ValueError(f"{name}: a transition matrix needs real entries "
+                         f"(got complex ones)")
+    try:
+        T = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a real transition matrix, got "
+                         f"{value!r}") from None
+    if T.dtype == object or not np.all(np.isfinite(T)):
+        raise ValueError(f"{name}: a transition matrix needs finite real entries")
+    if np.any(T < -_PROB_TOL):
+        raise ValueError(f"{name}: transition probabilities must be "
+                         f"non-negative, got a minimum {T.min():g}")
+    sums = T.sum(axis=-1)
+    if not np.allclose(sums, 1.0, atol=_PROB_TOL, rtol=0):
+        raise ValueError(f"{name}: each row of a transition matrix must sum "
+                         f"to 1, got row sums {np.round(sums, 12).tolist()}")
+    return np.clip(T, 0.0, 1.0)

@@ -1,0 +1,345 @@
+"""The open loop that synthesis consumes: :class:`JumpPlant`.
+
+A network strategy (:mod:`control_ncs.strategies`) turns a plant, its
+network and a controller kind into a periodic jump system whose gain is
+still free (:ref:`theory-jump-system`); synthesis designs the gain and
+:meth:`JumpPlant.close` applies it, giving a
+:class:`~control_ncs.jump.JumpStateSpace`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .jump import JumpStateSpace
+from .modes import apply_groups, merge_groups
+
+__all__ = ["JumpPlant"]
+
+
+class JumpPlant:
+    """A periodic jump system before its gain is chosen
+    (:ref:`theory-jump-system`).
+
+    ``ξ⁺ = (A + Bu K_k E_k) ξ + Bw w``, ``z = (Cz + Du K_k E_k) ξ + Dw w``, all
+    matrices per phase ``k`` and mode ``i``. ``E_k`` says what the controller
+    knows of ``ξ``: for synthesis it must be a coordinate selection (each row
+    a unit vector or zero). Network strategies build this object
+    (``strategies.py``); :func:`control_ncs.passivesyn` designs ``K``;
+    :meth:`close` applies it.
+
+    Parameters
+    ----------
+    A, Bu, Bw, Cz, Du, Dw : array_like, shape (N, M, ., .)
+        Per-phase, per-mode matrices of the loop before the gain: shapes
+        ``(nx, nx)``, ``(nx, nu)``, ``(nx, nw)``, ``(nz, nx)``, ``(nz, nu)``,
+        ``(nz, nw)``. Taken as they are (no broadcasting, no validation):
+        builders such as :func:`control_ncs.build` check their inputs.
+    E : array_like, shape (N, nk, nx)
+        What the controller sees of ``ξ`` at each phase.
+    probabilities : array_like, shape (N, M)
+        Mode probabilities per phase; each row sums to 1.
+    dt : True or float > 0, optional
+        Sampling period of one step (default True, unspecified).
+    nominal : array_like of int, shape (N,), optional
+        The loss-free mode of each phase.
+    transition : array_like, shape (N, M, M), optional
+        Markov modes (:ref:`theory-markov`):
+        ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``; ``probabilities`` are then
+        the stationary marginals. None: i.i.d.
+    inputs, outputs, states : list of str, optional
+        Names of ``w``, ``z`` and ``ξ``, handed to the closed loop.
+    info : dict, optional
+        Strategy description, kept as the ``info`` attribute.
+
+    Attributes
+    ----------
+    A, Bu, Bw, Cz, Du, Dw : ndarray, shape (N, M, ., .)
+        The matrices above, as float arrays.
+    E : ndarray, shape (N, nk, nx)
+        The selection of ``ξ`` that the gain acts on.
+    probabilities : ndarray, shape (N, M)
+        Mode probabilities per phase.
+    transition : ndarray, shape (N, M, M), or None
+        The Markov chain of the modes; None for i.i.d. modes.
+    dt : True or float
+        Sampling period of one step.
+    nominal : ndarray of int, shape (N,), or None
+        The loss-free mode of each phase.
+    inputs, outputs, states : list of str or None
+        Signal names of ``w``, ``z`` and ``ξ``.
+    info : dict
+        Strategy description (controller, actuator, network), for reference.
+
+    Examples
+    --------
+    The scalar plant ``x⁺ = 2x + u`` whose actuator message is lost with
+    probability 0.2, closed with ``u = -2x``:
+
+    >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+    ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=0.2)
+    >>> plant = build(P)
+    >>> plant.gain_shape(), plant.probabilities.tolist()
+    ((1, 1, 1), [[0.0, 0.2, 0.0, 0.8]])
+    >>> CL = plant.close(np.full((1, 1, 1), -2.0))
+    >>> CL.modes.A[0, :, 0, 0].tolist(), CL.modes.probabilities.tolist()
+    ([2.0, 0.0], [[0.2, 0.8]])
+    """
+
+    _FIELDS = ("A", "Bu", "Bw", "Cz", "Du", "Dw")
+
+    def __init__(self, A: Any, Bu: Any, Bw: Any, Cz: Any, Du: Any, Dw: Any,
+                 E: Any, probabilities: Any, dt: Any = True, *,
+                 transition: Any = None,
+                 nominal: Any = None, inputs: Any = None, outputs: Any = None,
+                 states: Any = None, info: dict | None = None):
+        self.A, self.Bu, self.Bw = (np.asarray(X, float) for X in (A, Bu, Bw))
+        self.Cz, self.Du, self.Dw = (np.asarray(X, float) for X in (Cz, Du, Dw))
+        self.E = np.asarray(E, float)
+        self.probabilities = np.asarray(probabilities, float)
+        self.transition = None if transition is None else np.asarray(
+            transition, float)
+        self.dt = dt
+        self.nominal = None if nominal is None else np.asarray(nominal, int)
+        self.inputs, self.outputs, self.states = inputs, outputs, states
+        self.info = dict(info or {})
+
+    @property
+    def period(self) -> int:
+        """Number of phases ``N``."""
+        return self.probabilities.shape[0]
+
+    @property
+    def is_iid(self) -> bool:
+        """True for i.i.d. modes; synthesis from ``probabilities`` alone
+        (:ref:`theory-synthesis`) is valid only then."""
+        return self.transition is None
+
+    @property
+    def shape(self) -> dict:
+        """Sizes: ``nx`` (state), ``nw``, ``nz``, ``nu`` (control), ``nk``."""
+        return dict(nx=self.A.shape[-1], nw=self.Bw.shape[-1],
+                    nz=self.Cz.shape[-2], nu=self.Bu.shape[-1],
+                    nk=self.E.shape[1])
+
+    def gain_shape(self) -> tuple[int, int, int]:
+        """Shape ``(N, nu, nk)`` of a gain sequence for :meth:`close`.
+
+        Returns
+        -------
+        tuple of int
+            ``(period, nu, nk)``.
+        """
+        s = self.shape
+        return (self.period, s["nu"], s["nk"])
+
+    def close(self, gains: np.ndarray, **info: Any) -> JumpStateSpace:
+        """The closed loop with ``v = K_k E_k ξ`` as a :class:`JumpStateSpace`.
+
+        The gain acts in positive feedback, as it is (``u = K x`` for
+        ``E = I``); negate a gain designed for ``u = -K x``, such as
+        :func:`control.dlqr`'s.
+
+        Parameters
+        ----------
+        gains : array_like, shape (N, nu, nk)
+            ``K_k`` per phase (:meth:`gain_shape`).
+        **info
+            Added to the result's ``info``.
+
+        Returns
+        -------
+        JumpStateSpace
+            Coinciding modes merged; named ``'<plant> (closed loop)'`` after
+            ``info['plant']``, the plant's name, when the builder recorded
+            it (as :func:`control_ncs.build` does).
+        """
+        K = np.asarray(gains, float)
+        plant = self.info.get("plant")
+        name = None if plant is None else f"{plant} (closed loop)"
+        if K.ndim == 4:
+            return self._close_pairs(K, name, info)
+        F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
+        A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
+        C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
+        loop = (A, self.Bw, C, self.Dw)
+        if self.transition is not None:
+            # Markov modes are not merged (their futures differ, theory: Markov
+            # losses)
+            return JumpStateSpace(*loop, None, self.dt,
+                                  transition=self.transition,
+                                  nominal=self.nominal,
+                                  inputs=self.inputs, outputs=self.outputs,
+                                  states=self.states, name=name,
+                                  info=dict(self.info, gains=K, **info))
+        # merge before building: the lifted face is then built once
+        groups, nominal = merge_groups(loop, self.probabilities, self.nominal)
+        (A, B, C, D), p = apply_groups(loop, self.probabilities, groups)
+        return JumpStateSpace(A, B, C, D, p, self.dt, nominal=nominal,
+                              inputs=self.inputs, outputs=self.outputs,
+                              states=self.states, name=name,
+                              info=dict(self.info, gains=K, **info))
+
+    def transitions(self) -> np.ndarray:
+        """``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``, shape (N, M, M).
+
+        For i.i.d. modes every row of ``T[k]`` is ``probabilities[k + 1]``.
+
+        Returns
+        -------
+        ndarray
+        """
+        if self.transition is not None:
+            return self.transition
+        M = self.probabilities.shape[1]
+        nxt = np.roll(self.probabilities, -1, axis=0)
+        return np.repeat(nxt[:, None, :], M, axis=1)
+
+    def _close_pairs(self, K: np.ndarray, name: Any, info: dict
+                     ) -> JumpStateSpace:
+        """The closed loop with gains ``K_{k,ℓ}`` (shape (N, M, nu, nk)) on
+        the previous mode ``ℓ = σ_{k-1}`` (:ref:`theory-markov`).
+
+        A Markov jump system on pair modes ``(ℓ, i)``, ``(ℓ, i) → (i, j)``
+        with probability ``T_k[i, j]``, mode matrices
+        ``A_{k,i} + Bu_{k,i} K_{k,ℓ} E_k``. Pairs with the same ``i`` and
+        the same matrices (e.g. every ``ℓ`` when the input is lost in
+        ``i``) have the same future and are lumped into one mode; phases
+        with fewer lumped modes repeat their last one, unreachable. The
+        current plant mode ``i`` of each lumped mode is
+        ``info['pair_modes']``, shape (N, G). The initial law is the
+        stationary one.
+        """
+        N, M = self.probabilities.shape
+        T = self.transitions()
+        F = np.einsum("kluj,kjx->klux", K, self.E)  # K_{k,ℓ} E_k
+        A = self.A[:, None] + np.einsum("kmxu,kluy->klmxy", self.Bu, F)
+        C = self.Cz[:, None] + np.einsum("kmzu,kluy->klmzy", self.Du, F)
+        # lumped mode of the pair (ℓ, i) at each phase; first member kept
+        where: list = []
+        groups: list = []
+        for k in range(N):
+            index: dict = {}
+            where.append({})
+            groups.append([])
+            for i in range(M):
+                for ell in range(M):
+                    key = (i, A[k, ell, i].tobytes(), C[k, ell, i].tobytes())
+                    if key not in index:
+                        index[key] = len(groups[k])
+                        groups[k].append((i, ell))
+                    where[k][(ell, i)] = index[key]
+        G = max(map(len, groups))
+        # unreachable copies keep the shape (N, G): no flow enters them
+        padded = [g + [g[-1]] * (G - len(g)) for g in groups]
+        cur = np.array([[i for i, _ in g] for g in padded])
+        Ap = np.array([[A[k, ell, i] for i, ell in g]
+                       for k, g in enumerate(padded)])
+        Cp = np.array([[C[k, ell, i] for i, ell in g]
+                       for k, g in enumerate(padded)])
+        Bp = np.array([[self.Bw[k, i] for i, _ in g]
+                       for k, g in enumerate(padded)])
+        Dp = np.array([[self.Dw[k, i] for i, _ in g]
+                       for k, g in enumerate(padded)])
+        Tp = np.zeros((N, G, G))
+        for k in range(N):
+            for s, (i, _) in enumerate(padded[k]):
+                for j in range(M):
+                    Tp[k, s, where[(k + 1) % N][(i, j)]] += T[k, i, j]
+        nominal = None
+        if self.nominal is not None:
+            # the loss-free mode reached from the loss-free mode
+            nominal = [where[k][(self.nominal[k - 1], self.nominal[k])]
+                       for k in range(N)]
+        return JumpStateSpace(Ap, Bp, Cp, Dp, None, self.dt, transition=Tp,
+                              nominal=nominal, inputs=self.inputs,
+                              outputs=self.outputs, states=self.states,
+                              name=name,
+                              info=dict(self.info, gains=K, pair_modes=cur,
+                                        **info))
+
+    def merged(self) -> "JumpPlant":
+        """The same plant with coinciding modes merged
+        (:ref:`theory-synthesis`, merged form).
+
+        Returns
+        -------
+        JumpPlant
+            Same ``E``, fewer modes where modes coincide.
+        """
+        if self.transition is not None:
+            return self  # Markov modes are not merged (theory: Markov losses)
+        mats = [getattr(self, f) for f in self._FIELDS]
+        groups, nominal = merge_groups(mats, self.probabilities, self.nominal)
+        (A, Bu, Bw, Cz, Du, Dw), p = apply_groups(mats, self.probabilities,
+                                                   groups)
+        return JumpPlant(A, Bu, Bw, Cz, Du, Dw, self.E, p, self.dt, nominal=nominal,
+                         inputs=self.inputs, outputs=self.outputs,
+                         states=self.states, info=self.info)
+
+    def mean(self) -> tuple[np.ndarray, ...]:
+        """Per-phase mean matrices ``Σ_i p_ki X_ki`` of every field.
+
+        Returns
+        -------
+        A, Bu, Bw, Cz, Du, Dw : ndarray, each shape (N, ., .)
+            In the order of the attributes, as :meth:`Modes.mean`.
+        """
+        p = self.probabilities
+        return tuple(np.einsum("km,kmij->kij", p, getattr(self, f))
+                     for f in self._FIELDS)
+
+    def known_coordinates(self, k: int) -> np.ndarray:
+        """Coordinates of ``ξ`` the controller sees at phase ``k``.
+
+        Parameters
+        ----------
+        k : int
+            Time step or phase; taken modulo the period.
+
+        Returns
+        -------
+        ndarray of int
+            Indices of the columns of ``E_k`` that are not zero.
+        """
+        return np.flatnonzero(np.any(self.E[k % self.period] != 0, axis=0))
+
+    def active_inputs(self, k: int) -> np.ndarray:
+        """Control inputs that can act at phase ``k`` (others are never applied).
+
+        Parameters
+        ----------
+        k : int
+            Time step or phase; taken modulo the period.
+
+        Returns
+        -------
+        ndarray of int
+            Indices of the columns of ``Bu`` or ``Du`` nonzero in some mode.
+        """
+        k %= self.period
+        used = np.any(self.Bu[k] != 0, axis=(0, 1)) | np.any(self.Du[k] != 0,
+                                                             axis=(0, 1))
+        return np.flatnonzero(used)
+
+    def is_selection(self) -> bool:
+        """True when every ``E_k`` is a 0/1 coordinate selection.
+
+        Returns
+        -------
+        bool
+            Whether each row and each column of every ``E_k`` holds at most
+            one 1 and otherwise zeros (required by synthesis).
+        """
+        E = self.E
+        binary = np.all((E == 0) | (E == 1))
+        return bool(binary and np.all(E.sum(axis=2) <= 1)
+                    and np.all(E.sum(axis=1) <= 1))
+
+    def __repr__(self) -> str:
+        s = self.shape
+        return (f"<JumpPlant: {s['nx']} states, {s['nw']} w, {s['nz']} z, "
+                f"{s['nu']} u, period {self.period}, "
+                f"{self.probabilities.shape[1]} modes, info={self.info}>")
