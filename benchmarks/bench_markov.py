@@ -1,4 +1,4 @@
-"""Benchmark: bursty (Markov) losses (issue 13).
+"""Benchmark: bursty (Markov) losses.
 
 Not registered in the runner yet; run it alone::
 

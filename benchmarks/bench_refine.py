@@ -1,4 +1,4 @@
-"""Benchmark: structured refinement against the sufficient LMI (issue 15).
+"""Benchmark: structured refinement against the sufficient LMI.
 
 Run alone with ``python -m benchmarks.bench_refine [--quick]``. For random
 unstable plants (seeded; spectral radius 1.1, two actuators, ``y = x``,

@@ -1,6 +1,6 @@
 """Benchmark 4: ``simulate`` trial-steps per second against per-trial loops.
 
-The alternative the issue names, "a loop of ``control.forced_response`` over
+The obvious alternative, "a loop of ``control.forced_response`` over
 trials with the losses drawn the same way", does not exist as such:
 ``forced_response`` simulates one LTI system, while every trial of a lossy
 loop is a *time-varying* system (its mode is drawn at every step). Calling

@@ -1029,8 +1029,6 @@ def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
 
 
 # -- estimator gain (theory: output feedback) ---------------------------------
-# Appended by the output-feedback work (issue 14); the models above are left
-# as they are.
 @dataclass
 class EstimatorModel:
     """The estimator LMI of :ref:`theory-output-feedback` over one period,

@@ -6,7 +6,7 @@ silent sensors, a hold actuator or the predictor's ``[I 0]`` hides part of
 the loop's state, :ref:`theory-synthesis`, :ref:`theory-predictor`,
 :ref:`theory-jump-system`) the synthesis LMIs ``'block'`` and ``'extended'``
 are only sufficient, and 2-3 times too pessimistic in the loss they accept
-(project issue 15). This module works on the gain's free entries directly, with
+(the batch reactor below). This module works on the gain's free entries directly, with
 the exact figures of a *given* gain:
 
 1. **stabilise**: minimise the exact mean-square rate ``ms_radius``
@@ -31,7 +31,7 @@ the exact figures of a *given* gain:
    gain it ends at is certified again by the analysis, and kept only if
    that certificate is better.
 
-Why this stage 2, by measurement (batch reactor of issue 15, sensor
+Why this stage 2, by measurement (the batch reactor of the tests, sensor
 schedule, actuator loss 0.6, the gain of least ``ms_radius`` = 0.972,
 analysis η = -282.07): alternating convex steps (``P`` fixed: an LMI in
 ``(K, η)`` by a Schur complement; ``K`` fixed: the analysis LMI) are
@@ -91,7 +91,8 @@ __all__ = ["refine_gain", "RefineResult"]
 #: Up to this size of the second-moment operator (``n²``, ``M n²`` for
 #: Markov modes) its eigenvectors come from the dense Kronecker monodromy;
 #: above, from ARPACK on the matrix-free operator (dense ``eig`` with left
-#: vectors took 30 ms at 100 unknowns, docs/benchmarks.md, Session 4).
+#: vectors took 30 ms at 100 unknowns, docs/benchmarks.md, structured
+#: refinement).
 DENSE_MAX_SIZE = 64
 
 #: Stage 1 stops once ``ms_radius ≤ TARGET_FRACTION · min(1, r²)``: room
@@ -842,7 +843,7 @@ def refine_gain(P: NetworkedStateSpace | JumpPlant, eta: float | None = None,
 #: The synthesis (``passivesyn(method='auto'|'refine')``) tries the
 #: sufficient LMI first, as a starting point, up to this many states: above,
 #: it took 8.7-14.5 s at 16-18 states, at most 1.1 s up to 10
-#: (docs/benchmarks.md, Session 4).
+#: (docs/benchmarks.md, structured refinement).
 LMI_START_MAX_STATES = 10
 
 

@@ -374,7 +374,7 @@ def _heard(P: NetworkedStateSpace) -> np.ndarray:
 
 def _lti_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int, *,
                actuator: str, sensor: str, nc: int) -> dict:
-    """A discrete-time LTI controller in the loop (issue 14, part 1).
+    """A discrete-time LTI controller in the loop (theory: output feedback).
 
     State ``ξ = [x; xc; ŷ; u⁻]``: plant, controller, the measurements the
     controller received at this step (sensors some phase schedules), and

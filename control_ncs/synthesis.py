@@ -798,7 +798,7 @@ def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
     # Under structure='auto' the sufficient 'extended' LMI is followed by
     # 'block' when it certifies nothing: in exact arithmetic 'extended'
     # contains 'block' (G = X), but solved numerically 'block' once
-    # certified a gain where 'extended' failed (project issue 19.6, 1 of 80
+    # certified a gain where 'extended' failed (1 of 80
     # structured cases; not reproduced on 760 seeded plants, n = 2-3,
     # N = 2-3, since the fixed-η search below). Trying both keeps the
     # README's "never more conservative" true of what is returned.

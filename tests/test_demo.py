@@ -1,4 +1,4 @@
-"""The demo command runs end to end and writes real PNG files (issue 6)."""
+"""The demo command runs end to end and writes real PNG files."""
 
 import subprocess
 import sys

@@ -1,4 +1,4 @@
-"""Output feedback through an estimator at the controller (theory: output feedback, issue 14).
+"""Output feedback through an estimator at the controller (theory: output feedback).
 
 The builder ``controller='estimator'`` (gains ``K_k`` on ``x̂``, estimator
 gains ``L_k``), its separation property and closed forms, the event-level
@@ -481,7 +481,7 @@ def test_estimator_design_checks_its_options_before_solving(monkeypatch,
 
 def test_badly_scaled_plant_gets_an_estimator_and_a_verified_design():
     # a well-scaled plant under x = diag(1e3, 1e-3) x̃, measured through
-    # y = x1 (issue 19's plant): the estimator LMI is solved in balanced
+    # y = x1: the estimator LMI is solved in balanced
     # coordinates and its gain checked in the plant's own
     import control_ncs as ncs
     P = ncs.nss([[0.9, 5e5], [2e-7, 1.2]], [[1e3, 1e3], [1e-3, 1e-3]],

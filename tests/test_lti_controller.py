@@ -1,4 +1,4 @@
-"""A discrete-time LTI controller in the networked loop (issue 14, part 1).
+"""A discrete-time LTI controller in the networked loop.
 
 ``feedback(P, K)`` with a ``control.StateSpace`` / ``TransferFunction``
 controller builds the jump system ``[x; xc; ŷ; u⁻]``; these tests check it

@@ -1,4 +1,4 @@
-"""Bursty (Markov) losses, analysis side (issue 13, theory: Markov losses).
+"""Bursty (Markov) losses, analysis side (theory: Markov losses).
 
 Closed forms of theory: Markov losses, equal rows against the i.i.d. numbers, dense
 against matrix-free, exact moments against two independent samplers (the

@@ -1,4 +1,4 @@
-"""Passive synthesis of the model-based predictor (theory: predictor, issue 4).
+"""Passive synthesis of the model-based predictor (theory: predictor).
 
 The closed loops are rebuilt here from the event order of theory: predictor
 (sensor update, control, actuator, plant step), independently of

@@ -1,4 +1,4 @@
-"""control_ncs fits python-control like a native (issue 16).
+"""control_ncs fits python-control like a native.
 
 python-control's own calls on a closed loop keep the randomness where the
 result is exact (mode by mode, theory: moments, §10), refuse clearly where it is
@@ -44,7 +44,7 @@ def filter_G(direct=True):
 
 def switching_loop():
     """B and C both switch with the mode: the mean of a loop through a
-    feedthrough is not the loop of the means (issue 16: 0.25 vs 0.29)."""
+    feedthrough is not the loop of the means (0.25 vs 0.29)."""
     return cn.jss([[[0.5]], [[0.5]]], [[[1.0]], [[0.0]]], [[[1.0]], [[0.0]]],
                   [[0.0]], [0.5, 0.5])
 

@@ -1,4 +1,4 @@
-"""Structured refinement (control_ncs/refine.py, project issue 15).
+"""Structured refinement (control_ncs/refine.py).
 
 The reference for "how far can a gain of this structure go" is a direct
 search written here, independent of the module: bisection in the loss
@@ -28,7 +28,7 @@ SCHEDULE = [[1, 1, 0, 0], [0, 0, 1, 1]]
 
 
 def batch_reactor(loss, **network):
-    """Issue 15: dt = 0.1, full state, w entering like u, z = C x + 0.5 w
+    """The batch reactor: dt = 0.1, full state, w entering like u, z = C x + 0.5 w
     (the plant of tests/test_hardening_synthesis.py)."""
     d = ct.sample_system(ct.ss(BATCH_A, BATCH_B, BATCH_C, 0), 0.1, "zoh")
     D = np.zeros((6, 4))
@@ -171,7 +171,7 @@ def test_batch_reactor_sensor_and_actuator_schedule_certify_near_direct_threshol
     limit = direct_threshold(make)
     assert limit > 0.2
     K = certified_at(make(0.9 * limit), -100.0)
-    # the sufficient LMI refuses this loop even without loss (issue 15)
+    # the sufficient LMI refuses this loop even without loss
     assert K.result.method == "refine"
 
 
@@ -186,7 +186,7 @@ def test_batch_reactor_sensor_schedule_certifies_near_direct_threshold():
 
 @pytest.mark.slow
 def test_batch_reactor_sensor_schedule_certifies_far_beyond_the_lmi():
-    # the sufficient LMI stops near 0.2 (issue 15); the refinement
+    # the sufficient LMI stops near 0.2; the refinement
     # certifies 0.5 (the certificate itself proves it stabilisable)
     P = batch_reactor(0.5, sensor_schedule=SCHEDULE)
     with pytest.raises(SynthesisError):

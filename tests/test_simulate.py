@@ -1,5 +1,5 @@
 """Sample paths and ensemble responses (control_ncs.responses and its engine
-control_ncs.montecarlo, issue 5).
+control_ncs.montecarlo).
 
 Statistical checks use fixed seeds and tolerances of a few standard errors
 estimated from the same sample.

@@ -1,4 +1,4 @@
-"""The jump-system builders against the event-level protocol (issue 4).
+"""The jump-system builders against the event-level protocol.
 
 ``control_ncs.protocol.simulate_protocol`` simulates the network packet by
 packet from the protocol description alone; ``feedback`` builds the jump
@@ -150,7 +150,7 @@ def test_there_is_a_point_where_only_the_predictor_is_mean_square_stable():
 @pytest.mark.parametrize("actuator", ["zero", "hold"])
 def test_synthesised_predictor_gain_matches_the_event_level_simulation(
         actuator):
-    """Issue 4 end to end: on the shared channel (N = 3, sensors at phases 0
+    """End to end: on the shared channel (N = 3, sensors at phases 0
     and 1, the actuator at phase 2) with losses on both links, passivesyn
     returns a verified predictor gain, and the packet-level simulation of
     that very gain has the exact moments of the jump system it certified."""

@@ -1,4 +1,4 @@
-"""Design maps and schedule search (issue 18): each cell is passivesyn,
+"""Design maps and schedule search: each cell is passivesyn,
 schedules are enumerated up to symmetry, pruning is exact, executors give
 the sequential result."""
 

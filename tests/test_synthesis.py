@@ -502,7 +502,7 @@ def test_decay_trades_eta_for_mean_square_margin():
 def test_decay_bound_is_tight_at_smallest_ms_rate(factor, feasible):
     """x⁺ = a x + u, actuator loss α2: the smallest ms rate is α2 a² (K = -a),
     and ``decay=r`` certifies ``ms_radius < r²``: feasible just above, not
-    just below (the issue's "≤ r" would be wrong by a square)."""
+    just below (a bound "≤ r" would be wrong by a square)."""
     a, alpha = 2.0, 0.1
     r = np.sqrt(alpha * a * a * factor)
     spec = stabilization_spec(a, actuator_loss=alpha)
