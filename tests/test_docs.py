@@ -138,9 +138,16 @@ def test_readme_gives_the_one_local_build_command():
 
 
 def test_no_math_section_reference_is_left():
-    """Users never receive MATH.md: code, notebooks and README point to the
-    theory page instead (/work/briefs/mathrefs.py rewrites them)."""
+    """Users never receive MATH.md: code, notebooks, README and the site
+    point to the theory page instead."""
     left = {name for name, text in _sources().items()
-            if not name.startswith("docs/")
-            and re.search(r"MATH\s*(#\s*)?§|MATH\.md", text)}
+            if re.search(r"MATH\s*(#\s*)?§|MATH\.md", text)}
     assert not left, sorted(left)
+
+
+def test_the_product_speaks_of_itself_not_of_how_it_was_made():
+    """No tracker or work-session numbers in what users read or run."""
+    pattern = re.compile(r"\b(issue|session)s?\s*#?\d", re.IGNORECASE)
+    left = {name: pattern.search(text).group(0)
+            for name, text in _sources().items() if pattern.search(text)}
+    assert not left, left
