@@ -12,10 +12,16 @@ from ._checks import choice, real_array
 
 __all__ = ["PeriodicGain"]
 
+#: The controller kinds a gain can belong to; the network strategies
+#: (``strategies.STRATEGIES``) are built for every pair of a kind here and
+#: an actuator strategy below.
+CONTROLLERS = ("static", "predictor", "estimator", "lti")
+#: What an actuator applies when its message is lost or not scheduled.
+ACTUATORS = ("zero", "hold")
 
 
 def controllers() -> tuple[str, ...]:
-    """Controller kinds, the keys of ``strategies.STRATEGIES``.
+    """Controller kinds, those of ``strategies.STRATEGIES``.
 
     Returns
     -------
@@ -27,13 +33,11 @@ def controllers() -> tuple[str, ...]:
     >>> 'static' in controllers()
     True
     """
-    # imported here: strategies imports this module
-    from .strategies import STRATEGIES
-    return tuple(dict.fromkeys(c for c, _ in STRATEGIES))
+    return CONTROLLERS
 
 
 def actuators() -> tuple[str, ...]:
-    """Actuator strategies, the keys of ``strategies.STRATEGIES``.
+    """Actuator strategies, those of ``strategies.STRATEGIES``.
 
     Returns
     -------
@@ -45,8 +49,8 @@ def actuators() -> tuple[str, ...]:
     >>> 'hold' in actuators()
     True
     """
-    from .strategies import STRATEGIES
-    return tuple(dict.fromkeys(a for _, a in STRATEGIES))
+    return ACTUATORS
+
 
 #: Above this many entries the repr gives the shape, not the numbers (a
 #: screenful; ``numpy.asarray(K)`` shows them all).
