@@ -300,6 +300,10 @@ CACHE_SIZE = 6
 #: than its C++ one (cvxpy itself switches at 1000).
 COO_FROM = 500
 
+#: cvxpy's COO canonicalisation backend, where the installed cvxpy has one
+#: (older releases compile with their default backend: slower, same answer).
+COO_BACKEND = getattr(cp.settings, "COO_CANON_BACKEND", None)
+
 
 class _Cache(threading.local):
     """Per-thread LRU cache: threads never share (or solve) one Problem."""
@@ -346,8 +350,9 @@ class _Template:
     def __init__(self, problem: cp.Problem, params: dict, **parts: Any):
         self.problem, self.params, self.parts = problem, params, parts
         self.owner = self.solved = None
-        if sum(param.size for param in params.values()) >= COO_FROM:
-            _cache.compile_options[problem] = dict(canon_backend="COO")
+        if COO_BACKEND is not None and sum(
+                param.size for param in params.values()) >= COO_FROM:
+            _cache.compile_options[problem] = dict(canon_backend=COO_BACKEND)
         _cache.templates[problem] = self
 
     def load(self, owner: Any, values: dict) -> None:
