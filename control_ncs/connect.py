@@ -293,7 +293,7 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
 def interconnect(syslist: Sequence[Any], connections: Any = None,
                  inplist: Any = None, outlist: Any = None,
                  **kwargs: Any) -> JumpStateSpace:
-    """Interconnect a jump system with deterministic LTI systems, by names.
+    """Interconnect a jump system with LTI systems, by signal names.
 
     Mirrors :func:`control.interconnect` (same arguments, same signal-name
     conventions, e.g. ``'CL.z[0]'`` or ``'z[0]'`` with

@@ -32,7 +32,7 @@ __all__ = ["EstimatorGain", "estimator_gain", "estimation_error_loop"]
 
 
 class EstimatorGain:
-    """Verified estimator gains ``L_k`` (:ref:`theory-output-feedback`).
+    """Verified estimator gains ``L_k`` of the estimator controller.
 
     Parameters
     ----------
@@ -78,6 +78,7 @@ class EstimatorGain:
 
     @property
     def period(self) -> int:
+        """The number of gains ``L_k`` (their period)."""
         return self.gains.shape[0]
 
     def __array__(self, dtype=None, copy=None):
@@ -109,8 +110,9 @@ def _gains(P: NetworkedStateSpace, L: Any) -> np.ndarray:
 
 
 def estimation_error_loop(P: NetworkedStateSpace, L: Any) -> JumpStateSpace:
-    """The estimation-error loop ``e⁺ = (I - R_{k+1})(A e + B1 w)``
-    (:ref:`theory-output-feedback`).
+    """The estimation-error loop ``e⁺ = (I - R_{k+1})(A e + B1 w)``.
+
+    (:ref:`theory-output-feedback`.)
 
     ``R_k = θ1,k L_k Σ1,k C2``: ``e = x - x̂`` after the correction. Its
     mean-square stability, with that of the ``x̂`` loop, is the loop's
@@ -216,8 +218,9 @@ def _undetected_modes(P: NetworkedStateSpace) -> list:
 
 def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
                    solver: str | None = None) -> EstimatorGain:
-    """Estimator gains ``L_k`` with a mean-square stable error loop
-    (:ref:`theory-output-feedback`).
+    """Estimator gains ``L_k`` with a mean-square stable error loop.
+
+    (:ref:`theory-output-feedback`.)
 
     Solves the exact LMI of :ref:`theory-output-feedback` (feasible if and only
     if the lossy, scheduled sensor link is mean-square detectable) and verifies

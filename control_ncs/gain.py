@@ -58,7 +58,7 @@ REPR_ENTRIES = 64
 
 
 class PeriodicGain:
-    """Per-phase gains ``K_k`` (or ``K_{k,ℓ}``) of a networked controller.
+    """Per-phase gains ``K_k`` (or ``K_{k,ℓ}``) of a controller.
 
     The gain is applied as is: ``u = K_k ŷ`` (positive feedback, no minus
     sign). :func:`control.dlqr` and :func:`control.lqr` return ``K`` for

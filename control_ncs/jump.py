@@ -52,7 +52,7 @@ def _phase_mode_array(value: Any, name: str, N: int, M: int, shape: tuple
 
 
 class JumpStateSpace(ct.StateSpace):
-    """Periodic jump linear system whose StateSpace face is its exact mean.
+    """Periodic jump linear system; its StateSpace face is its mean.
 
     ``ξ[t+1] = A[k,i] ξ[t] + B[k,i] w[t]``, ``z[t] = C[k,i] ξ[t] + D[k,i] w[t]``
     with ``k = t mod N`` and mode ``i`` drawn independently at every step
@@ -272,7 +272,7 @@ class JumpStateSpace(ct.StateSpace):
                                        self.modes.C, self.modes.D))
 
     def mean_phase(self, k: int) -> tuple[np.ndarray, ...]:
-        """Mean matrices ``(Σ p A, Σ p B, Σ p C, Σ p D)`` at phase ``k mod N``.
+        """Mean matrices ``(Σ p A, …, Σ p D)`` at phase ``k mod N``.
 
         For Markov modes ``p`` are the stationary marginals: the average
         matrices of the phase, not the mean dynamics (the face is).
@@ -296,7 +296,7 @@ class JumpStateSpace(ct.StateSpace):
         return tuple(M[k % self.period] for M in self.modes.mean())
 
     def deterministic(self) -> tuple[np.ndarray, ...] | None:
-        """Per-phase ``(A, B, C, D)`` if the system is deterministic, else None.
+        """Per-phase ``(A, B, C, D)`` of a deterministic system, or None.
 
         The system is deterministic when, at every phase, all modes of
         positive probability have identical matrices (whether or not they
@@ -348,7 +348,7 @@ class JumpStateSpace(ct.StateSpace):
                              name=f"{self.name}$mean")
 
     def nominal(self) -> ct.StateSpace:
-        """The loss-free system (every message arrives), lifted if ``N > 1``.
+        """The loss-free system (every message arrives), lifted.
 
         Returns
         -------
@@ -373,7 +373,7 @@ class JumpStateSpace(ct.StateSpace):
                              name=f"{self.name}$nominal")
 
     def merged(self) -> "JumpStateSpace":
-        """The same system with coinciding modes merged (probabilities added).
+        """The system with coinciding modes merged (probabilities added).
 
         Returns
         -------
@@ -402,7 +402,7 @@ class JumpStateSpace(ct.StateSpace):
                               info=self.info)
 
     def phase(self, k: int) -> ct.StateSpace:
-        """The mean system of phase ``k`` at the base rate, as a plain StateSpace.
+        """The mean system of phase ``k`` at the base rate (a StateSpace).
 
         For frequency plots of one phase when ``N > 1``: the lifted face
         (``N·dt``, stacked signals) is exact but its Bode plot has
@@ -698,7 +698,7 @@ class JumpStateSpace(ct.StateSpace):
                               name=first.name)
 
     def append(self, other: Any) -> "JumpStateSpace":
-        """Append a deterministic LTI system, mode by mode (python-control's).
+        """Append a deterministic LTI system, mode by mode.
 
         Parameters
         ----------

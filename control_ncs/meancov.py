@@ -185,7 +185,7 @@ class MomentsResponse:
                 f"time points>")
 
     def summary(self) -> str:
-        """A few lines for humans: the exact moments at the last time point.
+        """A few lines for humans: the exact moments at the last time.
 
         Returns
         -------
@@ -252,7 +252,7 @@ class MomentsResponse:
 def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = None,
             *, noise_covariance: Any = None, initial_covariance: Any = None,
             **kwargs: Any) -> MomentsResponse:
-    """Exact mean and covariance of the state and output of a jump system.
+    """Exact mean and covariance of a jump system's state and output.
 
     Propagates ``m⁺ = Σ p (A m + B w)`` and
     ``Q⁺ = Σ p [A Q Aᵀ + A m wᵀBᵀ + B w mᵀAᵀ + B (w wᵀ + W) Bᵀ]``

@@ -131,7 +131,7 @@ class Schedule:
         return np.flatnonzero(self.pattern[k % self.period])
 
     def repeat(self, period: int) -> "Schedule":
-        """The same schedule written over ``period`` phases (a multiple of N).
+        """The schedule written over ``period`` phases (a multiple of N).
 
         Parameters
         ----------
@@ -325,7 +325,7 @@ def loss_probability(value: Any, name: str) -> float:
 
 
 def mode_probabilities(sensor_loss: float, actuator_loss: float) -> dict:
-    """Probabilities of the four network modes (the paper's equation 14).
+    """Probabilities of the four network modes (paper eq. 14).
 
     Parameters
     ----------
@@ -358,8 +358,9 @@ def mode_probabilities(sensor_loss: float, actuator_loss: float) -> dict:
 
 
 class GilbertElliott:
-    """A link that loses packets in bursts: a two-state Markov chain
-    (:ref:`theory-markov`).
+    """A link that loses packets in bursts: a two-state Markov chain.
+
+    (:ref:`theory-markov`.)
 
     ``θ = 0`` (lost) or ``1`` (delivered); ``P(θ⁺ = 0 | θ = 1) = fail``,
     ``P(θ⁺ = 1 | θ = 0) = recover``. Build one with :func:`gilbert_elliott`.
@@ -412,8 +413,9 @@ class GilbertElliott:
 
     @property
     def is_bernoulli(self) -> bool:
-        """True when ``f + r = 1`` (to rounding): equal rows, i.i.d. losses
-        with probability ``f``."""
+        """True when ``f + r = 1`` (to rounding): i.i.d. losses.
+
+        Equal rows: losses with probability ``f``, independent."""
         return bool(abs(self.fail + self.recover - 1.0)
                     <= 4 * np.finfo(float).eps)
 
@@ -445,7 +447,7 @@ def _rate(value: Any, name: str) -> float:
 def gilbert_elliott(fail: float | None = None, recover: float | None = None,
                     *, loss: float | None = None, burst: float | None = None
                     ) -> GilbertElliott:
-    """A bursty link (Gilbert–Elliott channel), by rates or by loss and burst.
+    """A bursty (Gilbert–Elliott) link, by rates or loss and burst.
 
     Give either ``fail`` and ``recover``, or ``loss`` and ``burst``.
 
@@ -540,7 +542,7 @@ _TOL = 1e-9
 
 
 def mode_transition(sensor_link: Any, actuator_link: Any) -> np.ndarray:
-    """Transition matrix of the four network modes (:ref:`theory-markov`).
+    """Transition matrix of the four network modes.
 
     The links are independent chains, so
     ``T[(a1, a2), (b1, b2)] = T1[a1, b1] · T2[a2, b2]``, modes in the order

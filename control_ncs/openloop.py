@@ -20,8 +20,9 @@ __all__ = ["JumpPlant"]
 
 
 class JumpPlant:
-    """A periodic jump system before its gain is chosen
-    (:ref:`theory-jump-system`).
+    """A periodic jump system before its gain is chosen.
+
+    (:ref:`theory-jump-system`.)
 
     ``ξ⁺ = (A + Bu K_k E_k) ξ + Bw w``, ``z = (Cz + Du K_k E_k) ξ + Dw w``, all
     matrices per phase ``k`` and mode ``i``. ``E_k`` says what the controller
@@ -113,8 +114,10 @@ class JumpPlant:
 
     @property
     def is_iid(self) -> bool:
-        """True for i.i.d. modes; synthesis from ``probabilities`` alone
-        (:ref:`theory-synthesis`) is valid only then."""
+        """True for i.i.d. modes.
+
+        Synthesis from ``probabilities`` alone (:ref:`theory-synthesis`) is
+        valid only then."""
         return self.transition is None
 
     @property
@@ -136,7 +139,7 @@ class JumpPlant:
         return (self.period, s["nu"], s["nk"])
 
     def close(self, gains: np.ndarray, **info: Any) -> JumpStateSpace:
-        """The closed loop with ``v = K_k E_k ξ`` as a :class:`JumpStateSpace`.
+        """The closed loop with ``v = K_k E_k ξ`` (a JumpStateSpace).
 
         The gain acts in positive feedback, as it is (``u = K x`` for
         ``E = I``); negate a gain designed for ``u = -K x``, such as
@@ -261,8 +264,9 @@ class JumpPlant:
                                         **info))
 
     def merged(self) -> "JumpPlant":
-        """The same plant with coinciding modes merged
-        (:ref:`theory-synthesis`, merged form).
+        """The same plant with coinciding modes merged.
+
+        (:ref:`theory-synthesis`, merged form.)
 
         Returns
         -------
@@ -307,7 +311,7 @@ class JumpPlant:
         return np.flatnonzero(np.any(self.E[k % self.period] != 0, axis=0))
 
     def active_inputs(self, k: int) -> np.ndarray:
-        """Control inputs that can act at phase ``k`` (others are never applied).
+        """Control inputs that can act at phase ``k``.
 
         Parameters
         ----------

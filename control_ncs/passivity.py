@@ -155,7 +155,7 @@ class PassivityResult:
 
     @property
     def status(self) -> str:
-        """``reason``: ``'certified'`` or why not (:mod:`control_ncs.exceptions`)."""
+        """``reason``: ``'certified'`` or why not."""
         return self.reason
 
     @property
@@ -237,7 +237,7 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
                           method: str = "auto", solver: str | None = None,
                           margin: float = DEFAULT_MARGIN,
                           **solver_options: Any) -> PassivityResult:
-    """Search for and exactly verify a stochastic passivity certificate.
+    """Find and exactly verify a stochastic passivity certificate.
 
     Finds ``P_k`` with ``Θ_k(P; ρ, η) ≺ 0`` (:ref:`theory-passivity`, supply
     rate ``2wᵀz - 2ρ zᵀz - 2η wᵀw``, see
@@ -535,7 +535,7 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
 
 def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
               **kwargs: Any) -> bool:
-    """True if ``sys`` is certified strictly passive with these indices.
+    """True if ``sys`` is certified strictly passive at these indices.
 
     Same signature as :func:`control.ispassive`. Stochastic strict
     passivity (:ref:`theory-passivity`): mean-square stability and an ``ε > 0``
@@ -624,7 +624,7 @@ def _index(sys: Any, result: PassivityResult, name: str) -> None:
 
 
 def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
-    """Largest certified input-feedforward passivity index (stochastic).
+    """Largest certified input-feedforward passivity index.
 
     The supremum of ``η`` for which a certificate ``P_k`` with ``Θ_k ≺ 0``
     exists (:ref:`theory-passivity`). The value returned is certified exactly:
@@ -736,7 +736,7 @@ def get_output_fb_index(sys: Any, **kwargs: Any) -> float:
 
 
 def mean_input_ff_index(sys: Any, **kwargs: Any) -> float:
-    """Input-feedforward index of the *mean* system (deterministic inputs).
+    """Input-feedforward index of the *mean* system.
 
     The StateSpace face of a :class:`~control_ncs.JumpStateSpace` (its exact
     mean, lifted over the period if ``N > 1``) is an ordinary LTI system;

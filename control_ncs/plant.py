@@ -20,7 +20,7 @@ __all__ = ["NetworkedStateSpace", "nss"]
 
 
 class NetworkedStateSpace(ct.StateSpace):
-    """A generalized plant whose sensors and actuators talk over a network.
+    """A generalized plant whose signals travel over a network.
 
     The StateSpace matrices are the plant of paper eq. 1 in the layout of
     :func:`control.hinfsyn`::
@@ -252,8 +252,10 @@ class NetworkedStateSpace(ct.StateSpace):
                    for x in (self.sensor_link, self.actuator_link))
 
     def mode_transition(self) -> np.ndarray | None:
-        """Transition matrix of the four network modes (eq. 14 order), or
-        None when both links are i.i.d. (:ref:`theory-markov`).
+        """Transition matrix of the four network modes, or None.
+
+        Modes in eq. 14 order; None when both links are i.i.d.
+        (:ref:`theory-markov`).
 
         Returns
         -------
@@ -275,7 +277,7 @@ class NetworkedStateSpace(ct.StateSpace):
         return mode_transition(self.sensor_link, self.actuator_link)
 
     def with_network(self, **changes: Any) -> "NetworkedStateSpace":
-        """A copy with some network settings changed (``sensor_loss=0.1``, …).
+        """A copy with some network settings changed.
 
         Parameters
         ----------

@@ -31,7 +31,7 @@ def _check_axes(ax: Any) -> None:
 def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
                   *, band: bool = True, legend: bool = True,
                   title: str | None = None) -> ct.ControlPlot:
-    """Draw an ensemble response: band, sample paths, sample and exact mean.
+    """Draw an ensemble response: band, paths, sample and exact mean.
 
     One axes per output, each with ``paths`` thin sample paths, the band
     between the lowest and highest quantile (``fill_between``), the sample

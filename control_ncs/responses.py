@@ -93,7 +93,7 @@ class SamplePaths(ct.TimeResponseData):
                 f"{self.t.size} time points>")
 
     def summary(self) -> str:
-        """A few lines for humans: sizes and the sample statistics at the end.
+        """A few lines for humans: sizes and the final sample statistics.
 
         Returns
         -------
@@ -351,7 +351,7 @@ class EnsembleResponse:
         return "\n".join(lines)
 
     def to_response(self) -> ct.TimeResponseData:
-        """The statistics as a multi-trace :class:`control.TimeResponseData`.
+        """The statistics as a multi-trace TimeResponseData.
 
         Traces: exact mean, sample mean, then one per quantile; the inputs
         of every trace are the deterministic ``w``.
@@ -854,7 +854,7 @@ def initial_response(sys: Any, timepts: Any = None, initial_state: Any = None,
                      initial_covariance: Any = None,
                      keep_paths: int | None = 100, chunk: int | None = None,
                      progress: bool = False, **kwargs: Any) -> EnsembleResponse:
-    """Ensemble response of a jump system to an initial state (``w = 0``).
+    """Ensemble response to an initial state (``w = 0``).
 
     Parameters
     ----------

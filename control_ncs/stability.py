@@ -38,7 +38,7 @@ DENSE_MAX_STATES = 24
 
 
 def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
-    """The second-moment map as a :class:`scipy.sparse.linalg.LinearOperator`.
+    """The second-moment map as a scipy LinearOperator.
 
     Parameters
     ----------
@@ -164,7 +164,7 @@ def _deterministic_monodromy(sys: JumpStateSpace) -> np.ndarray | None:
 
 def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
               **kwargs: Any) -> float:
-    """Per-step mean-square spectral radius ``ρ(𝒯)^(1/N)`` (:ref:`theory-mss`).
+    """Per-step mean-square spectral radius ``ρ(𝒯)^(1/N)``.
 
     ``E‖ξ_t‖²`` of the unforced system decays (or grows) like this number to
     the power ``t``; the system is mean-square stable exactly when it is
@@ -279,7 +279,7 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
 
 
 def is_mss(sys: Any, **kwargs: Any) -> bool:
-    """True when ``sys`` is mean-square stable (``ms_radius(sys) < 1``).
+    """True when ``sys`` is mean-square stable (``ms_radius < 1``).
 
     Parameters
     ----------

@@ -36,7 +36,7 @@ def build(P: NetworkedStateSpace, controller: str = "static",
           actuator: str = "zero", *, period: int | None = None,
           sensor: str = "zero", controller_order: int = 0,
           estimator_gain: Any = None) -> JumpPlant:
-    """The networked loop of ``P`` as a :class:`JumpPlant`, before the gain.
+    """The networked loop of ``P`` before the gain (a JumpPlant).
 
     The gain the plant is closed with (:meth:`JumpPlant.close`,
     :func:`control_ncs.passivesyn`) acts in positive feedback, as it is:
@@ -228,7 +228,7 @@ def _options(P: NetworkedStateSpace, controller: str, sensor: Any,
 
 
 def require_state_measured(P: NetworkedStateSpace, controller: str) -> None:
-    """Refuse a state-feedback design for a plant that does not measure x.
+    """Refuse state feedback for a plant that does not measure x.
 
     Parameters
     ----------
@@ -550,7 +550,7 @@ def loop_closes(P: NetworkedStateSpace) -> bool:
 def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
              actuator: str | None = None, sensor: str | None = None,
              estimator_gain: Any = None, **kwargs: Any) -> JumpStateSpace:
-    """Close the networked loop of ``P`` with a gain or an LTI controller.
+    """Close the loop of ``P`` with a gain or an LTI controller.
 
     Sign convention ``u = K y``: the gain or controller is applied as it
     is, in positive feedback. The controller sends ``v_k = K_k ŷ_k``

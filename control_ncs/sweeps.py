@@ -319,6 +319,7 @@ class DesignMap:
 
     @property
     def shape(self) -> tuple:
+        """The map's shape: (points of the first axis, of the second)."""
         return self.eta.shape
 
     def __repr__(self) -> str:
@@ -346,7 +347,7 @@ class DesignMap:
         return "\n".join(lines)
 
     def to_pandas(self) -> Any:
-        """One row per cell: the two axes, eta, ms_radius, feasible, reason.
+        """One row per cell: the axes, eta, ms_radius, feasible, reason.
 
         Raises
         ------
@@ -363,7 +364,7 @@ class DesignMap:
 
     def plot(self, quantity: str = "eta", *, ax: Any = None,
              title: str | None = None) -> ct.ControlPlot:
-        """Heat map of ``eta`` or ``ms_radius`` with the feasibility boundary.
+        """Heat map of ``eta`` or ``ms_radius`` with its boundary.
 
         Parameters
         ----------
@@ -994,7 +995,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
                     top: int = 10, limit: int | None = 5000,
                     progress: bool = True, method: str = "lmi"
                     ) -> ScheduleSearch:
-    """Rank every sensor/actuator schedule of one period by verified design.
+    """Rank every schedule of one period by verified design.
 
     Enumerates the index schedules ``s1 ∈ {0..p2}^N``, ``s2 ∈ {0..m2}^N``
     (one sensor and one actuator message per phase, :ref:`theory-network`) up

@@ -192,6 +192,7 @@ class SynthesisResult:
 
     @property
     def ms_radius(self) -> float:
+        """The closed loop's exact ``ms_radius`` (from the certificate)."""
         return self.certificate.ms_radius
 
     @property
@@ -361,7 +362,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                estimator_gain: Any = None, method: str = "auto",
                **solver_options: Any
                ) -> tuple[PeriodicGain, JumpStateSpace, float]:
-    """Periodic state feedback making a networked loop strictly passive.
+    """Periodic feedback making a networked loop strictly passive.
 
     The gain is applied as is, ``u = K_k x`` (positive feedback: no minus
     sign, unlike :func:`control.dlqr` / :func:`control.lqr`, whose ``K``

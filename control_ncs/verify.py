@@ -56,8 +56,9 @@ def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
                        P: np.ndarray, P_next: np.ndarray, eta: float, *,
                        ofp_index: float = 0.0, decay: float = 1.0
                        ) -> np.ndarray:
-    """``Θ_k`` of one phase from raw per-mode arrays (:ref:`theory-passivity`,
-    :ref:`theory-jump-system`).
+    """``Θ_k`` of one phase from raw per-mode arrays.
+
+    (:ref:`theory-passivity`, :ref:`theory-jump-system`.)
 
     The dissipation inequality ``E V(ξ⁺) - r² V(ξ) < E s(w, z)`` for
     ``V(ξ) = ξᵀPξ`` and the supply rate ``s = 2wᵀz - 2ρ zᵀz - 2η wᵀw``
@@ -158,8 +159,9 @@ def ifp_supremum(theta0: np.ndarray, n: int) -> float:
 
 def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
                       ofp_index: float = 0.0) -> tuple[float, int]:
-    """The necessary feedthrough condition of :ref:`theory-passivity`, as a
-    bound on ``η``.
+    """The necessary feedthrough condition, as a bound on ``η``.
+
+    (:ref:`theory-passivity`.)
 
     ``Θ_k ≺ 0`` needs its ``(2,2)`` block negative, hence
     ``D̄_k + D̄_kᵀ - 2ρ Σ_i p_i D_iᵀD_i ≻ 2ηI`` at every phase (``ρ = 0``:
@@ -257,7 +259,7 @@ def square_system(sys: Any, name: str = "sys") -> JumpStateSpace:
 
 
 def supply_rows(modes: Modes) -> np.ndarray:
-    """The mode law each dissipation inequality averages over, per phase.
+    """The mode law each dissipation inequality averages, per phase.
 
     A storage ``V = ξᵀ P ξ`` may depend on what is known before the mode
     is drawn. For i.i.d. modes that is nothing new: one inequality per
@@ -301,7 +303,7 @@ def supply_rows(modes: Modes) -> np.ndarray:
 
 def supply_feedthrough_bound(sys: JumpStateSpace, ofp_index: float = 0.0
                              ) -> float:
-    """:func:`feedthrough_bound` of a jump system, over its supply rows.
+    """The feedthrough bound of a jump system, over its supply rows.
 
     Markov modes average the feedthrough with each row ``T_{k-1}[ℓ, ·]``
     (:ref:`theory-markov`: ``H̄ = Σ t_i H_{k,i}``), i.i.d. modes with ``p_k``.
@@ -403,8 +405,9 @@ def _sup(sys: JumpStateSpace, P: np.ndarray, rho: float, decay: float
 def dissipation_matrices(sys: Any, P: Any, eta: float, *,
                          decay: float = 1.0, ofp_index: float = 0.0
                          ) -> list[np.ndarray]:
-    """The matrices ``Θ_k`` of :ref:`theory-passivity` for a closed-loop jump
-    system.
+    """The matrices ``Θ_k`` of a closed-loop jump system.
+
+    (:ref:`theory-passivity`.)
 
     ``Θ_k = Σ_i p_i [A_i B_i]ᵀ P_{k+1} [A_i B_i]
     + [[-r² P_k, -C̄ᵀ], [-C̄, 2ηI - D̄ - D̄ᵀ]]
@@ -577,7 +580,7 @@ class Certificate:
 
     @property
     def status(self) -> str:
-        """``'certified'`` or ``'not_verified'`` (:mod:`control_ncs.exceptions`)."""
+        """``'certified'`` or ``'not_verified'``."""
         return CERTIFIED if self.verified else NOT_VERIFIED
 
     @property
@@ -727,7 +730,7 @@ def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0,
 
 def certify_index(sys: Any, P: Any, *, decay: float = 1.0,
                   ofp_index: float = 0.0) -> Certificate:
-    """Certificate of the largest ``η`` that ``P`` proves, checked exactly.
+    """Certificate of the largest ``η`` that ``P`` proves, exactly.
 
     Takes the supremum from :func:`certified_index` and steps just below it
     by the back-offs ``INDEX_BACKOFFS`` (``1e-6``, then ``1e-5``, ``1e-4``
@@ -785,7 +788,7 @@ def _certify(sys: JumpStateSpace, P: np.ndarray, rho: float, decay: float
 
 def certify_ofp_index(sys: Any, P: Any, rho: float, *, eta: float = 0.0,
                       decay: float = 1.0) -> Certificate:
-    """Certificate of the largest ``ρ`` (output feedback) that ``P`` proves.
+    """Certificate of the largest output-feedback ``ρ`` ``P`` proves.
 
     ``Θ_k(ρ) = Θ_k(ρ0) + 2(ρ - ρ0) W_k`` with
     ``W_k = Σ_i p_i [C_i D_i]ᵀ[C_i D_i] ≽ 0``. From a level ``ρ0`` at which
