@@ -27,6 +27,7 @@ from control.exception import ControlArgument
 
 from .exceptions import TIME_LIMIT
 from .jump import JumpStateSpace
+from .modes import mode_classes
 from .openloop import JumpPlant
 from .verify import supply_rows
 
@@ -627,26 +628,6 @@ def _selector(idx: np.ndarray, size: int) -> np.ndarray:
 #: Kinds of gain the synthesis LMI designs: ``K_{k,ℓ}`` (exact with
 #: ``structure='full'``) or ``K_k`` (sufficient on Markov modes).
 GAINS = ("mode", "phase")
-
-
-def mode_classes(T_prev: np.ndarray) -> tuple[np.ndarray, list]:
-    """Previous modes ``ℓ`` grouped by equal rows ``T_{k-1}[ℓ]``.
-
-    Their blocks ``Θ_{k,ℓ}`` coincide (:ref:`theory-markov`), so they share the
-    variables ``X_{k,ℓ}``, ``Y_{k,ℓ}``. Returns the class of each ``ℓ`` and
-    a representative mode per class.
-    """
-    labels = np.empty(T_prev.shape[0], int)
-    reps: list = []
-    for ell, row in enumerate(T_prev):
-        for c, r in enumerate(reps):
-            if np.array_equal(row, T_prev[r]):
-                labels[ell] = c
-                break
-        else:
-            labels[ell] = len(reps)
-            reps.append(ell)
-    return labels, reps
 
 
 def gain_kinds(plant: JumpPlant, gain: str) -> tuple[str, ...]:

@@ -351,3 +351,23 @@ def transition_matrix(value: Any, name: str) -> np.ndarray:
         raise ValueError(f"{name}: each row of a transition matrix must sum "
                          f"to 1, got row sums {np.round(sums, 12).tolist()}")
     return np.clip(T, 0.0, 1.0)
+
+
+def mode_classes(T_prev: np.ndarray) -> tuple[np.ndarray, list]:
+    """Previous modes ``ℓ`` grouped by equal rows ``T_{k-1}[ℓ]``.
+
+    Their blocks ``Θ_{k,ℓ}`` coincide (:ref:`theory-markov`), so they share the
+    variables ``X_{k,ℓ}``, ``Y_{k,ℓ}``. Returns the class of each ``ℓ`` and
+    a representative mode per class.
+    """
+    labels = np.empty(T_prev.shape[0], int)
+    reps: list = []
+    for ell, row in enumerate(T_prev):
+        for c, r in enumerate(reps):
+            if np.array_equal(row, T_prev[r]):
+                labels[ell] = c
+                break
+        else:
+            labels[ell] = len(reps)
+            reps.append(ell)
+    return labels, reps

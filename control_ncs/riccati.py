@@ -80,7 +80,7 @@ With a Markov chain of modes (:ref:`theory-markov`) the certificate is
 the quadratic form above takes the row ``t = T_{k-1}[ℓ]`` in place of ``p`` and
 ``P_{k+1,i}`` per next mode ``i`` in place of ``P⁺``
 (``Σ t_i F_iᵀ P_{k+1,i} F_i``). Previous modes with equal rows share one
-equation (``lmi.mode_classes``); i.i.d. modes have one per phase, the
+equation (``modes.mode_classes``); i.i.d. modes have one per phase, the
 iteration above. Monotonicity, the divergence proof and the convergence
 test carry over unchanged, one equation at a time.
 
@@ -110,8 +110,9 @@ from ._checks import decay_bound, positive_int, positive_real
 from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE, NOT_MSS,
                          SOLVER_FAILED, SynthesisError)
 from .jump import JumpStateSpace
-from .openloop import JumpPlant
 from .kyp import KYP_POINTS, FrequencyResponse
+from .modes import mode_classes
+from .openloop import JumpPlant
 from .verify import (certify_index, check_certificate, dissipation_blocks,
                      feedthrough_bound, ifp_supremum)
 
@@ -491,7 +492,6 @@ def _phases(plant: JumpPlant) -> tuple[list, list]:
                         plant.Bw[k], plant.Cz[k], plant.Du[k], plant.Dw[k],
                         plant.active_inputs(k), (Czb[k], Dub[k], Dwb[k]))]
                 for k in range(N)], []
-    from .lmi import mode_classes   # the LMI's classes, one definition
     T = plant.transitions()
     classes = [mode_classes(T[k - 1]) for k in range(N)]
     data = []
