@@ -147,7 +147,9 @@ def test_decay_and_margin_are_data_not_shape():
     assert lmi.cache_info()["misses"] == 1
     for setting, value in zip(settings, reused):
         assert close(value, fresh(solve, *setting))
-    assert reused[1] < reused[0]  # a decay bound costs η
+    # a decay bound shrinks the feasible set: η never grows (to the
+    # solver's accuracy; the bound need not be active on this plant)
+    assert reused[1] <= reused[0] + REL * max(1.0, abs(reused[0]))
 
 
 # -- the cache -----------------------------------------------------------------
