@@ -371,3 +371,58 @@ def mode_classes(T_prev: np.ndarray) -> tuple[np.ndarray, list]:
             labels[ell] = len(reps)
             reps.append(ell)
     return labels, reps
+
+
+def age_chain(pmf: np.ndarray, buffer: int, sent: np.ndarray | None = None
+              ) -> np.ndarray:
+    """The age of the freshest packet held, as a periodic Markov chain.
+
+    Every packet carries its send time; its delay ``δ`` has pmf
+    ``pmf[c] = P(δ = c)``, ``c = 0..d``, i.i.d. per packet, and
+    ``1 - Σ pmf`` is the loss. The receiver uses the newest packet it holds.
+    With the hazard ``h(c) = pmf[c] / P(δ ≥ c)`` (0 for ``c > d``, and 0 for
+    a packet that was never sent), the packets that can replace the one of
+    age ``a`` at the next step are those of ages ``0..a`` then, none of
+    which has arrived yet (:ref:`theory-delays`)::
+
+        P(a⁺ = b | a) = h(b) Π_{c<b} (1 - h(c))     b ≤ a
+        P(a⁺ = a + 1 | a) = Π_{c≤a} (1 - h(c))
+
+    Ages above ``buffer`` are one "stale" state (nothing usable).
+
+    Parameters
+    ----------
+    pmf : ndarray, shape (d + 1,)
+        The delay pmf, checked by the caller (non-negative, sum ≤ 1).
+    buffer : int
+        The largest age kept, ``≥ d``.
+    sent : ndarray of bool, shape (N,), optional
+        Whether a packet is sent at each phase of a schedule (default: at
+        every step, ``N = 1``).
+
+    Returns
+    -------
+    ndarray, shape (N, buffer + 2, buffer + 2)
+        ``T[k][a, b] = P(a_{k+1} = b | a_k = a)``; states ``0..buffer``,
+        then stale.
+    """
+    pmf = np.asarray(pmf, float)
+    sent = np.ones(1, bool) if sent is None else np.asarray(sent, bool)
+    N, D = sent.size, int(buffer)
+    tail = 1.0 - np.concatenate(([0.0], np.cumsum(pmf)))[:pmf.size]
+    hazard = np.zeros(D + 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = np.where(tail > 0, pmf / np.where(tail > 0, tail, 1.0), 0.0)
+    hazard[:min(h.size, D + 1)] = np.clip(h[:D + 1], 0.0, 1.0)
+    T = np.zeros((N, D + 2, D + 2))
+    for k in range(N):
+        # the packet of age c at step k + 1 was sent at phase k + 1 - c
+        hk = np.array([hazard[c] if sent[(k + 1 - c) % N] else 0.0
+                       for c in range(D + 1)])
+        waiting = np.concatenate(([1.0], np.cumprod(1.0 - hk)))
+        arrive = hk * waiting[:-1]            # b is the freshest arrival
+        for a in range(D + 2):
+            top = min(a, D)                   # candidates: ages 0..a (≤ D)
+            T[k, a, :top + 1] = arrive[:top + 1]
+            T[k, a, min(a + 1, D + 1)] += waiting[top + 1]
+    return T

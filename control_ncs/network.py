@@ -19,10 +19,11 @@ import numpy as np
 
 from ._checks import caller_stacklevel, real_or_nan
 from .exceptions import ScheduleWarning
-from .modes import transition_matrix
+from .modes import age_chain, transition_matrix
 
 __all__ = ["Schedule", "schedule", "mode_probabilities", "GilbertElliott",
-           "gilbert_elliott", "mode_transition"]
+           "gilbert_elliott", "mode_transition", "RandomDelay",
+           "random_delay"]
 
 
 class Schedule:
@@ -573,3 +574,160 @@ def _link_transition(link: float | GilbertElliott) -> np.ndarray:
     if isinstance(link, GilbertElliott):
         return link.transition
     return np.array([[link, 1.0 - link], [link, 1.0 - link]])
+
+
+class RandomDelay:
+    """A link that delays packets at random; the freshest packet wins.
+
+    Every packet carries its send time and is delayed by ``δ`` steps with
+    probability ``pmf[δ]``, independently of the others; ``1 - Σ pmf`` is
+    the probability that it never arrives. The receiver uses the newest
+    packet it holds, so the age of what it uses is a Markov chain over the
+    ages ``0..buffer`` and one "stale" state (:ref:`theory-delays`). Build
+    one with :func:`random_delay`.
+
+    Attributes
+    ----------
+    pmf : ndarray, shape (d + 1,)
+        ``P(δ = c)``, ``c = 0..d`` (``pmf[-1] > 0``).
+    loss : float
+        ``1 - Σ pmf``: the packet never arrives.
+    max_delay : int
+        ``d``, the largest delay of positive probability.
+    buffer : int
+        ``D ≥ d``: the oldest age still usable; older is stale.
+    transition : ndarray, shape (D + 2, D + 2)
+        ``T[a, b] = P(a⁺ = b | a)`` when a packet is sent at every step;
+        states ``0..D``, then stale.
+    states : list of str
+        ``'age 0'``, ..., ``'age D'``, ``'stale'``.
+
+    Examples
+    --------
+    >>> link = ncs.random_delay([0.5, 0.3, 0.1], buffer=3)
+    >>> round(link.loss, 12), link.max_delay, link.buffer
+    (0.1, 2, 3)
+    >>> link.transition.round(12).tolist()[1]
+    [0.5, 0.3, 0.2, 0.0, 0.0]
+    """
+
+    def __init__(self, pmf: Any, buffer: int | None = None):
+        q = np.asarray(pmf)
+        if q.dtype == object or np.iscomplexobj(q) or q.ndim != 1 \
+                or q.size == 0:
+            raise ValueError(f"pmf: expected a 1-D array of delay "
+                             f"probabilities P(δ = 0), P(δ = 1), ..., got "
+                             f"{pmf!r}")
+        try:
+            q = q.astype(float)
+        except (TypeError, ValueError):
+            raise ValueError(f"pmf: expected real probabilities, got "
+                             f"{pmf!r}") from None
+        if not np.all(np.isfinite(q)) or np.any(q < 0) \
+                or q.sum() > 1.0 + _TOL:
+            raise ValueError(f"pmf: expected non-negative probabilities "
+                             f"summing to at most 1 (the rest is the loss), "
+                             f"got {q.tolist()}")
+        if not np.any(q > 0):
+            raise ValueError("pmf: no packet ever arrives (all zeros); a "
+                             "link that never delivers closes no loop")
+        d = int(np.flatnonzero(q)[-1])
+        self.pmf = q[:d + 1] / max(1.0, q.sum())
+        self.max_delay = d
+        if buffer is None:
+            buffer = d
+        if isinstance(buffer, (bool, np.bool_)) or not isinstance(
+                buffer, (int, np.integer)) or buffer < d:
+            raise ValueError(f"buffer: expected an int >= the largest delay "
+                             f"{d}, got {buffer!r}")
+        self.buffer = int(buffer)
+
+    @property
+    def loss(self) -> float:
+        """``1 - Σ pmf``: the probability that a packet never arrives."""
+        return float(max(0.0, 1.0 - self.pmf.sum()))
+
+    @property
+    def transition(self) -> np.ndarray:
+        """The age chain when a packet is sent at every step."""
+        return age_chain(self.pmf, self.buffer)[0]
+
+    def age_transition(self, sent: Any) -> np.ndarray:
+        """The age chain under a schedule: one matrix per phase.
+
+        Parameters
+        ----------
+        sent : array_like of bool, shape (N,)
+            Whether the link's node sends at each phase.
+
+        Returns
+        -------
+        ndarray, shape (N, D + 2, D + 2)
+            ``T[k][a, b] = P(a_{k+1} = b | a_k = a)``.
+        """
+        s = np.asarray(sent, bool).ravel()
+        if s.size == 0:
+            raise ValueError("sent: expected one flag per phase, got none")
+        return age_chain(self.pmf, self.buffer, s)
+
+    @property
+    def states(self) -> list[str]:
+        """State names: ``'age 0'``, ..., ``'age D'``, ``'stale'``."""
+        return [f"age {a}" for a in range(self.buffer + 1)] + ["stale"]
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, RandomDelay) and self.buffer == other.buffer
+                and np.array_equal(self.pmf, other.pmf))
+
+    def __hash__(self) -> int:
+        return hash((self.pmf.tobytes(), self.buffer))
+
+    def __repr__(self) -> str:
+        q = ", ".join(f"{x:.4g}" for x in self.pmf)
+        return (f"RandomDelay(pmf=[{q}], buffer={self.buffer}; "
+                f"loss={self.loss:.4g})")
+
+    def __reduce__(self) -> tuple:
+        return (RandomDelay, (self.pmf, self.buffer))
+
+
+def random_delay(pmf: Any, buffer: int | None = None) -> RandomDelay:
+    """A link with random integer delays; the freshest packet wins.
+
+    Parameters
+    ----------
+    pmf : array_like, shape (d + 1,)
+        ``pmf[c] = P(δ = c)``: a packet sent at step ``t`` arrives at
+        ``t + c``. Non-negative; ``1 - Σ pmf`` is the loss probability.
+    buffer : int, optional
+        The oldest age the receiver still uses (default: the largest delay
+        ``d``); an older packet is stale.
+
+    Returns
+    -------
+    RandomDelay
+
+    Raises
+    ------
+    ValueError
+        A pmf that is not a 1-D array of probabilities summing to at most 1,
+        that never delivers, or a ``buffer`` below the largest delay.
+
+    See Also
+    --------
+    gilbert_elliott : a link that loses packets in bursts.
+
+    Examples
+    --------
+    Half the packets arrive at once, 30 % a step late, 10 % two steps
+    late, 10 % never; from any age ``≥ 2`` nothing new arrives with
+    probability 0.1, the loss:
+
+    >>> link = ncs.random_delay([0.5, 0.3, 0.1])
+    >>> link.states
+    ['age 0', 'age 1', 'age 2', 'stale']
+    >>> link.transition.round(12)[2].tolist()
+    [0.5, 0.3, 0.1, 0.1]
+    """
+    return RandomDelay(pmf, buffer)
+
