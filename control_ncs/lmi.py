@@ -202,6 +202,13 @@ def _run(problem: cp.Problem, name: str, opts: dict) -> tuple[str, str]:
             warnings.filterwarnings("ignore",
                                     message="Solution may be inaccurate",
                                     category=UserWarning)
+            # a cvxpy without the COO backend (before 1.8, the newest on
+            # Python 3.10) compiles large parametrised LMIs more slowly and
+            # says so; the answer is the same, the advice is not the user's
+            warnings.filterwarnings(
+                "ignore", category=UserWarning,
+                message="Your problem has too many parameters for efficient "
+                        "DPP compilation")
             problem.solve(solver=name, **opts)
         return problem.status, ""
     except (KeyboardInterrupt, SystemExit):
