@@ -7,6 +7,7 @@ import warnings
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 import control as ct
 from control.exception import ControlArgument, ControlDimension
 
@@ -404,12 +405,15 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
     Parameters
     ----------
     *args : control.StateSpace, or array_like A, B, C, D and optional dt
-        Either one positional argument ``sys``, a discrete-time generalized
-        plant (a :class:`control.StateSpace`, or an LTI system converted
-        with :func:`control.ss`) with inputs ``[w; u]`` and outputs
-        ``[z; y]``, whose signal names and name are kept; or its matrices
+        Either one positional argument ``sys``, a generalized plant (a
+        :class:`control.StateSpace`, or an LTI system converted with
+        :func:`control.ss`) with inputs ``[w; u]`` and outputs ``[z; y]``,
+        whose signal names and name are kept; or its discrete-time matrices
         ``A, B, C, D`` and optionally the sampling period ``dt`` (True or a
         float > 0, default True).
+    dt : float, optional
+        With a continuous-time ``sys``: the sampling period ``h``; the plant
+        is sampled with a zero-order hold (:func:`control.sample_system`).
     **kwargs
         The keywords of :class:`NetworkedStateSpace`: ``nmeas`` and ``ncon``
         (required ints, the numbers of measurements ``y`` and controls
@@ -425,7 +429,7 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
     Raises
     ------
     ValueError
-        Continuous-time plant, matrices with complex, string, non-finite or
+        Continuous-time plant without ``dt``, matrices with complex, string, non-finite or
         overflowing (``> 1e150``) entries, bad schedule, a loss that is not
         a real number in ``[0, 1]`` (bools and strings included),
         ``D21``/``D22`` nonzero, shared-channel conflicts.
@@ -461,6 +465,7 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
             else:
                 raise ControlArgument(f"sys: expected a control.StateSpace, got "
                                       f"{type(sys).__name__}")
+        sys = _sampled(sys, kwargs.pop("dt", None))
         kwargs.setdefault("inputs", list(sys.input_labels))
         kwargs.setdefault("outputs", list(sys.output_labels))
         kwargs.setdefault("states", list(sys.state_labels))
@@ -470,3 +475,79 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         return NetworkedStateSpace(*args, **kwargs)
     raise ControlArgument(f"nss: expected (sys) or (A, B, C, D[, dt]), got "
                           f"{len(args)} positional arguments")
+
+
+def _sampled(sys: ct.StateSpace, dt: Any) -> ct.StateSpace:
+    """A continuous-time plant sampled with a zero-order hold at ``dt``;
+    a discrete-time one as it is (``dt`` must then be absent or equal)."""
+    if dt is None:
+        if sys.isctime(strict=True):
+            raise ValueError(
+                "dt: the plant is continuous-time; give the sampling period: "
+                "nss(sys, ..., dt=h) samples it with a zero-order hold (or "
+                "sample it first with control.sample_system(sys, h, method))")
+        return sys
+    h = discrete_dt(dt)
+    if h is True:
+        raise ValueError("dt: a continuous-time plant needs a sampling "
+                         "period > 0 to be sampled, got True")
+    if sys.isctime(strict=True):
+        return ct.sample_system(sys, h, method="zoh", name=sys.name)
+    if sys.dt is True or not np.isclose(float(sys.dt), h, rtol=1e-12,
+                                        atol=0.0):
+        raise ValueError(f"dt: the plant is discrete-time with dt = "
+                         f"{sys.dt!r}; dt={dt!r} would resample it (sample "
+                         f"a continuous-time plant instead)")
+    return sys
+
+
+def input_delay_sampling(A: Any, B: Any, h: float, taus: Any
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sampled ``ẋ = A x + B u`` whose input is applied ``τ`` late.
+
+    The input computed at sample ``k`` is applied ``τ ∈ [0, h)`` after it,
+    so over one period the previous input acts first
+    (:ref:`theory-delays`, sub-sample delays)::
+
+        x[k+1] = Φ x[k] + Γ0(τ) u[k] + Γ1(τ) u[k-1]
+        Φ = e^{A h},  Γ0(τ) = ∫_0^{h-τ} e^{A s} ds B,
+        Γ1(τ) = e^{A (h-τ)} ∫_0^τ e^{A s} ds B
+
+    from one matrix exponential of ``[[A, B], [0, 0]]`` per interval.
+
+    Parameters
+    ----------
+    A, B : array_like
+        The continuous-time dynamics and input matrices.
+    h : float
+        The sampling period.
+    taus : array_like, shape (M,)
+        The delays, each in ``[0, h)``.
+
+    Returns
+    -------
+    Phi : ndarray, shape (n, n)
+    Gamma0, Gamma1 : ndarray, shape (M, n, m)
+    """
+    A = np.asarray(A, float)
+    B = np.asarray(B, float)
+    n, m = B.shape
+    taus = np.atleast_1d(np.asarray(taus, float))
+    if not np.all((taus >= 0) & (taus < h)):
+        raise ValueError(f"taus: expected delays in [0, h) with h = {h}, "
+                         f"got {taus.tolist()}")
+
+    def flow(t: float) -> tuple[np.ndarray, np.ndarray]:
+        # expm([[A, B], [0, 0]] t) = [[e^{At}, ∫_0^t e^{As} ds B], [0, I]]
+        M = np.zeros((n + m, n + m))
+        M[:n, :n], M[:n, n:] = A, B
+        E = scipy.linalg.expm(M * t)
+        return E[:n, :n], E[:n, n:]
+
+    Phi, _ = flow(h)
+    Gamma0 = np.empty((taus.size, n, m))
+    Gamma1 = np.empty((taus.size, n, m))
+    for i, tau in enumerate(taus):
+        Erest, Gamma0[i] = flow(h - tau)
+        Gamma1[i] = Erest @ flow(tau)[1]
+    return Phi, Gamma0, Gamma1
