@@ -411,16 +411,15 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         whose signal names and name are kept; or its discrete-time matrices
         ``A, B, C, D`` and optionally the sampling period ``dt`` (True or a
         float > 0, default True).
-    dt : float, optional
-        With a continuous-time ``sys``: the sampling period ``h``; the plant
-        is sampled with a zero-order hold (:func:`control.sample_system`).
     **kwargs
         The keywords of :class:`NetworkedStateSpace`: ``nmeas`` and ``ncon``
         (required ints, the numbers of measurements ``y`` and controls
         ``u``, the last outputs and inputs); the network ``sensor_schedule``,
         ``actuator_schedule``, ``sensor_loss``, ``actuator_loss`` and
         ``shared_channel``; and ``name``, ``inputs``, ``outputs``,
-        ``states``. Anything else raises ``TypeError``.
+        ``states``. With a continuous-time ``sys``, ``dt=h`` samples it
+        with a zero-order hold (:func:`control.sample_system`). Anything
+        else raises ``TypeError``.
 
     Returns
     -------
