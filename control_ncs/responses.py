@@ -19,6 +19,7 @@ which draws a trial reads and what a run holds in memory.
 from __future__ import annotations
 
 import math
+import textwrap
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -887,7 +888,17 @@ def initial_response(sys: Any, timepts: Any = None, initial_state: Any = None,
                      keep_paths=keep_paths, chunk=chunk, progress=progress)
 
 
+def _with_options(doc: str) -> str:
+    """``doc`` with ``{options}`` replaced by :data:`_OPTIONS_DOC`, indented
+    as the placeholder is (Python 3.13 dedents docstrings when it compiles
+    them, older Pythons keep the source's indentation)."""
+    line = next(ln for ln in doc.splitlines() if "{options}" in ln)
+    indent = line[:len(line) - len(line.lstrip())]
+    lines = textwrap.dedent("    " + _OPTIONS_DOC).splitlines()
+    return doc.replace("{options}", ("\n" + indent).join(lines).lstrip())
+
+
 for _f in (forced_response, step_response, impulse_response, initial_response):
     if _f.__doc__:                 # None under python -OO
-        _f.__doc__ = _f.__doc__.replace("{options}", _OPTIONS_DOC)
+        _f.__doc__ = _with_options(_f.__doc__)
 del _f

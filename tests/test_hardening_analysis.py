@@ -63,6 +63,10 @@ def test_simulate_runs_where_sched_getaffinity_is_missing(monkeypatch):
     expected = cn.simulate(scalar(), 6, initial_state=1.0, trials=40, seed=2,
                            chunk=5, workers=1)
     monkeypatch.delattr(os, "sched_getaffinity", raising=False)
+    if hasattr(os, "process_cpu_count"):
+        # Python 3.13: there os.process_cpu_count is os.cpu_count (on Linux
+        # it calls the sched_getaffinity just removed)
+        monkeypatch.setattr(os, "process_cpu_count", os.cpu_count)
     paths = cn.simulate(scalar(), 6, initial_state=1.0, trials=40, seed=2,
                         chunk=5)
     assert np.array_equal(paths.outputs, expected.outputs)
