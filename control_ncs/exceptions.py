@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["CertificationError", "SynthesisError", "ScheduleWarning"]
+__all__ = ["CertificationError", "SynthesisError", "ScheduleWarning",
+           "NotPassiveWarning"]
 
 #: A certificate passed the exact checks (a verdict, never an error reason).
 CERTIFIED = "certified"
@@ -21,9 +22,21 @@ NOT_MSS = "not_mss"
 #: A necessary feedthrough condition fails (theory: passivity, e.g.
 #: ``D̄ + D̄ᵀ ⊁ 2ηI``).
 FEEDTHROUGH = "feedthrough"
-#: Proven: no certificate exists (the LMI with its margin is infeasible, a
-#: Riccati iteration diverged, or a KYP frequency refutes the level).
+#: Proven: no certificate exists (an exact LMI with its margin is
+#: infeasible, a Riccati iteration diverged, a KYP frequency refutes the
+#: level, or states no input reaches are too slow on their own).
 INFEASIBLE = "infeasible"
+#: A sufficient (conservative) condition has no solution: a structured or
+#: phase-common gain, a hold actuator, the predictor or the estimator
+#: controller, where the LMI is not necessary. Nothing is proven about
+#: whether a gain exists.
+SUFFICIENT_FAILED = "sufficient_failed"
+#: A local search (the refinement) found no certified answer within its
+#: starts, iterations or time: nothing is proven either way.
+NOT_FOUND = "not_found"
+#: Certified, but the certified level is an input-feedforward *shortage*
+#: (``η < 0``): mean-square stable and dissipative, not passive.
+CERTIFIED_SHORTAGE = "certified_shortage"
 #: The solver (or an iteration) failed or was inconclusive.
 SOLVER_FAILED = "solver_failed"
 #: The solver's status stayed inaccurate.
@@ -34,8 +47,12 @@ NOT_VERIFIED = "not_verified"
 TIME_LIMIT = "time_limit"
 
 #: Every reason an error may carry.
-REASONS = (NOT_MSS, FEEDTHROUGH, INFEASIBLE, SOLVER_FAILED, INACCURATE,
-           NOT_VERIFIED, TIME_LIMIT)
+REASONS = (NOT_MSS, FEEDTHROUGH, INFEASIBLE, SUFFICIENT_FAILED, NOT_FOUND,
+           SOLVER_FAILED, INACCURATE, NOT_VERIFIED, TIME_LIMIT)
+
+#: Reasons that prove no certificate (no gain) exists at the level asked;
+#: every other reason leaves the question open.
+PROOFS = (NOT_MSS, FEEDTHROUGH, INFEASIBLE)
 
 #: One sentence per verdict, the ``message`` of a result with that ``status``.
 MESSAGES = {
@@ -43,7 +60,14 @@ MESSAGES = {
     NOT_MSS: "not mean-square stable: no certificate, no index exists",
     FEEDTHROUGH: "a necessary feedthrough condition fails: no certificate "
                  "exists at this level",
+    CERTIFIED_SHORTAGE: "certified, but not passive: mean-square stable and "
+                        "dissipative with an input-feedforward shortage "
+                        "(eta < 0)",
     INFEASIBLE: "proven: no certificate exists at this level",
+    SUFFICIENT_FAILED: "a sufficient condition has no solution: nothing is "
+                       "proven about whether a certificate exists",
+    NOT_FOUND: "no certified answer was found within the search's limits "
+               "(a local method): nothing is proven either way",
     SOLVER_FAILED: "the solver failed or was inconclusive: nothing is "
                    "proven either way",
     INACCURATE: "the solver's answer stayed inaccurate and no certificate "
@@ -78,6 +102,29 @@ class ScheduleWarning(UserWarning):
         super().__init__(message)
 
 
+class NotPassiveWarning(UserWarning):
+    """A certified design is not passive: its level ``η`` is negative.
+
+    :func:`control_ncs.passivesyn` maximises ``η``; when the best level it
+    certifies is negative, the loop is mean-square stable and dissipative
+    with an input-feedforward shortage ``|η|``, which is a true statement,
+    but not passivity. The warning says what would help.
+
+    Parameters
+    ----------
+    message : str
+        The certified level and what would help.
+
+    Examples
+    --------
+    >>> issubclass(ncs.NotPassiveWarning, UserWarning)
+    True
+    """
+
+    def __init__(self, message: str) -> None:
+        super().__init__(message)
+
+
 class CertificationError(RuntimeError):
     """A passivity or stability result could not be certified.
 
@@ -85,9 +132,12 @@ class CertificationError(RuntimeError):
     ----------
     message : str
     reason : str
-        One of :data:`REASONS`: ``'not_mss'``, ``'feedthrough'``,
-        ``'infeasible'``, ``'solver_failed'``, ``'inaccurate'``,
-        ``'not_verified'``, ``'time_limit'``.
+        One of :data:`REASONS`: ``'not_mss'``, ``'feedthrough'`` and
+        ``'infeasible'`` are proofs that nothing can be certified;
+        ``'sufficient_failed'`` (a conservative condition failed),
+        ``'not_found'`` (a local search ran out), ``'solver_failed'``,
+        ``'inaccurate'``, ``'not_verified'`` and ``'time_limit'`` leave the
+        question open.
     figures : dict, optional
         Whatever was measured (solver status, eigenvalues, ``ms_radius``).
 

@@ -849,16 +849,18 @@ LMI_START_MAX_STATES = 10
 
 def refined_synthesis(plant: JumpPlant, eta: float | None, decay: float,
                       deadline: float | None,
-                      lmi: Callable[[float | None], tuple] | None):
+                      lmi: Callable[[float | None], tuple] | None,
+                      initial: np.ndarray | None = None):
     """:func:`passivesyn`'s refinement route (checked arguments).
 
     ``lmi(deadline)`` runs the sufficient LMI (raising
     :class:`~control_ncs.exceptions.SynthesisError` when it certifies
-    nothing); its gain, if any, is the first start. A gain the LMI
-    certifies at a given ``eta`` is returned as is. Returns
+    nothing); its gain, if any, is the first start, else ``initial`` (gains
+    per phase) when given. A gain the LMI certifies at a given ``eta`` is
+    returned as is. Returns
     ``(K, CL, eta)`` with ``K.result.method`` naming what certified it.
     """
-    from .exceptions import INFEASIBLE, NOT_VERIFIED, SynthesisError
+    from .exceptions import INFEASIBLE, NOT_FOUND, SynthesisError
     from .lmi import SolveReport
     from .synthesis import _finish
     rate, states = autonomous_rate(plant)
@@ -885,7 +887,11 @@ def refined_synthesis(plant: JumpPlant, eta: float | None, decay: float,
             if eta is not None:
                 found[0].result.method = "lmi"
                 return found
-            given = found[0].gains
+            # gains on the previous mode (Markov links) compete as they
+            # are; a gain per phase is the refinement's first start
+            given = found[0].gains if found[0].gains.ndim == 3 else None
+    if given is None and initial is not None:
+        given = initial
     left = None if deadline is None else max(deadline - time.perf_counter(),
                                               1e-3)
     rng = np.random.default_rng(0)
@@ -900,14 +906,18 @@ def refined_synthesis(plant: JumpPlant, eta: float | None, decay: float,
     if not res.verified:
         raise SynthesisError(
             f"passivesyn: {res.message}", TIME_LIMIT
-            if res.stopped == TIME_LIMIT else NOT_VERIFIED,
+            if res.stopped == TIME_LIMIT else NOT_FOUND,
             dict(ms_radius=res.ms_radius, starts=res.starts,
                  iterations=res.iterations, method="refine"))
     cert = res.certificate
     assert cert is not None  # verified
     X = np.linalg.inv(cert.P)
-    X = 0.5 * (X + X.transpose(0, 2, 1))
-    Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
+    X = 0.5 * (X + np.swapaxes(X, -1, -2))
+    if X.ndim == 4:
+        # Markov links: storage per phase and previous mode, P_{k,ℓ}
+        Y = np.einsum("kuj,kjx,klxy->kluy", res.gains, plant.E, X)
+    else:
+        Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
     s = plant.shape
     report = SolveReport("optimal", "REFINE", 0.0, res.time, res.time,
                          res.iterations, res.eta)

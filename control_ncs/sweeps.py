@@ -31,7 +31,8 @@ import numpy as np
 import control as ct
 from control.exception import ControlArgument, ControlDimension
 
-from .exceptions import ScheduleWarning, SynthesisError
+from .exceptions import (PROOFS, TIME_LIMIT, NotPassiveWarning,
+                         ScheduleWarning, SynthesisError)
 from .jump import jss
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
@@ -222,8 +223,9 @@ def _run(func: Callable, tasks: list, executor: Executor | None,
 
 def _synthesise(P: NetworkedStateSpace, eta: float | None,
                 decay: float | None, controller: str, actuator: str,
-                method: str = "lmi") -> tuple[float, float, bool, str]:
-    """One cell: ``(eta, ms_radius, feasible, reason)`` from passivesyn.
+                method: str = "lmi", initial_gain: Any = None) -> tuple:
+    """One cell: ``(eta, ms_radius, feasible, reason, gains)`` from
+    passivesyn (``gains`` None where nothing is certified).
 
     Module level, so that a process pool or a Dask worker can unpickle it.
     It runs in a thread of its own: the compiled LMIs are cached per thread
@@ -238,7 +240,7 @@ def _synthesise(P: NetworkedStateSpace, eta: float | None,
     def target() -> None:
         try:
             box["value"] = _synthesise_here(P, eta, decay, controller,
-                                            actuator, method)
+                                            actuator, method, initial_gain)
         except BaseException as err:  # re-raised in the caller's thread
             box["error"] = err
 
@@ -253,14 +255,57 @@ def _synthesise(P: NetworkedStateSpace, eta: float | None,
 
 def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
                      decay: float | None, controller: str, actuator: str,
-                     method: str = "lmi") -> tuple[float, float, bool, str]:
+                     method: str = "lmi", initial_gain: Any = None) -> tuple:
     try:
-        K, _, eta_c = passivesyn(P, eta, decay=decay, controller=controller,
-                                 actuator=actuator, method=method)
+        with warnings.catch_warnings():
+            # a map shows negative levels as they are; one warning per cell
+            # would only repeat the colour scale
+            warnings.simplefilter("ignore", NotPassiveWarning)
+            K, _, eta_c = passivesyn(P, eta, decay=decay,
+                                     controller=controller,
+                                     actuator=actuator, method=method,
+                                     initial_gain=initial_gain)
     except SynthesisError as err:
-        return math.nan, math.nan, False, err.reason
+        return math.nan, math.nan, False, err.reason, None
+    gains = K.gains if K.gains.ndim == 3 else None    # per phase: a start
     # the certificate's ms_radius is the exact one of the returned loop
-    return float(eta_c), float(K.result.ms_radius), True, "certified"
+    return (float(eta_c), float(K.result.ms_radius), True, "certified",
+            gains)
+
+
+def _cells(tasks: list, method: str, executor: Executor | None,
+           progress: bool, desc: str, neighbours: Callable | None = None
+           ) -> list:
+    """Every cell designed with ``method``.
+
+    ``'auto'`` in two passes, so that a sweep stays near the LMI's cost:
+    every cell by the LMI first (exact where it is, fast everywhere); then
+    the cells it leaves open without a proof (a sufficient condition
+    failed, a solver gave up) are refined, each started from the certified
+    gain of its nearest certified neighbour (``neighbours(i)``: cell
+    indices, nearest first) and from the LMI's own. The second pass reads
+    only the first pass's results, so the map does not depend on the
+    executor or the order in which cells finish.
+    """
+    first = "lmi" if method == "auto" else method
+    out = _run(_synthesise, [t + (first,) for t in tasks], executor,
+               progress, desc)
+    if method != "auto":
+        return out
+    todo = [i for i, r in enumerate(out)
+            if not r[2] and r[3] not in PROOFS + (TIME_LIMIT,)]
+    starts = []
+    for i in todo:
+        near = neighbours(i) if neighbours is not None else []
+        start = next((out[j][4] for j in near
+                      if out[j][2] and out[j][4] is not None), None)
+        starts.append(start)
+    again = _run(_synthesise, [tasks[i] + ("auto", s)
+                               for i, s in zip(todo, starts)],
+                 executor, progress, desc)
+    for i, r in zip(todo, again):
+        out[i] = r
+    return out
 
 
 # -- design maps ----------------------------------------------------------------
@@ -427,7 +472,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
                actuator_loss: Any = (0.0,), *, eta: float | None = None,
                decay: float | None = None, controller: str = "static",
                actuator: str = "zero", executor: Executor | None = None,
-               progress: bool = True, method: str = "lmi") -> DesignMap:
+               progress: bool = True, method: str = "auto") -> DesignMap:
     """Verified passive synthesis over a grid of loss probabilities.
 
     Cell ``[i, j]`` is ``passivesyn(P.with_network(sensor_loss=a1[i],
@@ -457,13 +502,17 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         The result is identical either way.
     progress : bool
         Show a tqdm progress bar (when tqdm is installed).
-    method : {'lmi', 'auto', 'refine'}
-        :func:`control_ncs.passivesyn`'s ``method`` for every cell. Default
-        ``'lmi'``: a sweep makes hundreds of designs, and the LMI is the
-        fast, deterministic answer (exact with full information, sufficient
-        where the gain is structured); ``'auto'`` refines structured cells
-        (closer to the true limit, several times slower: measured in
-        ``docs/benchmarks.md``, section 10).
+    method : {'auto', 'lmi', 'refine'}
+        How each cell is designed. ``'auto'`` (default): every cell by the
+        LMI (exact with full information, fast), then the cells it leaves
+        open without a proof (a sufficient condition failed) refined, each
+        warm-started from its nearest certified neighbour and its own LMI
+        gain; a cell is "infeasible" only with a proof. Cells the LMI
+        certifies keep the LMI's level (a sweep stays near the LMI's cost;
+        :func:`control_ncs.passivesyn` alone also refines those). ``'lmi'``:
+        the LMI only (structured cells may end ``'sufficient_failed'``).
+        ``'refine'``: :func:`control_ncs.passivesyn` with ``method='refine'``
+        for every cell (slowest).
 
     Returns
     -------
@@ -514,9 +563,17 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
             "controller='predictor'.")
     start = time.perf_counter()
     tasks = [(P.with_network(sensor_loss=x, actuator_loss=y), eta, decay,
-              controller, actuator, method) for x in a1 for y in a2]
-    out = _run(_synthesise, tasks, executor, progress, "design_map")
+              controller, actuator) for x in a1 for y in a2]
     shape = (a1.size, a2.size)
+
+    def neighbours(index: int) -> list:
+        i, j = divmod(index, shape[1])
+        cells = [(abs(i - u) + abs(j - v), u * shape[1] + v)
+                 for u in range(shape[0]) for v in range(shape[1])
+                 if (u, v) != (i, j)]
+        return [c for _, c in sorted(cells)]
+
+    out = _cells(tasks, method, executor, progress, "design_map", neighbours)
     reason = np.empty(shape, dtype=object)
     reason.ravel()[:] = [r[3] for r in out]
     return DesignMap(
@@ -993,7 +1050,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
                     decay: float | None = None, controller: str = "static",
                     actuator: str = "zero", executor: Executor | None = None,
                     top: int = 10, limit: int | None = 5000,
-                    progress: bool = True, method: str = "lmi"
+                    progress: bool = True, method: str = "auto"
                     ) -> ScheduleSearch:
     """Rank every schedule of one period by verified design.
 
@@ -1061,13 +1118,17 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         this; None: up to ``MAX_SCHEDULES`` (10⁷).
     progress : bool
         Show a tqdm progress bar (when tqdm is installed).
-    method : {'lmi', 'auto', 'refine'}
-        :func:`control_ncs.passivesyn`'s ``method`` for every cell. Default
-        ``'lmi'``: a sweep makes hundreds of designs, and the LMI is the
-        fast, deterministic answer (exact with full information, sufficient
-        where the gain is structured); ``'auto'`` refines structured cells
-        (closer to the true limit, several times slower: measured in
-        ``docs/benchmarks.md``, section 10).
+    method : {'auto', 'lmi', 'refine'}
+        How each cell is designed. ``'auto'`` (default): every cell by the
+        LMI (exact with full information, fast), then the cells it leaves
+        open without a proof (a sufficient condition failed) refined, each
+        warm-started from its nearest certified neighbour and its own LMI
+        gain; a cell is "infeasible" only with a proof. Cells the LMI
+        certifies keep the LMI's level (a sweep stays near the LMI's cost;
+        :func:`control_ncs.passivesyn` alone also refines those). ``'lmi'``:
+        the LMI only (structured cells may end ``'sufficient_failed'``).
+        ``'refine'``: :func:`control_ncs.passivesyn` with ``method='refine'``
+        for every cell (slowest).
 
     Returns
     -------
@@ -1167,12 +1228,14 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
                                  actuator_schedule=s2[i].tolist(),
                                  sensor_loss=a1, actuator_loss=a2,
                                  shared_channel=shared),
-                  eta, decay, controller, actuator, method) for i in todo]
-    out = _run(_synthesise, tasks, executor, progress, "schedule_search")
+                  eta, decay, controller, actuator) for i in todo]
+    # schedules are not neighbours of one another: the refinement of a
+    # cell the LMI leaves open starts from that cell's own LMI gain only
+    out = _cells(tasks, method, executor, progress, "schedule_search")
     eta_a = np.full(len(words), math.nan)
     rate = np.full(len(words), math.nan)
     feasible = np.zeros(len(words), dtype=bool)
-    for t, (e, r, ok, why) in zip(todo, out):
+    for t, (e, r, ok, why, _) in zip(todo, out):
         eta_a[t], rate[t], feasible[t], reason[t] = e, r, ok, why
     good = np.flatnonzero(feasible)
     # ties are broken by the other figure, then by the canonical order

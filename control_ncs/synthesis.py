@@ -17,14 +17,15 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import (choice, decay_bound, finite_real, positive_real,
-                      real_array)
+from ._checks import (caller_stacklevel, choice, decay_bound, finite_real,
+                      positive_real, real_array)
 from .stability import ms_radius
 from .gain import PeriodicGain, actuators, controllers
 from .jump import JumpStateSpace
@@ -36,8 +37,9 @@ from .lmi import (DEFAULT_MARGIN, GAINS, SolveReport, balancing_scale,
 from .plant import NetworkedStateSpace
 from .riccati import riccati_synthesis
 from .strategies import build, require_state_measured
-from .exceptions import (CERTIFIED, INFEASIBLE, MESSAGES, NOT_VERIFIED,
-                         SOLVER_FAILED, TIME_LIMIT, SynthesisError)
+from .exceptions import (CERTIFIED, CERTIFIED_SHORTAGE, INFEASIBLE, MESSAGES,
+                         NOT_VERIFIED, SOLVER_FAILED, SUFFICIENT_FAILED,
+                         TIME_LIMIT, NotPassiveWarning, SynthesisError)
 from .verify import (Certificate, certify_index, check_certificate,
                      feedthrough_bound, level_floor)
 
@@ -77,6 +79,13 @@ STRUCTURES = ("auto", "full", "block", "extended")
 #: (structure 'full') and the refinement of :mod:`control_ncs.refine` where
 #: it is only sufficient (structure left to 'auto' on a structured loop).
 METHODS = ("auto", "lmi", "refine")
+
+
+#: What helps a design whose certified level is negative (see
+#: :class:`~control_ncs.exceptions.NotPassiveWarning`).
+_SHORTAGE_HELP = ("the loop is not passive; a larger feedthrough D11 from w "
+                  "to z, a weaker decay requirement, or less loss on the "
+                  "links raise eta")
 
 
 @dataclass
@@ -196,21 +205,39 @@ class SynthesisResult:
         return self.certificate.ms_radius
 
     @property
-    def verdict(self) -> bool:
-        """Always True: :func:`passivesyn` returns only certified gains."""
+    def success(self) -> bool:
+        """True: :func:`passivesyn` returns only certified gains."""
         return True
 
     @property
+    def verdict(self) -> bool:
+        """``success``, under its older name."""
+        return self.success
+
+    @property
+    def passive(self) -> bool:
+        """True when the certified level makes the loop passive (``η ≥ 0``).
+
+        A negative ``η`` is certified too, but it is an input-feedforward
+        shortage: the loop is mean-square stable and dissipative, not
+        passive.
+        """
+        return self.eta >= 0.0
+
+    @property
     def status(self) -> str:
-        """``'certified'`` (:mod:`control_ncs.exceptions`)."""
-        return CERTIFIED
+        """``'certified'``, or ``'certified_shortage'`` when ``η < 0``."""
+        return CERTIFIED if self.passive else CERTIFIED_SHORTAGE
 
     @property
     def message(self) -> str:
         """One sentence: what the certificate proves."""
-        return (f"{MESSAGES[CERTIFIED]} (eta = {self.eta:.6g}, ms_radius = "
+        text = (f"{MESSAGES[self.status]} (eta = {self.eta:.6g}, ms_radius = "
                 f"{self.ms_radius:.6g}, structure {self.structure}, "
                 f"{self.gain_kind} gains)")
+        if not self.passive:
+            text += "; " + _SHORTAGE_HELP
+        return text
 
     def __repr__(self) -> str:
         return (f"<SynthesisResult: {self.status}, eta = {self.eta:.6g}, "
@@ -360,6 +387,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                margin: float = DEFAULT_MARGIN,
                time_limit: float | None = TIME_BUDGET,
                estimator_gain: Any = None, method: str = "auto",
+               initial_gain: Any = None,
                **solver_options: Any
                ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """Periodic feedback making a networked loop strictly passive.
@@ -473,12 +501,17 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         gain is certified by the analysis of its closed loop, locally
         improved, never globally optimal, and its failure proves nothing.
         ``'auto'`` (default): ``'lmi'`` where the LMI is exact (structure
-        ``'full'``), where a structure, a solver or solver options are
-        named, and on Markov links (gains ``K_{k,ℓ}``); ``'refine'`` for a
-        structured loop otherwise. On Markov links ``'refine'`` designs
-        gains per phase and needs ``gain='phase'`` (its second stage, the
-        climb in η, is i.i.d. only: the certified η is that of the
-        stage-1 gain).
+        ``'full'`` with gains on everything the controller observes) and
+        where a structure, a solver or solver options are named;
+        ``'refine'`` wherever the LMI is only sufficient, on Bernoulli and
+        Markov links alike. On Markov links the refinement designs gains
+        per phase ``K_k`` (explicit ``'refine'`` needs ``gain='phase'``);
+        under ``'auto'`` the LMI's gains ``K_{k,ℓ}`` compete with it and
+        the higher certified η is returned.
+    initial_gain : PeriodicGain or array_like, shape (N, m2, nk), optional
+        A gain per phase to start the refinement from, e.g. a neighbouring
+        design of a map (``design_map`` warm-starts its cells so). Used
+        where the refinement runs, after the LMI's own gain.
     **solver_options
         Passed to the solver, checked first: an option Clarabel (its
         ``DefaultSettings``), SCS or CVXOPT does not know raises
@@ -609,6 +642,10 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     choice(controller, "controller", controllers())
     choice(actuator, "actuator", actuators())
     choice(method, "method", METHODS)
+    if initial_gain is not None:
+        initial_gain = real_array(
+            initial_gain.gains if isinstance(initial_gain, PeriodicGain)
+            else initial_gain, "initial_gain", ndim=3)
     if estimator_gain is not None and (controller != "estimator"
                                        or isinstance(P, JumpPlant)):
         raise ControlArgument(
@@ -686,19 +723,29 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         bound, _ = _feedthrough(plant)
         eta = max(eta, level_floor(bound, plant.A, plant.Bu, plant.Bw,
                                    plant.Cz, plant.Du, plant.Dw))
+    if initial_gain is not None and initial_gain.shape != plant.gain_shape():
+        raise ControlDimension(
+            f"initial_gain: expected gains per phase of shape "
+            f"{plant.gain_shape()} (N, m2, nk), got {initial_gain.shape}")
+    markov = plant.transition is not None
+    # the LMI is exact for an unstructured gain that may use everything the
+    # controller observes; elsewhere it is only sufficient, and the default
+    # call refines (gains per phase K_k, certified by analysis)
+    exact = structure0 == "full" and not (markov and "phase" in kinds)
+    refining = method == "refine" or (
+        method == "auto" and not exact and structure == "auto"
+        and solver is None and not solver_options)
     try:
-        markov = plant.transition is not None
-        if method == "refine" or (method == "auto" and structure0 != "full"
-                                  and structure == "auto" and solver is None
-                                  and not solver_options and not markov):
-            # refinement designs K_k (gains per phase); on Markov links its
-            # LMI start is the phase-gain LMI (_checks refused gain='mode')
+        if refining:
+            # the refinement designs gains per phase K_k; on Markov links
+            # the LMI's gains K_{k,ℓ} (gain='mode') compete with it as they
+            # are, and a phase gain of the LMI is its first start
             from .refine import refined_synthesis
             K, CL, got = refined_synthesis(plant, eta, decay, deadline, (
                 lambda limit: _routes(plant, eta, decay, margin, structure,
                                       structure0, form, solver,
                                       solver_options, limit, riccati,
-                                      "phase" if markov else gain)))
+                                      gain)), initial_gain)
         else:
             K, CL, got = _routes(plant, eta, decay, margin, structure,
                                  structure0, form, solver, solver_options,
@@ -711,6 +758,15 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             f"{err} (at the floor eta0 = {eta:.6g}, verify.level_floor; "
             f"nothing is proven for eta = {requested:.6g})", SOLVER_FAILED,
             err.figures) from err
+    except (KeyboardInterrupt, SystemExit, MemoryError):
+        raise
+    except Exception as crash:  # a route's crash is a status, not a trace
+        raise SynthesisError(
+            f"passivesyn: the {'refinement' if refining else 'LMI'} route "
+            f"failed ({type(crash).__name__}: {crash}); nothing is proven",
+            SOLVER_FAILED, dict(error=f"{type(crash).__name__}: {crash}",
+                                method="refine" if refining else "lmi")
+        ) from crash
     if requested != eta:
         # Θ(η) ≼ Θ(η0) for η ≤ η0: the certificate at η0 proves η exactly
         K.result.eta = K.result.eta_solver = got = float(requested)
@@ -723,6 +779,13 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             "(sufficient, theory: Markov losses)")]))
     if note:
         K.result.note = note
+    if requested is None and got < 0.0:
+        # the best certified level is a shortage: true, but not passivity
+        warnings.warn(NotPassiveWarning(
+            f"passivesyn: the certified level eta = {got:.6g} is negative: "
+            f"the loop is mean-square stable and dissipative with an "
+            f"input-feedforward shortage, not passive; {_SHORTAGE_HELP}"),
+            stacklevel=caller_stacklevel())
     return K, CL, got
 
 
@@ -842,10 +905,18 @@ def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
     if reason == INFEASIBLE:
         # what the solver's status proves: the LMI *with its strictness
         # margin* has no solution; levels within about that margin of the
-        # supremum may still have a certificate (the LMI is not homogeneous)
+        # supremum may still have a certificate (the LMI is not homogeneous).
+        # Only the exact LMI (structure 'full', gains on all the controller
+        # observes) proves that no gain exists; a sufficient one proves
+        # nothing about existence.
+        exact = struct == "full" and fits
+        if not exact:
+            reason = SUFFICIENT_FAILED
         what = (f"{out.message}: no gain of this kind "
-                + ("has a certificate" if struct == "full" else
-                   f"passes the sufficient '{struct}' condition")
+                + ("has a certificate" if exact else
+                   f"passes the sufficient '{struct}' condition"
+                   + ("" if fits else " with one gain for every previous "
+                      "mode") + " (nothing is proven about other gains)")
                 + f" with the strictness margin {margin:g} (relative) for "
                 f"eta={'max' if eta is None else eta}, decay={decay}")
     else:

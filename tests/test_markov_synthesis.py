@@ -304,7 +304,9 @@ def test_predictor_on_markov_links_gets_a_verified_gain():
     P = two_state().with_network(sensor_schedule=[1, 2, 0],
                                  actuator_schedule=[0, 0, 1],
                                  shared_channel=True)
-    K, CL, _ = passivesyn(P, controller="predictor", decay=0.999)
+    # the LMI's gains K_{k,ℓ} (the default call may refine a gain per phase)
+    K, CL, _ = passivesyn(P, controller="predictor", decay=0.999,
+                          method="lmi")
     assert K.result.certificate.verified and ms_radius(CL) < 0.999 ** 2
     assert K.gains.shape[:2] == (3, 4)
 
@@ -379,7 +381,8 @@ def test_event_level_protocol_validates_the_predictor_with_mode_gains():
     """The predictor's previous mode is (θ1,k, θ2,k-1) (theory: Markov losses): the
     protocol applies K_{k,ℓ} with it and matches the pair-mode loop."""
     P = two_state()
-    K, CL, _ = passivesyn(P, controller="predictor", decay=0.95)
+    K, CL, _ = passivesyn(P, controller="predictor", decay=0.95,
+                          method="lmi")
     assert K.mode_dependent
     steps, x0 = 15, np.array([1.0, -0.5])
     t = np.arange(steps + 1)
@@ -436,7 +439,8 @@ def test_mode_gains_never_use_a_bit_of_the_previous_mode_that_is_not_seen(
     # or acknowledgement distinguishes, and the η claimed was not that of any
     # controller that can be built
     P = two_state().with_network(**network)
-    K, CL, eta = ncs.passivesyn(P, controller=controller, decay=0.999)
+    K, CL, eta = ncs.passivesyn(P, controller=controller, decay=0.999,
+                                method="lmi")
     assert K.mode_dependent and K.result.gain_kind == "mode"
     for k in hidden:
         assert np.allclose(K.gains[k], K.gains[k][0])
@@ -474,3 +478,21 @@ def test_refinement_on_markov_links_designs_phase_gains_only():
     # 'auto' keeps the LMI with gains per previous mode on Markov links
     K2, _, _ = ncs.passivesyn(P, decay=0.999, eta=-10.0)
     assert K2.mode_dependent and K2.result.method == "lmi"
+
+
+@pytest.mark.parametrize("network, controller", [
+    (dict(sensor_schedule=[[1, 1], [0, 0]]), "static"),
+    (dict(sensor_schedule=[1, 2, 0], actuator_schedule=[0, 0, 1],
+          shared_channel=True), "predictor"),
+])
+def test_default_call_on_markov_links_is_never_below_the_lmi(network,
+                                                             controller):
+    """Where the LMI is only sufficient the default call also refines a gain
+    per phase, and keeps whichever certifies more."""
+    P = two_state().with_network(**network)
+    _, _, eta_lmi = ncs.passivesyn(P, controller=controller, decay=0.999,
+                                   method="lmi")
+    K, CL, eta = ncs.passivesyn(P, controller=controller, decay=0.999)
+    assert K.result.certificate.verified
+    assert eta >= eta_lmi - 1e-9 * max(1.0, abs(eta_lmi))
+    assert ncs.feedback(P, K, controller=controller).equals(CL)
