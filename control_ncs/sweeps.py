@@ -224,8 +224,9 @@ def _run(func: Callable, tasks: list, executor: Executor | None,
 def _synthesise(P: NetworkedStateSpace, eta: float | None,
                 decay: float | None, controller: str, actuator: str,
                 method: str = "lmi", initial_gain: Any = None) -> tuple:
-    """One cell: ``(eta, ms_radius, feasible, reason, gains)`` from
-    passivesyn (``gains`` None where nothing is certified).
+    """One cell: ``(eta, ms_radius, feasible, reason, gains, exact)`` from
+    passivesyn (``gains`` None where nothing is certified; ``exact``: the
+    certified level is the best of its kind).
 
     Module level, so that a process pool or a Dask worker can unpickle it.
     It runs in a thread of its own: the compiled LMIs are cached per thread
@@ -266,11 +267,11 @@ def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
                                      actuator=actuator, method=method,
                                      initial_gain=initial_gain)
     except SynthesisError as err:
-        return math.nan, math.nan, False, err.reason, None
+        return math.nan, math.nan, False, err.reason, None, False
     gains = K.gains if K.gains.ndim == 3 else None    # per phase: a start
     # the certificate's ms_radius is the exact one of the returned loop
     return (float(eta_c), float(K.result.ms_radius), True, "certified",
-            gains)
+            gains, K.result.exact)
 
 
 def _cells(tasks: list, method: str, executor: Executor | None,
@@ -278,14 +279,16 @@ def _cells(tasks: list, method: str, executor: Executor | None,
            ) -> list:
     """Every cell designed with ``method``.
 
-    ``'auto'`` in two passes, so that a sweep stays near the LMI's cost:
-    every cell by the LMI first (exact where it is, fast everywhere); then
-    the cells it leaves open without a proof (a sufficient condition
-    failed, a solver gave up) are refined, each started from the certified
-    gain of its nearest certified neighbour (``neighbours(i)``: cell
-    indices, nearest first) and from the LMI's own. The second pass reads
-    only the first pass's results, so the map does not depend on the
-    executor or the order in which cells finish.
+    ``'auto'`` in two passes, so that a sweep costs little more than its
+    LMIs: every cell by the LMI first (exact where it can be, fast
+    everywhere); then every cell where the LMI is only sufficient and no
+    proof settled it is refined, started from its own certified LMI gain,
+    else from the certified gain of its nearest certified neighbour
+    (``neighbours(i)``: cell indices, nearest first), so that the LMI is
+    not solved twice; a cell without any start runs passivesyn's own
+    'auto'. The better certified level of the two passes is kept. The
+    second pass reads only the first pass's results, so the result does not
+    depend on the executor or on the order in which cells finish.
     """
     first = "lmi" if method == "auto" else method
     out = _run(_synthesise, [t + (first,) for t in tasks], executor,
@@ -293,18 +296,19 @@ def _cells(tasks: list, method: str, executor: Executor | None,
     if method != "auto":
         return out
     todo = [i for i, r in enumerate(out)
-            if not r[2] and r[3] not in PROOFS + (TIME_LIMIT,)]
+            if (r[2] and not r[5])
+            or (not r[2] and r[3] not in PROOFS + (TIME_LIMIT,))]
     starts = []
     for i in todo:
-        near = neighbours(i) if neighbours is not None else []
-        start = next((out[j][4] for j in near
-                      if out[j][2] and out[j][4] is not None), None)
-        starts.append(start)
+        near = [i] + (neighbours(i) if neighbours is not None else [])
+        starts.append(next((out[j][4] for j in near
+                            if out[j][2] and out[j][4] is not None), None))
     again = _run(_synthesise, [tasks[i] + ("auto", s)
                                for i, s in zip(todo, starts)],
                  executor, progress, desc)
     for i, r in zip(todo, again):
-        out[i] = r
+        if r[2] and (not out[i][2] or r[0] > out[i][0]):
+            out[i] = r
     return out
 
 
@@ -504,15 +508,14 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         Show a tqdm progress bar (when tqdm is installed).
     method : {'auto', 'lmi', 'refine'}
         How each cell is designed. ``'auto'`` (default): every cell by the
-        LMI (exact with full information, fast), then the cells it leaves
-        open without a proof (a sufficient condition failed) refined, each
-        warm-started from its nearest certified neighbour and its own LMI
-        gain; a cell is "infeasible" only with a proof. Cells the LMI
-        certifies keep the LMI's level (a sweep stays near the LMI's cost;
-        :func:`control_ncs.passivesyn` alone also refines those). ``'lmi'``:
-        the LMI only (structured cells may end ``'sufficient_failed'``).
-        ``'refine'``: :func:`control_ncs.passivesyn` with ``method='refine'``
-        for every cell (slowest).
+        LMI (exact with full information, fast), then every cell where the
+        LMI is only sufficient refined, warm-started from its own LMI gain
+        or its nearest certified neighbour's (the LMI is not solved twice);
+        the better certified level is kept, and a cell is "infeasible"
+        only with a proof. ``'lmi'``: the LMI only (structured cells may
+        end ``'sufficient_failed'``). ``'refine'``:
+        :func:`control_ncs.passivesyn` with ``method='refine'`` for every
+        cell, each from its own LMI start (slowest).
 
     Returns
     -------
@@ -1120,15 +1123,14 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         Show a tqdm progress bar (when tqdm is installed).
     method : {'auto', 'lmi', 'refine'}
         How each cell is designed. ``'auto'`` (default): every cell by the
-        LMI (exact with full information, fast), then the cells it leaves
-        open without a proof (a sufficient condition failed) refined, each
-        warm-started from its nearest certified neighbour and its own LMI
-        gain; a cell is "infeasible" only with a proof. Cells the LMI
-        certifies keep the LMI's level (a sweep stays near the LMI's cost;
-        :func:`control_ncs.passivesyn` alone also refines those). ``'lmi'``:
-        the LMI only (structured cells may end ``'sufficient_failed'``).
-        ``'refine'``: :func:`control_ncs.passivesyn` with ``method='refine'``
-        for every cell (slowest).
+        LMI (exact with full information, fast), then every cell where the
+        LMI is only sufficient refined, warm-started from its own LMI gain
+        or its nearest certified neighbour's (the LMI is not solved twice);
+        the better certified level is kept, and a cell is "infeasible"
+        only with a proof. ``'lmi'``: the LMI only (structured cells may
+        end ``'sufficient_failed'``). ``'refine'``:
+        :func:`control_ncs.passivesyn` with ``method='refine'`` for every
+        cell, each from its own LMI start (slowest).
 
     Returns
     -------
@@ -1235,7 +1237,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     eta_a = np.full(len(words), math.nan)
     rate = np.full(len(words), math.nan)
     feasible = np.zeros(len(words), dtype=bool)
-    for t, (e, r, ok, why, _) in zip(todo, out):
+    for t, (e, r, ok, why, _, _) in zip(todo, out):
         eta_a[t], rate[t], feasible[t], reason[t] = e, r, ok, why
     good = np.flatnonzero(feasible)
     # ties are broken by the other figure, then by the canonical order

@@ -167,6 +167,12 @@ class SynthesisResult:
         Refinement only: how far it moved the gain (``ms_radius_before``,
         ``ms_radius``, ``eta_before``, ``eta``, ``iterations``,
         ``message``).
+    exact : bool
+        True when the condition that certified the gain is also necessary
+        (the LMI with structure ``'full'`` and gains on all the controller
+        observes): no gain of this kind certifies a level above ``eta`` by
+        more than the LMI's margin. False for sufficient LMIs and for
+        the refinement (a local method).
 
     Examples
     --------
@@ -198,6 +204,7 @@ class SynthesisResult:
     method: str = "lmi"
     start: str | None = None
     refinement: Any = None
+    exact: bool = False
 
     @property
     def ms_radius(self) -> float:
@@ -216,7 +223,7 @@ class SynthesisResult:
 
     @property
     def passive(self) -> bool:
-        """True when the certified level makes the loop passive (``η ≥ 0``).
+        """True when the certified level is passive (``η ≥ 0``).
 
         A negative ``η`` is certified too, but it is an input-feedforward
         shortage: the loop is mean-square stable and dissipative, not
@@ -509,9 +516,10 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         under ``'auto'`` the LMI's gains ``K_{k,ℓ}`` compete with it and
         the higher certified η is returned.
     initial_gain : PeriodicGain or array_like, shape (N, m2, nk), optional
-        A gain per phase to start the refinement from, e.g. a neighbouring
-        design of a map (``design_map`` warm-starts its cells so). Used
-        where the refinement runs, after the LMI's own gain.
+        A gain per phase to start the refinement from, in place of the
+        sufficient LMI's gain (which is then not solved), e.g. a
+        neighbouring design of a map (``design_map`` warm-starts its cells
+        so). Used where the refinement runs.
     **solver_options
         Passed to the solver, checked first: an option Clarabel (its
         ``DefaultSettings``), SCS or CVXOPT does not know raises
@@ -741,7 +749,10 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             # the LMI's gains K_{k,ℓ} (gain='mode') compete with it as they
             # are, and a phase gain of the LMI is its first start
             from .refine import refined_synthesis
-            K, CL, got = refined_synthesis(plant, eta, decay, deadline, (
+            # a given start replaces the sufficient LMI's gain (a sweep has
+            # solved that LMI already)
+            K, CL, got = refined_synthesis(plant, eta, decay, deadline, None if
+                initial_gain is not None else (
                 lambda limit: _routes(plant, eta, decay, margin, structure,
                                       structure0, form, solver,
                                       solver_options, limit, riccati,
@@ -779,6 +790,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             "(sufficient, theory: Markov losses)")]))
     if note:
         K.result.note = note
+    K.result.exact = bool(exact and K.result.method == "lmi"
+                          and K.result.structure == "full")
     if requested is None and got < 0.0:
         # the best certified level is a shortage: true, but not passivity
         warnings.warn(NotPassiveWarning(

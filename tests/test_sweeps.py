@@ -426,7 +426,7 @@ def test_predictor_error_loop_below_one_is_not_pruned():
 
 def test_ranking_is_best_eta_first_and_reports_counts():
     res = ncs.schedule_search(two_state_plant(), 3, decay=0.98, top=4,
-                              progress=False)
+                              progress=False, method="lmi")
     etas = [r.eta for r in res.ranking]
     assert len(etas) == 4 and etas == sorted(etas, reverse=True)
     assert etas[0] == np.nanmax(res.eta)
@@ -436,8 +436,16 @@ def test_ranking_is_best_eta_first_and_reports_counts():
     _, _, eta = in_fresh_thread(ncs.passivesyn, two_state_plant().with_network(
         sensor_schedule=list(best.sensor_schedule),
         actuator_schedule=list(best.actuator_schedule)), decay=0.98,
-        method="lmi")                   # the sweep's default method
+        method="lmi")                   # the sweep's method
     assert eta == best.eta
+    # the default search refines where the LMI is only sufficient: never a
+    # lower level for any schedule
+    auto = ncs.schedule_search(two_state_plant(), 3, decay=0.98, top=4,
+                               progress=False)
+    assert auto.ranking[0].eta >= best.eta
+    both = res.feasible & auto.feasible
+    assert np.all(auto.eta[both] >= res.eta[both] - 1e-12)
+    assert np.all(auto.feasible >= res.feasible)
 
 
 def test_rate_objective_ranks_fastest_certified_loop_first():
