@@ -22,6 +22,7 @@ from control.exception import ControlArgument
 from ._checks import decay_bound, real_array
 from .exceptions import INFEASIBLE, NOT_VERIFIED, SOLVER_FAILED, SynthesisError
 from .jump import JumpStateSpace
+from .network import GilbertElliott
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
 
@@ -98,6 +99,15 @@ def _check_plant(P: Any) -> NetworkedStateSpace:
     return P
 
 
+def _sensor_chain(P: NetworkedStateSpace) -> np.ndarray | None:
+    """The sensor link's transition (lost, arrived), or None when its losses
+    are i.i.d. (a float, or a Gilbert–Elliott link with equal rows)."""
+    link = P.sensor_link
+    if isinstance(link, GilbertElliott) and not link.is_bernoulli:
+        return link.transition
+    return None
+
+
 def _gains(P: NetworkedStateSpace, L: Any) -> np.ndarray:
     L = real_array(L, "L", ndim=(2, 3))
     L = L[None] if L.ndim == 2 else L
@@ -121,7 +131,8 @@ def estimation_error_loop(P: NetworkedStateSpace, L: Any) -> JumpStateSpace:
     Parameters
     ----------
     P : NetworkedStateSpace
-        Plant with its network (Bernoulli sensor losses).
+        Plant with its network: Bernoulli or bursty (Gilbert–Elliott)
+        sensor losses.
     L : array_like, shape (n, nmeas) or (N_L, n, nmeas)
         Estimator gains.
 
@@ -129,7 +140,10 @@ def estimation_error_loop(P: NetworkedStateSpace, L: Any) -> JumpStateSpace:
     -------
     JumpStateSpace
         ``w → e``, period ``lcm(P.period, N_L)``, two modes per phase
-        (measurement lost, arrived).
+        (measurement lost, arrived). The mode at step ``k`` is the arrival
+        ``θ1,k+1`` of the correction it ends with; over a bursty sensor link
+        the modes are the link's Markov chain (which moves at every step,
+        scheduled or not), so the rate is exact there too.
 
     Examples
     --------
@@ -147,6 +161,7 @@ def estimation_error_loop(P: NetworkedStateSpace, L: Any) -> JumpStateSpace:
     N = math.lcm(P.period, Lk.shape[0])
     n = P.nstates
     a1 = float(P.sensor_loss)
+    chain = _sensor_chain(P)
     A = np.empty((N, 2, n, n))
     B = np.empty((N, 2, n, P.B1.shape[1]))
     for k in range(N):
@@ -158,7 +173,11 @@ def estimation_error_loop(P: NetworkedStateSpace, L: Any) -> JumpStateSpace:
             B[k, theta] = keep @ P.B1
     C = np.broadcast_to(np.eye(n), (N, 2, n, n))
     D = np.zeros((N, 2, n, P.B1.shape[1]))
-    return JumpStateSpace(A, B, C, D, np.tile([a1, 1 - a1], (N, 1)), P.dt,
+    law: dict = (dict(probabilities=np.tile([a1, 1 - a1], (N, 1)))
+                 if chain is None else
+                 dict(probabilities=None,
+                      transition=np.broadcast_to(chain, (N, 2, 2))))
+    return JumpStateSpace(A, B, C, D, dt=P.dt, **law,
                           nominal=np.ones(N, int),
                           states=[f"{s}_err" for s in P.state_labels],
                           outputs=[f"{s}_err" for s in P.state_labels],
@@ -230,8 +249,11 @@ def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
     Parameters
     ----------
     P : NetworkedStateSpace
-        Plant ``y = C2 x`` (any ``C2``) with its network; Bernoulli sensor
-        losses.
+        Plant ``y = C2 x`` (any ``C2``) with its network; Bernoulli or
+        bursty (Gilbert–Elliott) sensor losses. Over a bursty link the LMI
+        has one storage per phase and link state and stays exact: the gain
+        acts only when a measurement arrives, so one gain per phase is
+        optimal there (:ref:`theory-output-feedback`).
     decay : float in (0, 1], optional
         Ask for an error loop with ``ms_radius < decay²``.
     solver : str, optional
@@ -288,14 +310,23 @@ def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
             f"are never seen by a scheduled sensor; no estimator gain "
             f"exists (add a sensor, or schedule one that sees them)")
     a1 = float(P.sensor_loss)
+    chain = _sensor_chain(P)
     heard = int(P.sensor_schedule.pattern.any(axis=1).sum())
     rho_A = max(abs(np.linalg.eigvals(P.A)))
-    bound = (a1 ** heard * rho_A ** (2 * N)) ** (1.0 / N)
+    if chain is None:
+        bound = (a1 ** heard * rho_A ** (2 * N)) ** (1.0 / N)
+        why = (f"losing all {heard} sensor message(s) of a period "
+               f"(probability α1^{heard})")
+    else:
+        # the link stays down k steps with probability T[0,0]^k: the error
+        # then grows as A^k uncorrected
+        bound = float(chain[0, 0]) * rho_A ** 2
+        why = (f"the sensor link staying down (probability "
+               f"{chain[0, 0]:.6g} per step)")
     if bound >= r ** 2:
         raise SynthesisError(
-            f"P: no estimator gain exists: losing all {heard} sensor "
-            f"message(s) of a period (probability α1^{heard}) leaves the "
-            f"error uncorrected, so its mean-square rate is at least "
+            f"P: no estimator gain exists: {why} leaves the error "
+            f"uncorrected, so its mean-square rate is at least "
             f"{bound:.6g} ≥ {r ** 2:.6g}", INFEASIBLE, {"lower_bound": bound})
     S1 = np.array([P.sensor_schedule.selection(k) for k in range(N)])
     # solved in balanced coordinates e = T ẽ, T = diag(t) (powers of two,
@@ -305,18 +336,34 @@ def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
     t = lmi.balancing_scale(np.abs(A0), np.zeros(A0.shape[0]),
                             np.abs(C0).sum(axis=0), BALANCE_FROM)
     t = np.ones(A0.shape[0]) if t is None else t
-    model = lmi.estimator_model(A0 * (1 / t)[:, None] * t[None, :],
-                                C0 * t[None, :], S1, a1, r)
+    At, Ct = A0 * (1 / t)[:, None] * t[None, :], C0 * t[None, :]
+    if chain is None:
+        model = lmi.estimator_model(At, Ct, S1, a1, r)
+    else:
+        model = lmi.markov_estimator_model(At, Ct, S1, chain, r)
     report = lmi.solve(model.problem, solver)  # solver warnings: a status
-    if model.P[0].value is None:
+    first = model.P[0] if chain is None else model.P[0][0]
+    if first.value is None:
         raise SynthesisError(
             f"estimator_gain: the solver found no estimator gain (status "
             f"{report.status!r}); nothing is proven either way",
             SOLVER_FAILED, {"status": report.status})
-    Pt = np.array([0.5 * (X.value + X.value.T) for X in model.P])
-    L = np.array([t[:, None] * (np.linalg.solve(Pt[k], model.Z[k].value)
-                                @ S1[k]) for k in range(N)])
-    Pk = Pt / t[None, :, None] / t[None, None, :]   # T⁻¹ P̃ T⁻¹
+    if chain is None:
+        Pt = np.array([0.5 * (X.value + X.value.T) for X in model.P])
+        L = np.array([t[:, None] * (np.linalg.solve(Pt[k], model.Z[k].value)
+                                    @ S1[k]) for k in range(N)])
+    else:
+        # P per phase and link state; L_{k+1} = E_{k,1}⁻¹ Z_k with
+        # E_{k,1} = Σ_j T[1, j] P_{k+1,j}
+        Pt = np.array([[0.5 * (X.value + X.value.T) for X in pair]
+                       for pair in model.P])
+        L = np.empty((N, A0.shape[0], C0.shape[0]))
+        for k in range(N):
+            j = (k + 1) % N
+            E1 = chain[1, 0] * Pt[j, 0] + chain[1, 1] * Pt[j, 1]
+            L[j] = t[:, None] * (np.linalg.solve(E1, model.Z[k].value)
+                                 @ S1[j])
+    Pk = Pt / t[..., :, None] / t[..., None, :]     # T⁻¹ P̃ T⁻¹
     rate = ms_radius(estimation_error_loop(P, L))
     if not rate < r ** 2:
         raise SynthesisError(

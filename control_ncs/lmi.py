@@ -1105,6 +1105,58 @@ def estimator_model(A: np.ndarray, C2: np.ndarray, S1: np.ndarray,
     return EstimatorModel(cp.Problem(cp.Minimize(t), cons), P, Z)
 
 
+def markov_estimator_model(A: np.ndarray, C2: np.ndarray, S1: np.ndarray,
+                           transition: np.ndarray, decay: float = 1.0,
+                           margin: float = 1e-6) -> EstimatorModel:
+    """The estimator LMI over a bursty (Markov) sensor link; exact.
+
+    The error loop ``e_{k+1} = (I - θ_{k+1} L_{k+1} Σ1,k+1 C2) A e_k`` is a
+    Markov jump system whose mode at step ``k`` is ``i = θ_{k+1}`` (the link
+    moves at every step, scheduled or not: :ref:`theory-markov`). It is
+    mean-square stable (within ``r²``) iff storages ``P_{k,i} ≻ 0`` exist
+    with ``M_iᵀ E_{k,i} M_i ≺ r² P_{k,i}``, ``E_{k,i} = Σ_j T[i, j]
+    P_{k+1,j}``, ``M_0 = A`` and ``M_1 = (I - L_{k+1} Σ C2) A``. The gain
+    enters the arrived mode only, so ``Z_k = E_{k,1} L_{k+1}`` makes the
+    condition an LMI without loss (:ref:`theory-output-feedback`): one gain
+    per phase is optimal. Normalised by ``P ⪰ I`` with the margin
+    ``margin · s``, as :func:`estimator_model`.
+
+    Parameters
+    ----------
+    A, C2, S1, decay, margin
+        As for :func:`estimator_model`.
+    transition : ndarray, shape (2, 2)
+        The sensor link's ``T[a, b] = P(θ⁺ = b | θ = a)``, order (lost,
+        arrived).
+
+    Returns
+    -------
+    EstimatorModel
+        ``P[k]`` is the pair ``[P_{k,0}, P_{k,1}]``; ``Z[k]`` gives
+        ``L_{k+1} = E_{k,1}⁻¹ Z_k``.
+    """
+    n, N = A.shape[0], S1.shape[0]
+    p2 = C2.shape[0]
+    T = np.asarray(transition, float)
+    P = [[cp.Variable((n, n), symmetric=True) for _ in range(2)]
+         for _ in range(N)]
+    Z = [cp.Variable((n, p2)) for _ in range(N)]
+    t = cp.Variable()
+    eps = margin * max(1.0, float(np.linalg.norm(A, 2)) ** 2)
+    cons = []
+    for k in range(N):
+        j = (k + 1) % N
+        E = [T[i, 0] * P[j][0] + T[i, 1] * P[j][1] for i in range(2)]
+        lost = decay ** 2 * P[k][0] - A.T @ E[0] @ A
+        cons.append(0.5 * (lost + lost.T) >> eps * np.eye(n))
+        M = (E[1] - Z[k] @ S1[j] @ C2) @ A
+        block = cp.bmat([[decay ** 2 * P[k][1], M.T], [M, E[1]]])
+        cons.append(0.5 * (block + block.T) >> eps * np.eye(2 * n))
+        for i in range(2):
+            cons += [P[k][i] >> np.eye(n), P[k][i] << t * np.eye(n)]
+    return EstimatorModel(cp.Problem(cp.Minimize(t), cons), P, Z)
+
+
 def balancing_scale(A: np.ndarray, b: np.ndarray, c: np.ndarray,
                     spread: float) -> np.ndarray | None:
     """Diagonal state scaling ``t`` (powers of two) for an LMI, or None.

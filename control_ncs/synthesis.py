@@ -25,7 +25,7 @@ import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import (caller_stacklevel, choice, decay_bound, finite_real,
-                      positive_real, real_array)
+                      positive_int, positive_real, real_array)
 from .stability import ms_radius
 from .gain import PeriodicGain, actuators, controllers
 from .jump import JumpStateSpace
@@ -805,16 +805,12 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
 def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
                      decay: Any, solver: Any) -> JumpPlant:
     """The open loop of :ref:`theory-output-feedback` with ``L_k`` given or
-    designed, after the pre-solve refusals (Markov links, unstabilisable or
-    undetectable modes,
-    a given ``L`` whose error loop alone is too slow)."""
+    designed, after the pre-solve refusals (unstabilisable or undetectable
+    modes, a given ``L`` whose error loop alone is too slow). Over bursty
+    links the estimator gain and the error loop are those of the Markov
+    sensor chain, and the loop is built on the joint chain of both links."""
     from .estimator import (EstimatorGain, estimation_error_loop,
                             estimator_gain, unobservable_modes)
-    if P.mode_transition() is not None:
-        raise ControlArgument(
-            "passivesyn: P has Markov (bursty) links; the estimator design "
-            "is written for i.i.d. losses only and would answer for the "
-            "stationary marginals, which is wrong for bursts (theory: Markov losses)")
     r = decay_bound(decay)
     N = P.period
     # dual PBH: what B2 Σ2,k never reaches over a period (lifted pair)
@@ -1224,11 +1220,18 @@ def _variables(model, plant):
 
 
 def _riccati_options(options):
+    """The Riccati iteration's options, checked at the boundary: unknown
+    names (TypeError) and bad values (ValueError naming them)."""
     unknown = set(options) - set(RICCATI_OPTIONS)
     if unknown:
         raise TypeError(
             f"passivesyn() got solver option(s) {sorted(unknown)} not "
             f"accepted by solver='riccati' (known: {list(RICCATI_OPTIONS)})")
+    for name in ("max_sweeps", "probe_sweeps"):
+        if name in options:
+            positive_int(options[name], name)
+    if "rtol" in options:
+        positive_real(options["rtol"], "rtol")
 
 
 def _riccati(plant, eta, decay, margin, options):

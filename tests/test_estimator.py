@@ -9,6 +9,8 @@ import pickle
 
 import control as ct
 import numpy as np
+
+import control_ncs as ncs
 import pytest
 from control.exception import ControlArgument, ControlDimension
 
@@ -492,3 +494,105 @@ def test_badly_scaled_plant_gets_an_estimator_and_a_verified_design():
     assert ncs.ms_radius(ncs.estimation_error_loop(P, L)) == L.ms_radius
     K, CL, eta = ncs.passivesyn(P, controller="estimator", decay=0.99)
     assert K.result.certificate.verified and ncs.ms_radius(CL) < 0.99 ** 2
+
+
+# -- bursty (Markov) sensor links ----------------------------------------------
+def bursty_scalar(fail, recover, a=1.3):
+    link = ncs.gilbert_elliott(fail=fail, recover=recover)
+    P = ncs.nss([[a]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[0.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, sensor_loss=link)
+    return P, link.transition
+
+
+def scalar_markov_error_rate(a, L, T):
+    """Second moment of e⁺ = (1 - θ⁺ L) a e over the chain of θ⁺, written
+    out: q⁺_j = Σ_i T[i, j] m_i² q_i with m_0 = a (lost), m_1 = (1 - L) a."""
+    m2 = np.array([a ** 2, ((1.0 - L) * a) ** 2])
+    op = T.T * m2[None, :]
+    return max(abs(np.linalg.eigvals(op)))
+
+
+def test_error_loop_over_a_bursty_sensor_link_has_the_markov_rate():
+    """The i.i.d. formula at the stationary loss said 0.5633 here; bursts of
+    ten steps make the error loop unstable."""
+    P, T = bursty_scalar(0.05, 0.1)
+    loop = ncs.estimation_error_loop(P, [[1.0 / 1.3]])
+    assert loop.modes.transition is not None
+    rate = ncs.ms_radius(loop)
+    assert rate == pytest.approx(scalar_markov_error_rate(1.3, 1 / 1.3, T),
+                                 rel=1e-12)
+    assert rate == pytest.approx(1.5215295851895, rel=1e-12)
+
+
+def test_no_estimator_gain_is_proven_when_the_link_stays_down_too_long():
+    P, T = bursty_scalar(0.05, 0.1)
+    with pytest.raises(ncs.SynthesisError) as info:
+        ncs.estimator_gain(P)
+    assert info.value.reason == "infeasible"
+    assert info.value.figures["lower_bound"] == pytest.approx(0.9 * 1.69)
+
+
+def test_estimator_over_a_bursty_link_reaches_the_closed_form_optimum():
+    """Deadbeat (L = 1) resets the error at every arrival, so the rate is
+    that of staying down, T[0,0] a², which no gain can beat."""
+    P, T = bursty_scalar(0.05, 0.5)
+    L = ncs.estimator_gain(P)
+    assert L.ms_radius == pytest.approx(T[0, 0] * 1.69, rel=1e-6)
+    assert L.ms_radius == ncs.ms_radius(ncs.estimation_error_loop(P, L.gains))
+    assert L.lyapunov.shape == (1, 2, 1, 1)
+
+
+@pytest.mark.parametrize("loss", [0.2, 0.35])
+def test_a_bursty_link_with_equal_rows_gives_the_bernoulli_estimator(loss):
+    P, _ = bursty_scalar(loss, 1.0 - loss, a=1.2)
+    Q = P.with_network(sensor_loss=loss)
+    rate_markov = ncs.ms_radius(ncs.estimation_error_loop(P, [[0.7]]))
+    rate_iid = ncs.ms_radius(ncs.estimation_error_loop(Q, [[0.7]]))
+    assert rate_markov == pytest.approx(rate_iid, rel=1e-12)
+    assert ncs.estimator_gain(P).ms_radius == pytest.approx(
+        ncs.estimator_gain(Q).ms_radius, rel=1e-5)
+
+
+def test_markov_error_loop_moments_match_monte_carlo():
+    P, _ = bursty_scalar(0.1, 0.4, a=1.1)
+    loop = ncs.estimation_error_loop(P, [[0.6]])
+    steps = 25
+    exact = ncs.moments(loop, steps, initial_state=[1.0])
+    paths = ncs.simulate(loop, steps, initial_state=[1.0], trials=40000,
+                         seed=3)
+    second = np.mean(paths.outputs[0] ** 2, axis=0)
+    want = exact.outputs_cov[0, 0] + exact.outputs_mean[0] ** 2
+    sigma = np.std(paths.outputs[0] ** 2, axis=0) / np.sqrt(40000)
+    assert np.all(np.abs(second - want) <= 5 * sigma + 1e-12)
+
+
+def test_estimator_over_bursty_links_matches_the_event_level_protocol():
+    """The whole loop (estimator, gain, both links bursty) against packets:
+    the protocol draws each link's Gilbert–Elliott chain itself."""
+    ge1 = ncs.gilbert_elliott(fail=0.1, recover=0.5)
+    ge2 = ncs.gilbert_elliott(fail=0.05, recover=0.6)
+    P = output_plant(np.random.default_rng(6),
+                     sensor_schedule=[[1, 0], [0, 1], [1, 1]],
+                     actuator_schedule=[[1, 0], [0, 1], [0, 0]],
+                     sensor_loss=ge1, actuator_loss=ge2)
+    K = -ct.dlqr(P.A, P.B2, np.eye(3), np.eye(2))[0]
+    L = estimator_gain(P)
+    assert L.ms_radius == ms_radius(estimation_error_loop(P, L.gains))
+    CL = feedback(P, K, controller="estimator", estimator_gain=L)
+    assert CL.modes.transition is not None and ms_radius(CL) < 1
+    steps, n = 20, P.nstates
+    x0 = np.array([1.0, -0.5, 0.3])
+    xi0 = np.zeros(len(CL.jump_states))
+    xi0[[i for i, s in enumerate(CL.jump_states) if s.endswith("_hat")]] = x0
+    w = np.sin(0.4 * np.arange(steps + 1))[None]
+    mom = moments(CL, steps + 1, inputs=w, initial_state=xi0)
+    sim = simulate_protocol(
+        P.A, P.B1, P.B2, P.C1, P.D11, P.D12, P.sensor_schedule.pattern,
+        P.actuator_schedule.pattern, ge1, ge2,
+        np.tile(K, (P.period, 1, 1)), steps,
+        controller="estimator", C2=P.C2, estimator_gains=L.gains,
+        inputs=w[:, :steps], initial_state=x0, initial_estimate=x0,
+        trials=20000, rng=np.random.default_rng(8))
+    S = plant_state_selector(CL, n)
+    assert_mean_within(sim["x"], S @ mom.states_mean, 5)
+    assert_mean_within(sim["z"], mom.outputs_mean[:, :steps], 5)
