@@ -12,6 +12,7 @@ downstream looks at schedules or losses again.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from functools import partial
 from typing import Any, Callable
@@ -20,7 +21,9 @@ import control as ct
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import choice, no_extra_kwargs, positive_int, real_array
+from ._checks import (caller_stacklevel, choice, no_extra_kwargs,
+                      positive_int, real_array)
+from .exceptions import ScheduleWarning
 from .gain import PeriodicGain
 from ._lifting import check_lifted_size
 from .jump import JumpStateSpace
@@ -714,7 +717,40 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     observed = plant.info.get("observed")
     if gains.ndim == 4 and observed is not None:
         _require_observed(gains, observed)
-    return plant.close(gains)
+    effective = _warn_unused_gains(P, plant, gains, controller)
+    CL = plant.close(gains)
+    CL.info["effective_gains"] = effective
+    return CL
+
+
+def _warn_unused_gains(P: NetworkedStateSpace, plant: JumpPlant,
+                       gains: np.ndarray, controller: str) -> np.ndarray:
+    """The gains as the loop applies them, with one warning when some of
+    their entries multiply an input the controller never has at that phase
+    (a sensor the schedule leaves silent): such entries act on zeros."""
+    dead = ~np.any(plant.E != 0, axis=2)                  # (N, nk)
+    used = np.any(gains != 0, axis=-2)                    # (N, [M,] nk)
+    if used.ndim == 3:
+        used = used.any(axis=1)
+    unused = dead & used
+    effective = gains.copy()
+    if gains.ndim == 4:
+        effective[:, :, :, :] *= ~dead[:, None, None, :]
+    else:
+        effective *= ~dead[:, None, :]
+    if unused.any():
+        where = {int(k % P.period): np.flatnonzero(unused[k]).tolist()
+                 for k in range(unused.shape[0]) if unused[k].any()}
+        what = ("sensors" if controller == "static" else "inputs")
+        warnings.warn(ScheduleWarning(
+            f"K: at phase(s) {sorted(where)} the gain's columns for {what} "
+            f"{where} multiply nothing (no message is scheduled there); the "
+            f"loop applies the gain without them (CL.info['effective_gains']). "
+            f"To use every measurement, hold the last one (an LTI "
+            f"controller with sensor='hold') or let a model bridge the "
+            f"silence (controller='predictor' or 'estimator')"),
+            stacklevel=caller_stacklevel())
+    return effective
 
 
 def _require_observed(gains: np.ndarray, observed: np.ndarray) -> None:

@@ -182,3 +182,37 @@ def test_a_passive_design_says_certified():
         K, CL, eta = ncs.passivesyn(P, decay=0.99)
     assert eta > 0 and K.result.passive and K.result.status == "certified"
     assert ncs.ispassive(CL)
+
+
+# -- a full gain on a scheduled network ----------------------------------------
+def two_sensors_in_turn():
+    return ncs.nss([[1.1, 0.1], [0.0, 0.9]], [[1.0, 0.0, 1.0], [0.0, 1.0, 0.0]],
+                   [[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+                   [[0.5, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]],
+                   nmeas=2, ncon=1, sensor_schedule=[1, 2], sensor_loss=0.1)
+
+
+def test_a_full_gain_on_a_scheduled_network_warns_once_naming_the_silence():
+    P = two_sensors_in_turn()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        CL = ncs.feedback(P, [[-0.5, -0.2]])
+    schedule = [w for w in caught if issubclass(w.category,
+                                                ncs.ScheduleWarning)]
+    assert len(schedule) == 1
+    text = str(schedule[0].message)
+    assert "phase(s) [0, 1]" in text and "{0: [1], 1: [0]}" in text
+    assert "sensor='hold'" in text and "predictor" in text
+    assert schedule[0].filename == __file__
+    # the loop is the one of the gain without the silent columns
+    effective = CL.info["effective_gains"]
+    np.testing.assert_array_equal(effective, [[[-0.5, 0.0]], [[0.0, -0.2]]])
+    assert ncs.feedback(P, effective).equals(CL)
+
+
+def test_a_gain_that_respects_the_schedule_does_not_warn():
+    P = two_sensors_in_turn()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ncs.ScheduleWarning)
+        ncs.feedback(P, [[[-0.5, 0.0]], [[0.0, -0.2]]])
+        ncs.feedback(P.with_network(sensor_schedule=None), [[-0.5, -0.2]])
