@@ -34,6 +34,7 @@ from control.exception import ControlArgument, ControlDimension
 from .exceptions import (PROOFS, TIME_LIMIT, NotPassiveWarning,
                          ScheduleWarning, SynthesisError)
 from .jump import jss
+from .network import GilbertElliott, gilbert_elliott
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
 from .synthesis import METHODS, passivesyn
@@ -133,6 +134,20 @@ def _loss(value: Any, name: str) -> float:
         raise ValueError(f"{name}: expected a loss probability in [0, 1), "
                          f"got {value!r}")
     return alpha
+
+
+def _at_loss(link: Any, loss: float) -> Any:
+    """The link at another stationary loss: a bursty link keeps its mean
+    burst length (so a map over a bursty link stays bursty)."""
+    if isinstance(link, GilbertElliott) and not link.is_bernoulli \
+            and loss > 0.0:
+        try:
+            return gilbert_elliott(loss=loss, burst=link.burst)
+        except ValueError as err:
+            raise ValueError(
+                f"loss: {loss:g} cannot be reached on a bursty link with mean "
+                f"bursts of {link.burst:g} steps ({err})") from None
+    return loss
 
 
 def _loss_grid(values: Any, name: str) -> np.ndarray:
@@ -484,9 +499,11 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     the same synthesis and exact verification as a single call; a cell
     without a certified gain records the :class:`SynthesisError` reason.
 
-    Only Bernoulli loss grids exist for now; Markov (burst) axes come with
-    the Markov losses of a later issue, and :class:`DesignMap` stores its
-    axes by name so that they can be added.
+    Over a bursty (Gilbert–Elliott) link a grid value is the link's
+    stationary loss at the link's own mean burst length: the cells keep
+    the bursts (``gilbert_elliott(loss=a, burst=link.burst)``; a loss of 0
+    is a link that never fails). Maps over the burst length itself are not
+    built yet.
 
     Parameters
     ----------
@@ -565,8 +582,9 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
             "schedules a sensor and an actuator together (theory: static-gain loop). Use "
             "controller='predictor'.")
     start = time.perf_counter()
-    tasks = [(P.with_network(sensor_loss=x, actuator_loss=y), eta, decay,
-              controller, actuator) for x in a1 for y in a2]
+    tasks = [(P.with_network(sensor_loss=_at_loss(P.sensor_link, x),
+                             actuator_loss=_at_loss(P.actuator_link, y)),
+              eta, decay, controller, actuator) for x in a1 for y in a2]
     shape = (a1.size, a2.size)
 
     def neighbours(index: int) -> list:

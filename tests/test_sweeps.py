@@ -501,3 +501,30 @@ def test_schedule_count_equals_a_brute_force_count_of_orbits(maps, N):
         orbits.add(min(tuple(h[x] for x in word[r:] + word[:r])
                        for h in maps for r in range(N)))
     assert sweeps._orbit_count(N, maps) == len(orbits)
+
+
+def test_a_map_over_a_bursty_link_keeps_the_bursts():
+    """Once the map replaced the link by Bernoulli losses (η 0.49192 where
+    the bursty loop certifies 0.48694)."""
+    link = ncs.gilbert_elliott(loss=0.2, burst=2.0)
+    P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+                actuator_loss=link)
+    dm = ncs.design_map(P, [0.0], [0.1, 0.2], decay=0.95, progress=False)
+    for j, loss in enumerate((0.1, 0.2)):
+        _, _, eta = in_fresh_thread(ncs.passivesyn, P.with_network(
+            actuator_loss=ncs.gilbert_elliott(loss=loss, burst=2.0)),
+            decay=0.95)
+        assert dm.eta[0, j] == pytest.approx(eta, rel=1e-9)
+    bernoulli = ncs.design_map(P.with_network(actuator_loss=0.2), [0.0],
+                               [0.2], decay=0.95, progress=False)
+    assert dm.eta[0, 1] < bernoulli.eta[0, 0] - 1e-3
+
+
+def test_a_loss_a_bursty_link_cannot_reach_is_refused_naming_it():
+    link = ncs.gilbert_elliott(loss=0.2, burst=1.1)
+    P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+                actuator_loss=link)
+    with pytest.raises(ValueError, match="^loss: 0.95 cannot be reached"):
+        ncs.design_map(P, [0.0], [0.95], progress=False)
