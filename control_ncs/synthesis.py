@@ -544,16 +544,23 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     Raises
     ------
     SynthesisError
-        ``reason`` and ``figures`` say why: ``'infeasible'`` only with
-        evidence: the solver's exact status 'infeasible' for the LMI as posed
-        (never an ``*_inaccurate`` one; this is the solver's infeasibility
-        certificate, not re-checked, and it covers the LMI *with* its
-        strictness ``margin`` — a level within about the margin of the
+        ``reason`` and ``figures`` say why. Only ``'infeasible'``,
+        ``'not_mss'`` and ``'feedthrough'`` prove that no gain exists.
+        ``'infeasible'``: the solver's exact status 'infeasible' for the
+        *exact* LMI (structure ``'full'`` with gains on all the controller
+        observes; never an ``*_inaccurate`` status; the solver's
+        infeasibility certificate, not re-checked, covering the LMI *with*
+        its strictness ``margin`` — a level within about the margin of the
         supremum may still have a certificate), a diverging Riccati
-        iteration (likewise with its margin), or the
-        gain-independent network modes alone having ``ms_radius ≥ 1``
-        (``≥ r²``; e.g. a loss of exactly 1 on an unstable plant; figure
-        ``ms_radius_without_control``); ``'solver_failed'``,
+        iteration (likewise with its margin), or the gain-independent
+        network modes alone having ``ms_radius ≥ 1`` (``≥ r²``; e.g. a loss
+        of exactly 1 on an unstable plant; figure
+        ``ms_radius_without_control``). ``'sufficient_failed'``: a
+        sufficient LMI (structured gains, a hold actuator, the predictor,
+        gains common to previous modes) has no solution, which proves
+        nothing about other gains; ``'not_found'``: the refinement found no
+        certified gain; a crash inside a route is ``'solver_failed'`` with
+        the error in ``figures['error']``; ``'solver_failed'``,
         ``'inaccurate'``, ``'not_verified'`` after the retries
         (``RETRIES``), the fallback solver and, for the default call, the
         fallbacks above; ``'time_limit'`` when ``time_limit`` ran out.
@@ -569,19 +576,27 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         input reaches evolve on their own with ``ms_radius ≥ 1`` (``≥ r²``;
         figures ``ms_radius_without_control``, ``proof='autonomous
         subsystem'``, e.g. a predictor's estimation error); a refinement
-        that certifies nothing raises ``'not_verified'`` or
-        ``'time_limit'``, never ``'infeasible'``.
+        that certifies nothing raises ``'not_found'`` or ``'time_limit'``,
+        never ``'infeasible'``.
     ValueError, ControlDimension, ControlArgument
         The pre-solve checks: ``dim w ≠ dim z``, ``D11 + D11ᵀ ⊁ 2ηI``,
         ``y ≠ x`` (``'static'``, ``'predictor'``), a static gain that can
         never close the loop; for ``'estimator'``: ``(A, B2)`` not
         stabilisable through the actuator schedule or ``(A, C2)`` not
         detectable through the sensor schedule (lifted PBH tests),
-        Markov links, ``estimator_gain`` given to another controller;
+        ``estimator_gain`` given to another controller;
         ``solver='riccati'`` for a loop whose structure is not ``'full'``.
     TypeError
         A solver option the chosen solver (or the Riccati iteration) does
         not know.
+
+    Warns
+    -----
+    NotPassiveWarning
+        When ``eta`` is maximised and the best certified level is negative:
+        the loop is certified mean-square stable and dissipative with an
+        input-feedforward shortage, not passive (``K.result.status`` is
+        ``'certified_shortage'``).
 
     References
     ----------
