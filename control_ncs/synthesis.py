@@ -83,9 +83,8 @@ METHODS = ("auto", "lmi", "refine")
 
 #: What helps a design whose certified level is negative (see
 #: :class:`~control_ncs.exceptions.NotPassiveWarning`).
-_SHORTAGE_HELP = ("the loop is not passive; a larger feedthrough D11 from w "
-                  "to z, a weaker decay requirement, or less loss on the "
-                  "links raise eta")
+_SHORTAGE_HELP = ("a larger feedthrough D11 from w to z, a weaker decay "
+                  "requirement or less loss on the links would raise eta")
 
 
 @dataclass
@@ -243,7 +242,7 @@ class SynthesisResult:
                 f"{self.ms_radius:.6g}, structure {self.structure}, "
                 f"{self.gain_kind} gains)")
         if not self.passive:
-            text += "; " + _SHORTAGE_HELP
+            text += f"; the loop is not passive ({_SHORTAGE_HELP})"
         return text
 
     def __repr__(self) -> str:
