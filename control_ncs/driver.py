@@ -19,11 +19,13 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-import cvxpy as cp
 
 from .exceptions import (INACCURATE, INFEASIBLE, NOT_VERIFIED,
                          SOLVER_FAILED, TIME_LIMIT)
 from .lmi import SolveReport, fallback_solver
+
+#: The solver's word for a proven-infeasible problem (cvxpy's status string).
+SOLVER_INFEASIBLE = "infeasible"
 
 __all__: list[str] = []
 
@@ -173,10 +175,10 @@ def drive(attempt: Callable[[float, float | None, str | None, float | None],
             out.reason, out.report = TIME_LIMIT, report
             out.message = f"solver {report.solver} reached the time limit"
             return out
-        if report.status == cp.INFEASIBLE and refute:
+        if report.status == SOLVER_INFEASIBLE and refute:
             refuted = report
             continue
-        if report.status == cp.INFEASIBLE and original:
+        if report.status == SOLVER_INFEASIBLE and original:
             out.reason, out.report = INFEASIBLE, report
             out.message = (f"the LMI is infeasible (solver {report.solver}, "
                            f"status {report.status!r})")

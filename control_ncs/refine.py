@@ -69,7 +69,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -838,99 +838,3 @@ def refine_gain(P: NetworkedStateSpace | JumpPlant, eta: float | None = None,
     deadline = (None if time_limit is None
                 else time.perf_counter() + time_limit)
     return _refine(plant, eta, decay, gains, rng, deadline, max_iterations)
-
-
-#: The synthesis (``passivesyn(method='auto'|'refine')``) tries the
-#: sufficient LMI first, as a starting point, up to this many states: above,
-#: it took 8.7-14.5 s at 16-18 states, at most 1.1 s up to 10
-#: (docs/benchmarks.md, structured refinement).
-LMI_START_MAX_STATES = 10
-
-
-def refined_synthesis(plant: JumpPlant, eta: float | None, decay: float,
-                      deadline: float | None,
-                      lmi: Callable[[float | None], tuple] | None,
-                      initial: np.ndarray | None = None):
-    """:func:`passivesyn`'s refinement route (checked arguments).
-
-    ``lmi(deadline)`` runs the sufficient LMI (raising
-    :class:`~control_ncs.exceptions.SynthesisError` when it certifies
-    nothing); its gain, if any, is the first start, else ``initial`` (gains
-    per phase) when given. A gain the LMI certifies at a given ``eta`` is
-    returned as is. Returns
-    ``(K, CL, eta)`` with ``K.result.method`` naming what certified it.
-    """
-    from .exceptions import INFEASIBLE, NOT_FOUND, SynthesisError
-    from .lmi import SolveReport
-    from .synthesis import _finish
-    rate, states = autonomous_rate(plant)
-    if rate >= min(1.0, decay ** 2) * (1 + 1e-9):
-        raise SynthesisError(
-            f"passivesyn: infeasible: the states {states.tolist()} evolve "
-            f"on their own, reached by no input and driven by no other "
-            f"state, with a second-moment rate of {rate:.6g} >= "
-            f"{min(1.0, decay ** 2):.6g} per step; every closed loop's rate "
-            f"is at least that: no gain makes the loop mean-square stable"
-            + (f" with decay {decay}" if decay < 1 else ""), INFEASIBLE,
-            dict(ms_radius_without_control=rate, states=states.tolist(),
-                 bound=min(1.0, decay ** 2), proof="autonomous subsystem"))
-    given = found = None
-    if lmi is not None and plant.shape["nx"] <= LMI_START_MAX_STATES:
-        left = None if deadline is None else deadline - time.perf_counter()
-        share = None if left is None else 0.5 * left
-        try:
-            found = lmi(None if share is None
-                        else time.perf_counter() + share)
-        except SynthesisError:
-            found = None
-        if found is not None:
-            if eta is not None:
-                found[0].result.method = "lmi"
-                return found
-            # gains on the previous mode (Markov links) compete as they
-            # are; a gain per phase is the refinement's first start
-            given = found[0].gains if found[0].gains.ndim == 3 else None
-    if given is None and initial is not None:
-        given = initial
-    left = None if deadline is None else max(deadline - time.perf_counter(),
-                                              1e-3)
-    rng = np.random.default_rng(0)
-    res = _refine(plant, eta, decay, given, rng,
-                  None if left is None else time.perf_counter() + left, 200)
-    if found is not None and not (res.verified and
-                                  res.eta > found[0].result.eta):
-        K = found[0]
-        K.result.method, K.result.refinement = "lmi", res
-        K.result.start = "lmi"
-        return found
-    if not res.verified:
-        raise SynthesisError(
-            f"passivesyn: {res.message}", TIME_LIMIT
-            if res.stopped == TIME_LIMIT else NOT_FOUND,
-            dict(ms_radius=res.ms_radius, starts=res.starts,
-                 iterations=res.iterations, method="refine"))
-    cert = res.certificate
-    assert cert is not None  # verified
-    X = np.linalg.inv(cert.P)
-    X = 0.5 * (X + np.swapaxes(X, -1, -2))
-    if X.ndim == 4:
-        # Markov links: storage per phase and previous mode, P_{k,ℓ}
-        Y = np.einsum("kuj,kjx,klxy->kluy", res.gains, plant.E, X)
-    else:
-        Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
-    s = plant.shape
-    report = SolveReport("optimal", "REFINE", 0.0, res.time, res.time,
-                         res.iterations, res.eta)
-    if found is not None:
-        structure = found[0].result.structure
-    else:
-        structure = "extended" if any(
-            plant.known_coordinates(k).size < s["nx"]
-            for k in range(plant.period)) else "full"
-    K, CL, got = _finish(plant, X, Y, res.gains, plant.close(res.gains),
-                         cert, cert.eta, cert.eta, decay, "merged",
-                         structure, s["nx"] + s["nw"], report, [report])
-    K.result.method = "refine"
-    K.result.start = "lmi" if res.start == "given" else res.start
-    K.result.refinement = res
-    return K, CL, got

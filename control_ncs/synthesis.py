@@ -35,9 +35,11 @@ from .lmi import (DEFAULT_MARGIN, GAINS, SolveReport, balancing_scale,
                   check_options, check_solver, data_scale, gain_kinds,
                   read_gains, solve, synthesis_model)
 from .plant import NetworkedStateSpace
+from .refine import _refine, autonomous_rate
 from .riccati import riccati_synthesis
 from .strategies import build, require_state_measured
 from .exceptions import (CERTIFIED, CERTIFIED_SHORTAGE, INFEASIBLE, MESSAGES,
+                         NOT_FOUND,
                          NOT_VERIFIED, SOLVER_FAILED, SUFFICIENT_FAILED,
                          TIME_LIMIT, NotPassiveWarning, SynthesisError)
 from .verify import (Certificate, certify_index, check_certificate,
@@ -502,7 +504,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``'refine'``: the local refinement of
         :func:`control_ncs.refine.refine_gain` on the exact ``ms_radius``
         and the analysis LMI's η, started from the sufficient LMI's gain
-        when it has one (up to ``refine.LMI_START_MAX_STATES`` states),
+        when it has one (up to ``synthesis.LMI_START_MAX_STATES`` states),
         the unstructured gain restricted, a continuation in the loss; its
         gain is certified by the analysis of its closed loop, locally
         improved, never globally optimal, and its failure proves nothing.
@@ -762,15 +764,14 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             # the refinement designs gains per phase K_k; on Markov links
             # the LMI's gains K_{k,ℓ} (gain='mode') compete with it as they
             # are, and a phase gain of the LMI is its first start
-            from .refine import refined_synthesis
             # a given start replaces the sufficient LMI's gain (a sweep has
             # solved that LMI already)
-            K, CL, got = refined_synthesis(plant, eta, decay, deadline, None if
-                initial_gain is not None else (
-                lambda limit: _routes(plant, eta, decay, margin, structure,
-                                      structure0, form, solver,
-                                      solver_options, limit, riccati,
-                                      gain)), initial_gain)
+            K, CL, got = _refine_route(plant, eta, decay, deadline, None if
+                initial_gain is not None else dict(
+                    margin=margin, structure=structure,
+                    structure0=structure0, form=form, solver=solver,
+                    solver_options=solver_options, riccati=riccati,
+                    gain=gain), initial_gain)
         else:
             K, CL, got = _routes(plant, eta, decay, margin, structure,
                                  structure0, form, solver, solver_options,
@@ -860,6 +861,98 @@ def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
             INFEASIBLE, dict(error_loop_ms_radius=rate, bound=r ** 2,
                              proof="separation"))
     return plant
+
+
+#: The synthesis (``passivesyn(method='auto'|'refine')``) tries the
+#: sufficient LMI first, as a starting point, up to this many states: above,
+#: it took 8.7-14.5 s at 16-18 states, at most 1.1 s up to 10
+#: (docs/benchmarks.md, structured refinement).
+LMI_START_MAX_STATES = 10
+
+
+def _refine_route(plant: JumpPlant, eta: float | None, decay: float,
+                  deadline: float | None, lmi_start: dict | None,
+                  initial: np.ndarray | None = None):
+    """The refinement route (checked arguments): proof first, then the
+    local search of :mod:`control_ncs.refine`, certified by analysis.
+
+    ``lmi_start`` holds the arguments of :func:`_routes` for the sufficient
+    LMI, whose gain (if it certifies one) is the first start; None skips it
+    and starts from ``initial`` (gains per phase). A gain the LMI certifies
+    at a given ``eta`` is returned as is. Returns ``(K, CL, eta)`` with
+    ``K.result.method`` naming what certified it.
+    """
+    rate, states = autonomous_rate(plant)
+    if rate >= min(1.0, decay ** 2) * (1 + 1e-9):
+        raise SynthesisError(
+            f"passivesyn: infeasible: the states {states.tolist()} evolve "
+            f"on their own, reached by no input and driven by no other "
+            f"state, with a second-moment rate of {rate:.6g} >= "
+            f"{min(1.0, decay ** 2):.6g} per step; every closed loop's rate "
+            f"is at least that: no gain makes the loop mean-square stable"
+            + (f" with decay {decay}" if decay < 1 else ""), INFEASIBLE,
+            dict(ms_radius_without_control=rate, states=states.tolist(),
+                 bound=min(1.0, decay ** 2), proof="autonomous subsystem"))
+    given = found = None
+    if lmi_start is not None and plant.shape["nx"] <= LMI_START_MAX_STATES:
+        left = None if deadline is None else deadline - time.perf_counter()
+        share = None if left is None else 0.5 * left
+        try:
+            found = _routes(plant, eta, decay, deadline=None if share is None
+                            else time.perf_counter() + share, **lmi_start)
+        except SynthesisError:
+            found = None
+        if found is not None:
+            if eta is not None:
+                found[0].result.method = "lmi"
+                return found
+            # gains on the previous mode (Markov links) compete as they
+            # are; a gain per phase is the refinement's first start
+            given = found[0].gains if found[0].gains.ndim == 3 else None
+    if given is None and initial is not None:
+        given = initial
+    left = None if deadline is None else max(deadline - time.perf_counter(),
+                                              1e-3)
+    rng = np.random.default_rng(0)
+    res = _refine(plant, eta, decay, given, rng,
+                  None if left is None else time.perf_counter() + left, 200)
+    if found is not None and not (res.verified and
+                                  res.eta > found[0].result.eta):
+        K = found[0]
+        K.result.method, K.result.refinement = "lmi", res
+        K.result.start = "lmi"
+        return found
+    if not res.verified:
+        raise SynthesisError(
+            f"passivesyn: {res.message}", TIME_LIMIT
+            if res.stopped == TIME_LIMIT else NOT_FOUND,
+            dict(ms_radius=res.ms_radius, starts=res.starts,
+                 iterations=res.iterations, method="refine"))
+    cert = res.certificate
+    assert cert is not None  # verified
+    X = np.linalg.inv(cert.P)
+    X = 0.5 * (X + np.swapaxes(X, -1, -2))
+    if X.ndim == 4:
+        # Markov links: storage per phase and previous mode, P_{k,ℓ}
+        Y = np.einsum("kuj,kjx,klxy->kluy", res.gains, plant.E, X)
+    else:
+        Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
+    s = plant.shape
+    report = SolveReport("optimal", "REFINE", 0.0, res.time, res.time,
+                         res.iterations, res.eta)
+    if found is not None:
+        structure = found[0].result.structure
+    else:
+        structure = "extended" if any(
+            plant.known_coordinates(k).size < s["nx"]
+            for k in range(plant.period)) else "full"
+    K, CL, got = _finish(plant, X, Y, res.gains, plant.close(res.gains),
+                         cert, cert.eta, cert.eta, decay, "merged",
+                         structure, s["nx"] + s["nw"], report, [report])
+    K.result.method = "refine"
+    K.result.start = "lmi" if res.start == "given" else res.start
+    K.result.refinement = res
+    return K, CL, got
 
 
 def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
