@@ -20,10 +20,8 @@ def main(argv: list[str] | None = None) -> int:
                       help="Monte Carlo sample paths (default: 200)")
     demo.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
-    import matplotlib
-    matplotlib.use("Agg")
-    from .demo import run_demo
-    run_demo(args.out, trials=args.trials, seed=args.seed)
+    from .demo import run_demo_command
+    run_demo_command(args.out, trials=args.trials, seed=args.seed)
     return 0
 
 

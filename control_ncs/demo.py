@@ -69,6 +69,14 @@ def levitation_stage(dt: float = 0.05, **network: Any) -> NetworkedStateSpace:
                states=["q1", "v1", "q2", "v2"], **settings)
 
 
+def run_demo_command(outdir: str, *, trials: int, seed: int) -> None:
+    """``python -m control_ncs demo``: the demo in a process of its own,
+    drawing to files (matplotlib's Agg backend: no screen needed)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    run_demo(outdir, trials=trials, seed=seed)
+
+
 def run_demo(outdir: str = "demo-output", *, trials: int = 200, seed: int = 0,
              verbose: bool = True) -> dict:
     """Run the demo end to end and write its plots.

@@ -1,4 +1,4 @@
-"""Figures: ensemble responses and network schedules.
+"""Every figure of the package: responses, schedules, sweeps.
 
 Every function returns python-control's :class:`control.ControlPlot`
 (``lines``, ``axes``, ``figure``, ``legend``), as
@@ -15,11 +15,12 @@ import matplotlib.pyplot as plt
 from matplotlib.axes import Axes
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import positive_int
+from ._checks import choice, positive_int
 from .plant import NetworkedStateSpace
 from .responses import EnsembleResponse
 
-__all__ = ["plot_ensemble", "schedule_plot"]
+__all__ = ["ensemble_plot", "plot_ensemble", "schedule_plot",
+           "design_map_plot", "schedule_search_plot"]
 
 
 def _check_axes(ax: Any) -> None:
@@ -28,7 +29,7 @@ def _check_axes(ax: Any) -> None:
                               f"{type(ax).__name__}")
 
 
-def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
+def ensemble_plot(response: EnsembleResponse, ax: Any = None, paths: int = 5,
                   *, band: bool = True, legend: bool = True,
                   title: str | None = None) -> ct.ControlPlot:
     """Draw an ensemble response: band, paths, sample and exact mean.
@@ -75,7 +76,7 @@ def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
     --------
     >>> from control_ncs import step_response, plot_ensemble
     >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> cplt = plot_ensemble(step_response(sys, 20, trials=200, seed=0), paths=3)
+    >>> cplt = ensemble_plot(step_response(sys, 20, trials=200, seed=0), paths=3)
     >>> len(cplt.axes[0, 0].get_lines()), len(cplt.axes[0, 0].collections)
     (5, 1)
     """
@@ -127,6 +128,11 @@ def plot_ensemble(response: EnsembleResponse, ax: Any = None, paths: int = 5,
     if ax is None:
         fig.suptitle(title if title is not None else response.title)
     return ct.ControlPlot(lines, axes.reshape(p, 1), fig, legend=legends)
+
+
+#: The former name of :func:`ensemble_plot` (python-control names its plot
+#: functions ``*_plot``).
+plot_ensemble = ensemble_plot
 
 
 def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
@@ -205,3 +211,151 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
     lines[0, 0] = drawn
     return ct.ControlPlot(lines, np.array([[ax]], dtype=object), ax.figure,
                           legend=np.full((1, 1), None, dtype=object))
+
+
+def design_map_plot(dmap: Any, quantity: str = "eta", *, ax: Any = None,
+                    title: str | None = None) -> ct.ControlPlot:
+    """Heat map of a design map's ``eta`` or ``ms_radius``.
+
+    The cells the map certified are coloured; the red line is the
+    feasibility boundary (where the grid has two points or more on each
+    axis). :meth:`control_ncs.DesignMap.plot` calls this.
+
+    Parameters
+    ----------
+    dmap : DesignMap
+        The result of :func:`control_ncs.design_map`.
+    quantity : {'eta', 'ms_radius'}
+    ax : matplotlib.axes.Axes, optional
+    title : str, optional
+
+    Returns
+    -------
+    control.ControlPlot
+        ``lines[0, 0]`` holds the image and, when drawn, the boundary.
+
+    Examples
+    --------
+    >>> P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+    ...             [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1)
+    >>> dm = ncs.design_map(P, [0.0, 0.2], [0.0, 0.2], decay=0.95,
+    ...                     progress=False)
+    >>> cp = ncs.design_map_plot(dm)
+    >>> cp.axes[0, 0].get_xlabel(), bool(min(cp.axes[0, 0].get_xlim()) >= 0)
+    ('actuator_loss', True)
+    """
+    choice(quantity, "quantity", ("eta", "ms_radius"))
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.5, 4.5))
+    else:
+        _check_axes(ax)
+    data = np.ma.masked_invalid(getattr(dmap, quantity))
+    x, y = dmap.values[1], dmap.values[0]
+    mesh = ax.pcolormesh(_edges(x, dmap.axes[1]), _edges(y, dmap.axes[0]), data, shading="flat",
+                         cmap="viridis")
+    drawn: list = [mesh]
+    ax.figure.colorbar(mesh, ax=ax, label=quantity)
+    if min(dmap.shape) >= 2 and dmap.feasible.any() \
+            and not dmap.feasible.all():
+        drawn.append(ax.contour(x, y, dmap.feasible.astype(float),
+                                levels=[0.5], colors="red",
+                                linewidths=1.5))
+    ax.set_xlabel(dmap.axes[1])
+    ax.set_ylabel(dmap.axes[0])
+    ax.set_title(title or (f"{quantity} of the certified design "
+                           f"(blank: none; red: feasibility boundary)"))
+    lines = np.empty((1, 1), dtype=object)
+    lines[0, 0] = drawn
+    return ct.ControlPlot(lines, np.array([[ax]], dtype=object), ax.figure,
+                          legend=np.full((1, 1), None, dtype=object))
+
+
+def _edges(v: np.ndarray, axis: str) -> np.ndarray:
+    """Cell edges around grid points (midpoints; a lone point gets ±0.5,
+    or a tenth of its value): a probability axis stays within [0, 1]."""
+    if v.size == 1:
+        half = 0.5 if not axis.endswith("loss") else max(0.05, 0.1 * v[0])
+        e = np.array([v[0] - half, v[0] + half])
+    else:
+        mid = (v[1:] + v[:-1]) / 2
+        e = np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]])
+    if axis.endswith("loss"):
+        e = np.clip(e, 0.0, 1.0)
+    return e
+
+
+def schedule_search_plot(search: Any, count: int | None = None, *,
+                         title: str | None = None) -> ct.ControlPlot:
+    """The best schedules of a search as timelines, one row each.
+
+    :meth:`control_ncs.ScheduleSearch.plot` calls this.
+
+    Parameters
+    ----------
+    search : ScheduleSearch
+        The result of :func:`control_ncs.schedule_search`.
+    count : int, optional
+        Number of schedules to draw (default: the ranking, at most 6).
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    control.ControlPlot
+        ``axes`` has shape (count, 1); ``lines[i, 0]`` lists the cells
+        drawn for schedule ``i`` (one ``broken_barh`` per node).
+
+    Raises
+    ------
+    ValueError
+        Nothing was certified, or ``count`` is not an int >= 1.
+
+    Examples
+    --------
+    >>> P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+    ...             [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1)
+    >>> res = ncs.schedule_search(P, 2, decay=0.98, progress=False)
+    >>> ncs.schedule_search_plot(res, 1).axes.shape
+    (1, 1)
+    """
+    ranked = search.ranking
+    if not ranked:
+        raise ValueError("plot: no schedule was certified; nothing to draw")
+    count = min(len(ranked), 6) if count is None else min(
+        len(ranked), positive_int(count, "count"))
+    p2 = max(1, int(search.sensor_schedules.max(initial=0)))
+    m2 = max(1, int(search.actuator_schedules.max(initial=0)))
+    rows = p2 + m2
+    fig, axs = plt.subplots(count, 1, squeeze=False, sharex=True,
+                            figsize=(7, 0.5 + count * (0.3 * rows + 0.5)))
+    N = search.period
+    lines = np.empty((count, 1), dtype=object)
+    for r, s in enumerate(ranked[:count]):
+        ax = axs[r, 0]
+        drawn = []
+        labels: list[str] = []
+        for i in range(1, p2 + 1):
+            on = [k for k in range(N) if s.sensor_schedule[k] == i]
+            drawn.append(ax.broken_barh([(k, 0.9) for k in on],
+                                        (len(labels) - 0.4, 0.8),
+                                        color="tab:blue"))
+            labels.append(f"sensor {i}")
+        for j in range(1, m2 + 1):
+            on = [k for k in range(N) if s.actuator_schedule[k] == j]
+            drawn.append(ax.broken_barh([(k, 0.9) for k in on],
+                                        (len(labels) - 0.4, 0.8),
+                                        color="tab:orange"))
+            labels.append(f"actuator {j}")
+        ax.set_yticks(np.arange(len(labels)), labels)
+        ax.set_ylim(-0.6, len(labels) - 0.4)
+        ax.invert_yaxis()
+        ax.set_xlim(0, N)
+        ax.set_title(f"#{r + 1}: η = {s.eta:.4g}, ms_radius = "
+                     f"{s.ms_radius:.4g}", fontsize="small")
+        lines[r, 0] = drawn
+    axs[-1, 0].set_xlabel("phase k")
+    fig.suptitle(title or f"Best schedules of period {N}"
+                 + (" (shared channel)" if search.shared_channel else ""))
+    fig.tight_layout()
+    return ct.ControlPlot(lines, axs, fig,
+                          legend=np.full((count, 1), None, dtype=object))

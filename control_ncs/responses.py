@@ -10,7 +10,7 @@ functions of the same names: they return an :class:`EnsembleResponse` with
 the sample mean, quantile bands and, beside them, the *exact* mean and
 standard deviation of :ref:`theory-moments` (:func:`control_ncs.moments`), so
 that every picture shows how far sampling is from the truth.
-:func:`control_ncs.plot_ensemble` draws the usual figure: exact mean,
+:func:`control_ncs.ensemble_plot` draws the usual figure: exact mean,
 sample mean, band and a few sample paths. The engine (random streams,
 chunks, threads, memory) is :mod:`control_ncs.montecarlo`; its notes say
 which draws a trial reads and what a run holds in memory.
@@ -216,7 +216,7 @@ class EnsembleResponse:
     --------
     step_response, impulse_response, initial_response, forced_response :
         produce one.
-    plot_ensemble : its usual figure.
+    ensemble_plot : its usual figure.
 
     Examples
     --------
@@ -387,7 +387,7 @@ class EnsembleResponse:
         One axes per output with ``2 + len(quantiles)`` lines: exact mean
         (solid), sample mean (dashed), quantiles (dotted). Keywords are
         passed on (e.g. ``plot_inputs=True``, ``overlay_traces=False``).
-        For a band with sample paths use :func:`plot_ensemble`.
+        For a band with sample paths use :func:`ensemble_plot`.
 
         Parameters
         ----------

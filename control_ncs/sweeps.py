@@ -442,41 +442,8 @@ class DesignMap:
             ``lines[0, 0]`` holds the image and, when the grid has two or
             more points on each axis, the boundary contour.
         """
-        import matplotlib.pyplot as plt
-        from matplotlib.axes import Axes
-        _choice(quantity, "quantity", ("eta", "ms_radius"))
-        if ax is None:
-            _, ax = plt.subplots(figsize=(5.5, 4.5))
-        elif not isinstance(ax, Axes):
-            raise ControlArgument(f"ax: expected a matplotlib Axes, got "
-                                  f"{type(ax).__name__}")
-        data = np.ma.masked_invalid(getattr(self, quantity))
-        x, y = self.values[1], self.values[0]
-        mesh = ax.pcolormesh(_edges(x), _edges(y), data, shading="flat",
-                             cmap="viridis")
-        drawn: list = [mesh]
-        ax.figure.colorbar(mesh, ax=ax, label=quantity)
-        if min(self.shape) >= 2 and self.feasible.any() \
-                and not self.feasible.all():
-            drawn.append(ax.contour(x, y, self.feasible.astype(float),
-                                    levels=[0.5], colors="red",
-                                    linewidths=1.5))
-        ax.set_xlabel(self.axes[1])
-        ax.set_ylabel(self.axes[0])
-        ax.set_title(title or (f"{quantity} of the certified design "
-                               f"(blank: none; red: feasibility boundary)"))
-        lines = np.empty((1, 1), dtype=object)
-        lines[0, 0] = drawn
-        return ct.ControlPlot(lines, np.array([[ax]], dtype=object), ax.figure,
-                              legend=np.full((1, 1), None, dtype=object))
-
-
-def _edges(v: np.ndarray) -> np.ndarray:
-    """Cell edges around grid points (midpoints; a lone point gets ±0.5)."""
-    if v.size == 1:
-        return np.array([v[0] - 0.5, v[0] + 0.5])
-    mid = (v[1:] + v[:-1]) / 2
-    return np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]])
+        from .plots import design_map_plot
+        return design_map_plot(self, quantity, ax=ax, title=title)
 
 
 def _pandas() -> Any:
@@ -1019,49 +986,8 @@ class ScheduleSearch:
         ValueError
             Nothing was certified, or ``count`` is not an int >= 1.
         """
-        import matplotlib.pyplot as plt
-        ranked = self.ranking
-        if not ranked:
-            raise ValueError("plot: no schedule was certified; nothing to draw")
-        count = min(len(ranked), 6) if count is None else min(
-            len(ranked), _positive_int(count, "count"))
-        p2 = max(1, int(self.sensor_schedules.max(initial=0)))
-        m2 = max(1, int(self.actuator_schedules.max(initial=0)))
-        rows = p2 + m2
-        fig, axs = plt.subplots(count, 1, squeeze=False, sharex=True,
-                                figsize=(7, 0.5 + count * (0.3 * rows + 0.5)))
-        N = self.period
-        lines = np.empty((count, 1), dtype=object)
-        for r, s in enumerate(ranked[:count]):
-            ax = axs[r, 0]
-            drawn = []
-            labels: list[str] = []
-            for i in range(1, p2 + 1):
-                on = [k for k in range(N) if s.sensor_schedule[k] == i]
-                drawn.append(ax.broken_barh([(k, 0.9) for k in on],
-                                            (len(labels) - 0.4, 0.8),
-                                            color="tab:blue"))
-                labels.append(f"sensor {i}")
-            for j in range(1, m2 + 1):
-                on = [k for k in range(N) if s.actuator_schedule[k] == j]
-                drawn.append(ax.broken_barh([(k, 0.9) for k in on],
-                                            (len(labels) - 0.4, 0.8),
-                                            color="tab:orange"))
-                labels.append(f"actuator {j}")
-            ax.set_yticks(np.arange(len(labels)), labels)
-            ax.set_ylim(-0.6, len(labels) - 0.4)
-            ax.invert_yaxis()
-            ax.set_xlim(0, N)
-            ax.set_title(f"#{r + 1}: η = {s.eta:.4g}, ms_radius = "
-                         f"{s.ms_radius:.4g}", fontsize="small")
-            lines[r, 0] = drawn
-        axs[-1, 0].set_xlabel("phase k")
-        fig.suptitle(title or f"Best schedules of period {N}"
-                     + (" (shared channel)" if self.shared_channel else ""))
-        fig.tight_layout()
-        return ct.ControlPlot(lines, axs, fig,
-                              legend=np.full((count, 1), None, dtype=object))
-
+        from .plots import schedule_search_plot
+        return schedule_search_plot(self, count, title=title)
 
 def schedule_search(P: NetworkedStateSpace, period: int, *,
                     shared_channel: bool = False,
