@@ -46,7 +46,7 @@ def lift(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
 
     >>> A = np.array([[[2.0]], [[0.5]]])
     >>> B, C, D = np.ones((2, 1, 1)), np.ones((2, 1, 1)), np.zeros((2, 1, 1))
-    >>> AL, BL, CL, DL = lift(A, B, C, D)
+    >>> AL, BL, CL, DL = ncs.lift(A, B, C, D)
     >>> AL.tolist(), BL.tolist(), CL.tolist(), DL.tolist()
     ([[1.0]], [[0.5, 1.0]], [[1.0], [2.0]], [[0.0, 0.0], [1.0, 0.0]])
     """

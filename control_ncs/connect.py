@@ -175,9 +175,9 @@ def jump_feedback(sys: Any, other: Any = 1, sign: float = -1, *,
     A lossy loop in series with an integrator-like filter:
 
     >>> from control_ncs.connect import jump_feedback
-    >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+    >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
     >>> G = ct.ss([[0.5]], [[1.0]], [[0.2]], [[0.0]], True)
-    >>> loop = jump_feedback(sys, G)
+    >>> loop = ncs.jump_feedback(sys, G)
     >>> loop.nmodes, loop.nstates
     (2, 2)
     >>> bool(np.allclose(loop.A, ct.feedback(sys.mean(), G).A))
@@ -267,7 +267,7 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
     --------
     >>> from control_ncs.connect import lift_lti
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], 0.1)
-    >>> GL = lift_lti(G, 2)
+    >>> GL = ncs.lift_lti(G, 2)
     >>> GL.A.tolist(), GL.dt, GL.input_labels
     ([[0.25]], 0.2, ['u[0][0]', 'u[0][1]'])
     """
@@ -349,11 +349,11 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
     A lossy loop whose input is shaped by a first-order disturbance model:
 
     >>> from control_ncs.connect import interconnect
-    >>> CL = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7],
+    >>> CL = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7],
     ...          name="CL", inputs="w", outputs="z")
     >>> W = ct.ss([[0.8]], [[1.0]], [[0.2]], [[0.0]], True, name="W",
     ...           inputs="d", outputs="w")
-    >>> sys = interconnect([W, CL], inplist="d", outlist="z", inputs="d",
+    >>> sys = ncs.interconnect([W, CL], inplist="d", outlist="z", inputs="d",
     ...                    outputs="z", name="shaped")
     >>> sys.nmodes, sys.nstates, sys.input_labels, sys.output_labels
     (2, 2, ['d'], ['z'])

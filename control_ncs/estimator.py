@@ -62,9 +62,9 @@ class EstimatorGain:
     ``x⁺ = 1.2 x + w + u`` measured through a sensor that loses 20 % of its
     packets (the error loop's rate is at least ``0.2 · 1.2² = 0.288``):
 
-    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1, sensor_loss=0.2)
-    >>> L = estimator_gain(P)
+    >>> L = ncs.estimator_gain(P)
     >>> L.gains.shape, round(L.ms_radius, 4)
     ((1, 1, 1), 0.288)
     """
@@ -151,9 +151,9 @@ def estimation_error_loop(P: NetworkedStateSpace, L: Any) -> JumpStateSpace:
     with ``L = 1`` an arrived message resets the error, so the rate is
     ``α1 · 2² = 0.8``.
 
-    >>> P = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1, sensor_loss=0.2)
-    >>> round(ms_radius(estimation_error_loop(P, [[1.0]])), 12)
+    >>> round(ncs.ms_radius(ncs.estimation_error_loop(P, [[1.0]])), 12)
     0.8
     """
     P = _check_plant(P)
@@ -207,6 +207,7 @@ def unobservable_modes(A: np.ndarray, outputs: list) -> list:
 
     Examples
     --------
+    >>> from control_ncs.estimator import unobservable_modes
     >>> unobservable_modes(np.diag([2.0, 0.5]), [np.array([[0.0, 1.0]])])
     [(2+0j)]
     """
@@ -291,9 +292,9 @@ def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,
     ``x⁺ = 2x`` seen by ``y = x`` over a link losing 20 %: the error rate
     must be below 1 (it is at least ``α1 · 4 = 0.8``).
 
-    >>> P = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1, sensor_loss=0.2)
-    >>> L = estimator_gain(P)
+    >>> L = ncs.estimator_gain(P)
     >>> bool(0.8 - 1e-9 <= L.ms_radius < 1)
     True
     """

@@ -94,7 +94,7 @@ class ScheduleWarning(UserWarning):
     Examples
     --------
     >>> import warnings
-    >>> issubclass(ScheduleWarning, UserWarning)
+    >>> issubclass(ncs.ScheduleWarning, UserWarning)
     True
     """
 
@@ -149,7 +149,8 @@ class CertificationError(RuntimeError):
     Examples
     --------
     >>> import pickle
-    >>> err = CertificationError("no certificate", NOT_MSS, {"ms_radius": 1.2})
+    >>> err = ncs.CertificationError("no certificate", "not_mss",
+    ...                              {"ms_radius": 1.2})
     >>> again = pickle.loads(pickle.dumps(err))
     >>> again.reason, again.figures
     ('not_mss', {'ms_radius': 1.2})
@@ -189,7 +190,8 @@ class SynthesisError(CertificationError):
 
     Examples
     --------
-    >>> err = SynthesisError("no gain", INFEASIBLE, {"status": "infeasible"})
-    >>> isinstance(err, CertificationError), err.reason
+    >>> err = ncs.SynthesisError("no gain", "infeasible",
+    ...                          {"status": "infeasible"})
+    >>> isinstance(err, ncs.CertificationError), err.reason
     (True, 'infeasible')
     """

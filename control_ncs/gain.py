@@ -30,6 +30,7 @@ def controllers() -> tuple[str, ...]:
 
     Examples
     --------
+    >>> from control_ncs.gain import controllers
     >>> 'static' in controllers()
     True
     """
@@ -46,6 +47,7 @@ def actuators() -> tuple[str, ...]:
 
     Examples
     --------
+    >>> from control_ncs.gain import actuators
     >>> 'hold' in actuators()
     True
     """
@@ -109,14 +111,14 @@ class PeriodicGain:
 
     >>> import control as ct
     >>> Klqr, _, _ = ct.dlqr([[2.0]], [[1.0]], [[1.0]], [[1.0]])
-    >>> K = PeriodicGain(-Klqr)
+    >>> K = ncs.PeriodicGain(-Klqr)
     >>> bool(abs(2.0 + K[0][0, 0]) < 1)
     True
 
     Gains per previous mode (two modes, one phase): ``K[k]`` is the stack
     ``K_{k,ℓ}`` over ``ℓ``:
 
-    >>> Km = PeriodicGain([[[[-1.0]], [[-2.0]]]])
+    >>> Km = ncs.PeriodicGain([[[[-1.0]], [[-2.0]]]])
     >>> Km.mode_dependent, Km.modes, Km[0][1].tolist()
     (True, 2, [[-2.0]])
     """

@@ -145,7 +145,7 @@ class JumpStateSpace(ct.StateSpace):
     A scalar loop that loses its control with probability 0.2; the
     StateSpace face is the mean ``0.2 · 2 + 0.8 · 0``:
 
-    >>> sys = JumpStateSpace([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]],
+    >>> sys = ncs.JumpStateSpace([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]],
     ...                      [0.2, 0.8], nominal=[1])
     >>> sys.period, sys.nmodes, float(sys.A[0, 0])
     (1, 2, 0.4)
@@ -263,7 +263,7 @@ class JumpStateSpace(ct.StateSpace):
 
         Examples
         --------
-        >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+        >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
         >>> sys.mode(0, 1)[0].tolist()
         [[0.9]]
         """
@@ -289,7 +289,7 @@ class JumpStateSpace(ct.StateSpace):
 
         Examples
         --------
-        >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+        >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
         >>> sys.mean_phase(0)[0].tolist()
         [[0.78]]
         """
@@ -315,10 +315,10 @@ class JumpStateSpace(ct.StateSpace):
         Two identical modes make a deterministic system; two different ones
         do not:
 
-        >>> jss([[[0.5]], [[0.5]]], [[1.0]], [[1.0]], [[0.0]],
+        >>> ncs.jss([[[0.5]], [[0.5]]], [[1.0]], [[1.0]], [[0.0]],
         ...     [0.3, 0.7]).deterministic()[0].tolist()
         [[[0.5]]]
-        >>> jss([[[0.5]], [[0.4]]], [[1.0]], [[1.0]], [[0.0]],
+        >>> ncs.jss([[[0.5]], [[0.4]]], [[1.0]], [[1.0]], [[0.0]],
         ...     [0.3, 0.7]).deterministic() is None
         True
         """
@@ -427,7 +427,7 @@ class JumpStateSpace(ct.StateSpace):
 
         Examples
         --------
-        >>> sys = jss([[[[0.5]]], [[[0.9]]]], [[1.0]], [[1.0]], [[0.0]],
+        >>> sys = ncs.jss([[[[0.5]]], [[[0.9]]]], [[1.0]], [[1.0]], [[0.0]],
         ...           [[1.0], [1.0]], dt=0.1)
         >>> sys.dt, sys.ninputs                   # the lifted face
         (0.2, 2)
@@ -499,7 +499,7 @@ class JumpStateSpace(ct.StateSpace):
 
         Examples
         --------
-        >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+        >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
         >>> sys.mode_system(0, 1).A.tolist()
         [[0.9]]
         """
@@ -571,7 +571,7 @@ class JumpStateSpace(ct.StateSpace):
 
         Examples
         --------
-        >>> S = jss([[[0.5]], [[1.2]]], [[1.0]], [[1.0]], [[0.0]],
+        >>> S = ncs.jss([[[0.5]], [[1.2]]], [[1.0]], [[1.0]], [[0.0]],
         ...         transition=[[0.5, 0.5], [0.125, 0.875]])
         >>> p, T = S.mode_law()
         >>> T.shape
@@ -786,7 +786,7 @@ class JumpStateSpace(ct.StateSpace):
         Examples
         --------
         >>> import copy
-        >>> sys = jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+        >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
         >>> twin = copy.deepcopy(sys)
         >>> sys.equals(twin), sys == twin
         (True, False)
@@ -916,14 +916,14 @@ def jss(A: Any, B: Any, C: Any, D: Any, probabilities: Any = None,
     A scalar loop ``x⁺ = 2x + u`` with ``u = -2x`` applied with probability
     0.8 (else ``u = 0``) has mean ``x⁺ = 0.4 x``:
 
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
     >>> float(sys.A[0, 0])
     0.4
 
     The same modes driven by a Markov chain (bursts of mode 0): the mean
     face has one state per mode.
 
-    >>> bursty = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]],
+    >>> bursty = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]],
     ...              transition=[[0.5, 0.5], [0.125, 0.875]])
     >>> bursty.modes.is_iid, bursty.nstates, bursty.modes.probabilities.round(12).tolist()
     (False, 2, [[0.2, 0.8]])

@@ -163,8 +163,8 @@ class MomentsResponse:
     ``x⁺ = 2x`` with probability 0.2, else 0, from ``x_0 = 1``:
     ``E x_t = 0.4^t`` and ``E x_t² = 0.8^t``.
 
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> r = moments(sys, 3, initial_state=1.0)
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = ncs.moments(sys, 3, initial_state=1.0)
     >>> r.outputs_mean.round(6).tolist(), r.outputs_cov[0, 0].round(6).tolist()
     ([[1.0, 0.4, 0.16]], [0.0, 0.64, 0.6144])
     """
@@ -194,9 +194,9 @@ class MomentsResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
         ...           name="loop", outputs="z")
-        >>> print(moments(sys, 3, initial_state=1.0).summary())
+        >>> print(ncs.moments(sys, 3, initial_state=1.0).summary())
         MomentsResponse of loop: exact mean and covariance, 1 states, 1 outputs, 3 time points
           at t = 2: z: mean 0.16, std 0.784
         """
@@ -218,8 +218,8 @@ class MomentsResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-        >>> moments(sys, 3, initial_state=1.0).outputs_std.round(4).tolist()
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> ncs.moments(sys, 3, initial_state=1.0).outputs_std.round(4).tolist()
         [[0.0, 0.8, 0.7838]]
         """
         d = np.einsum("iit->it", self.outputs_cov)
@@ -236,9 +236,9 @@ class MomentsResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
         ...           name="loop")
-        >>> data = moments(sys, 3, initial_state=1.0).to_response()
+        >>> data = ncs.moments(sys, 3, initial_state=1.0).to_response()
         >>> data.outputs.round(6).tolist(), data.title
         ([[1.0, 0.4, 0.16]], 'Exact mean of loop')
         """
@@ -305,8 +305,8 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     Examples
     --------
     >>> from control_ncs import jss
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> r = moments(sys, 3, initial_state=[1.0])
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = ncs.moments(sys, 3, initial_state=[1.0])
     >>> r.states_mean.round(6).tolist(), r.states_second_moment[0, 0].round(6).tolist()
     ([[1.0, 0.4, 0.16]], [1.0, 0.8, 0.64])
     """

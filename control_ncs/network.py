@@ -57,10 +57,10 @@ class Schedule:
     --------
     Two sensors sending in turn, then a silent phase:
 
-    >>> S = Schedule([[1, 0], [0, 1], [0, 0]], "sensor_schedule")
+    >>> S = ncs.Schedule([[1, 0], [0, 1], [0, 0]], "sensor_schedule")
     >>> S.period, S.nodes, S.senders(1).tolist(), S.senders(2).tolist()
     (3, 2, [1], [])
-    >>> S == schedule([1, 2, 0], 2)
+    >>> S == ncs.schedule([1, 2, 0], 2)
     True
     """
 
@@ -106,7 +106,7 @@ class Schedule:
 
         Examples
         --------
-        >>> Schedule([[1, 0], [0, 1]]).selection(1).tolist()
+        >>> ncs.Schedule([[1, 0], [0, 1]]).selection(1).tolist()
         [[0.0, 0.0], [0.0, 1.0]]
         """
         return np.diag(self.pattern[k % self.period].astype(float))
@@ -126,7 +126,7 @@ class Schedule:
 
         Examples
         --------
-        >>> Schedule([[1, 0], [0, 1]]).senders(3).tolist()
+        >>> ncs.Schedule([[1, 0], [0, 1]]).senders(3).tolist()
         [1]
         """
         return np.flatnonzero(self.pattern[k % self.period])
@@ -151,7 +151,7 @@ class Schedule:
 
         Examples
         --------
-        >>> Schedule([[1, 0], [0, 1]]).repeat(4).period
+        >>> ncs.Schedule([[1, 0], [0, 1]]).repeat(4).period
         4
         """
         if period % self.period:
@@ -183,7 +183,7 @@ class Schedule:
 
         Examples
         --------
-        >>> print(schedule([2, 1, 0], 2, "sensor_schedule").summary())
+        >>> print(ncs.schedule([2, 1, 0], 2, "sensor_schedule").summary())
         Schedule sensor_schedule: period 3, 2 nodes (1-based)
           phase 0: 2
           phase 1: 1
@@ -238,7 +238,7 @@ def schedule(spec: Any, nodes: int, name: str = "schedule") -> Schedule:
     --------
     The paper's example, ``N = 4``, ``s1 = [2, 1, 0, 2]``:
 
-    >>> s = schedule([2, 1, 0, 2], nodes=2)
+    >>> s = ncs.schedule([2, 1, 0, 2], nodes=2)
     >>> [s.senders(k).tolist() for k in range(7)]
     [[1], [0], [], [1], [1], [0], []]
     """
@@ -348,7 +348,7 @@ def mode_probabilities(sensor_loss: float, actuator_loss: float) -> dict:
 
     Examples
     --------
-    >>> p = mode_probabilities(0.1, 0.2)
+    >>> p = ncs.mode_probabilities(0.1, 0.2)
     >>> round(p[(1, 1)], 12), round(sum(p.values()), 12)
     (0.72, 1.0)
     """
@@ -381,7 +381,7 @@ class GilbertElliott:
 
     Examples
     --------
-    >>> link = gilbert_elliott(fail=0.05, recover=0.75)
+    >>> link = ncs.gilbert_elliott(fail=0.05, recover=0.75)
     >>> round(link.loss, 6), round(link.burst, 6)
     (0.0625, 1.333333)
     >>> link.transition.tolist()
@@ -486,9 +486,9 @@ def gilbert_elliott(fail: float | None = None, recover: float | None = None,
 
     Examples
     --------
-    >>> gilbert_elliott(loss=0.25, burst=2.0)
+    >>> ncs.gilbert_elliott(loss=0.25, burst=2.0)
     GilbertElliott(fail=0.166667, recover=0.5; loss=0.25, burst=2)
-    >>> gilbert_elliott(fail=0.3, recover=0.7).is_bernoulli
+    >>> ncs.gilbert_elliott(fail=0.3, recover=0.7).is_bernoulli
     True
     """
     from control.exception import ControlArgument
@@ -560,7 +560,7 @@ def mode_transition(sensor_link: Any, actuator_link: Any) -> np.ndarray:
 
     Examples
     --------
-    >>> T = mode_transition(0.0, gilbert_elliott(fail=0.1, recover=0.5))
+    >>> T = ncs.mode_transition(0.0, ncs.gilbert_elliott(fail=0.1, recover=0.5))
     >>> T[3].round(3).tolist()          # from (1, 1): θ2 fails w.p. 0.1
     [0.0, 0.1, 0.0, 0.9]
     """

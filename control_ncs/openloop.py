@@ -79,9 +79,9 @@ class JumpPlant:
     The scalar plant ``x⁺ = 2x + u`` whose actuator message is lost with
     probability 0.2, closed with ``u = -2x``:
 
-    >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+    >>> P = ncs.nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
     ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=0.2)
-    >>> plant = build(P)
+    >>> plant = ncs.build(P)
     >>> plant.gain_shape(), plant.probabilities.tolist()
     ((1, 1, 1), [[0.0, 0.2, 0.0, 0.8]])
     >>> CL = plant.close(np.full((1, 1, 1), -2.0))

@@ -129,12 +129,12 @@ class PassivityResult:
     ``min Re G = 1/3``; a deterministic system takes the Riccati route:
 
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> result = passivity_certificate(G)      # ifp_index=None: the index
+    >>> result = ncs.passivity_certificate(G)      # ifp_index=None: the index
     >>> result.passive, result.reason, result.method
     (True, 'certified', 'riccati')
     >>> round(result.eta, 5), round(result.eta_upper, 10)
     (0.33333, 0.3333333333)
-    >>> refuted = passivity_certificate(G, 0.4)
+    >>> refuted = ncs.passivity_certificate(G, 0.4)
     >>> refuted.passive, refuted.reason, refuted.certificate is None
     (False, 'infeasible', True)
     """
@@ -189,7 +189,7 @@ class PassivityResult:
         Examples
         --------
         >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-        >>> print(passivity_certificate(G, 0.4).summary())  # doctest: +ELLIPSIS
+        >>> print(ncs.passivity_certificate(G, 0.4).summary())  # doctest: +ELLIPSIS
         PassivityResult: not certified (infeasible)
           proven: no certificate exists at this level (λmin(G + Gᴴ)/2 = ...)
           eta = 0.4, ofp_index = 0, method riccati, eta_upper = 0.333333
@@ -339,7 +339,7 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     --------
     >>> import control as ct
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> result = passivity_certificate(G, 0.3)
+    >>> result = ncs.passivity_certificate(G, 0.3)
     >>> result.passive, result.reason, result.certificate.verified
     (True, 'certified', True)
     """
@@ -590,9 +590,9 @@ def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
 
     >>> import control as ct
     >>> G = ct.tf([2, 0], [1, -0.5], True)
-    >>> ispassive(G), ispassive(G, 0.2), ispassive(G, 0.3)
+    >>> ncs.ispassive(G), ncs.ispassive(G, 0.2), ncs.ispassive(G, 0.3)
     (True, True, False)
-    >>> ispassive(G, ifp_index=1.3), ispassive(G, ifp_index=1.4)
+    >>> ncs.ispassive(G, ifp_index=1.3), ncs.ispassive(G, ifp_index=1.4)
     (True, False)
     """
     # finite_real without allow_none never returns None
@@ -671,7 +671,7 @@ def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
 
     >>> import control as ct
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> round(get_input_ff_index(G), 5)
+    >>> round(ncs.get_input_ff_index(G), 5)
     0.33333
     """
     result = passivity_certificate(sys, None, **kwargs)
@@ -727,7 +727,7 @@ def get_output_fb_index(sys: Any, **kwargs: Any) -> float:
 
     >>> import control as ct
     >>> G = ct.tf([2, 0], [1, -0.5], True)
-    >>> round(get_output_fb_index(G), 4)
+    >>> round(ncs.get_output_fb_index(G), 4)
     0.25
     """
     result = passivity_certificate(sys, 0.0, ofp_index=None, **kwargs)
@@ -776,8 +776,8 @@ def mean_input_ff_index(sys: Any, **kwargs: Any) -> float:
     each): the mean system has ``a = 0.25`` and index ``1 - 1/1.25 = 0.2``;
     the stochastic index is smaller.
 
-    >>> sys = jss([[[0.5]], [[0.0]]], [[1.0]], [[1.0]], [[1.0]], [0.5, 0.5])
-    >>> round(mean_input_ff_index(sys), 4), round(get_input_ff_index(sys), 4)
+    >>> sys = ncs.jss([[[0.5]], [[0.0]]], [[1.0]], [[1.0]], [[1.0]], [0.5, 0.5])
+    >>> round(ncs.mean_input_ff_index(sys), 4), round(ncs.get_input_ff_index(sys), 4)
     (0.2, 0.1791)
     """
     sys = square_system(sys)   # the mean face is exact (theory: Markov losses)
@@ -831,7 +831,7 @@ def frequency_ff_index(sys: Any, omega: Any = None, *,
     Examples
     --------
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> round(frequency_ff_index(G), 10)  # min Re(1 + 1/(z - 0.5)) = 1/3
+    >>> round(ncs.frequency_ff_index(G), 10)  # min Re(1 + 1/(z - 0.5)) = 1/3
     0.3333333333
     """
     no_extra_kwargs("frequency_ff_index", kwargs)

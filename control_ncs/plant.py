@@ -88,7 +88,7 @@ class NetworkedStateSpace(ct.StateSpace):
     A scalar plant ``x⁺ = 2x + w + u`` with ``z = x``, measured ``y = x``;
     the actuator may act at even steps only:
 
-    >>> P = NetworkedStateSpace([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]],
+    >>> P = ncs.NetworkedStateSpace([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]],
     ...                         [[0.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
     ...                         actuator_schedule=[1, 0], sensor_loss=0.1)
     >>> P.period, P.B2.tolist(), P.disturbance_labels
@@ -239,7 +239,7 @@ class NetworkedStateSpace(ct.StateSpace):
 
         Examples
         --------
-        >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+        >>> P = ncs.nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
         ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, sensor_loss=0.5)
         >>> P.mode_probabilities()[(1, 1)]
         0.5
@@ -267,9 +267,9 @@ class NetworkedStateSpace(ct.StateSpace):
         Examples
         --------
         >>> from control_ncs import gilbert_elliott
-        >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+        >>> P = ncs.nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
         ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
-        ...         actuator_loss=gilbert_elliott(fail=0.1, recover=0.5))
+        ...         actuator_loss=ncs.gilbert_elliott(fail=0.1, recover=0.5))
         >>> P.mode_transition()[3].round(3).tolist()
         [0.0, 0.1, 0.0, 0.9]
         """
@@ -293,7 +293,7 @@ class NetworkedStateSpace(ct.StateSpace):
 
         Examples
         --------
-        >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+        >>> P = ncs.nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
         ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1)
         >>> P.with_network(actuator_loss=0.3).actuator_loss, P.actuator_loss
         (0.3, 0.0)
@@ -450,7 +450,7 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
     --------
     The paper's schedule with two sensors, ``N = 4``:
 
-    >>> P = nss([[1.1, 0.1], [0, 0.9]], [[1, 0], [0, 1]],
+    >>> P = ncs.nss([[1.1, 0.1], [0, 0.9]], [[1, 0], [0, 1]],
     ...         [[1, 0], [1, 0], [0, 1]], [[0.5, 0], [0, 0], [0, 0]],
     ...         nmeas=2, ncon=1, sensor_schedule=[2, 1, 0, 2], sensor_loss=0.1)
     >>> P.period, [P.sensor_schedule.senders(k).tolist() for k in range(4)]

@@ -75,8 +75,8 @@ def ensemble_plot(response: EnsembleResponse, ax: Any = None, paths: int = 5,
     Examples
     --------
     >>> from control_ncs import step_response, plot_ensemble
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> cplt = ensemble_plot(step_response(sys, 20, trials=200, seed=0), paths=3)
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> cplt = ncs.ensemble_plot(ncs.step_response(sys, 20, trials=200, seed=0), paths=3)
     >>> len(cplt.axes[0, 0].get_lines()), len(cplt.axes[0, 0].collections)
     (5, 1)
     """
@@ -169,9 +169,9 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
 
     Examples
     --------
-    >>> P = nss(np.eye(2), np.eye(2), np.vstack([np.eye(2)[:1], np.eye(2)]),
+    >>> P = ncs.nss(np.eye(2), np.eye(2), np.vstack([np.eye(2)[:1], np.eye(2)]),
     ...         np.zeros((3, 2)), nmeas=2, ncon=1, sensor_schedule=[2, 1, 0, 2])
-    >>> cplt = schedule_plot(P)
+    >>> cplt = ncs.schedule_plot(P)
     >>> len(cplt.axes[0, 0].get_yticklabels())
     3
     """

@@ -308,6 +308,7 @@ def simulate_protocol(
     Examples
     --------
     >>> import numpy as np
+    >>> from control_ncs.protocol import simulate_protocol
     >>> out = simulate_protocol(
     ...     [[2.0]], [[0.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]],
     ...     [[1]], [[1]], 0.0, 0.0, [[[-2.0]]], 3,

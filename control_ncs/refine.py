@@ -162,9 +162,9 @@ class RefineResult:
 
     Examples
     --------
-    >>> P = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]],
+    >>> P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]],
     ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=0.1)
-    >>> res = refine_gain(P, eta=0.0)
+    >>> res = ncs.refine_gain(P, eta=0.0)
     >>> res.verified, res.stopped, bool(res.ms_radius < 1)
     (True, 'certified', True)
     """
@@ -781,10 +781,10 @@ def refine_gain(P: NetworkedStateSpace | JumpPlant, eta: float | None = None,
     >>> A = [[1.1, 0.3], [0.0, 0.9]]
     >>> D = np.zeros((4, 4))
     >>> D[:2, :2] = np.eye(2)
-    >>> P = nss(A, np.hstack([np.eye(2), np.eye(2)]),
+    >>> P = ncs.nss(A, np.hstack([np.eye(2), np.eye(2)]),
     ...         np.vstack([np.eye(2), np.eye(2)]), D, True, nmeas=2, ncon=2,
     ...         actuator_loss=0.5, sensor_schedule=[1, 2])
-    >>> res = refine_gain(P, eta=-1.0)
+    >>> res = ncs.refine_gain(P, eta=-1.0)
     >>> res.verified, bool(res.ms_radius < 1), res.gains.shape
     (True, True, (2, 2, 2))
     >>> res.gains[0, :, 1].tolist()      # sensor 2 is silent at k = 0

@@ -70,8 +70,8 @@ class SamplePaths(ct.TimeResponseData):
 
     Examples
     --------
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> paths = simulate(sys, 4, initial_state=1.0, trials=3, seed=0)
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> paths = ncs.simulate(sys, 4, initial_state=1.0, trials=3, seed=0)
     >>> paths.trials, paths.outputs.shape, paths.states.shape
     (3, (1, 3, 4), (1, 3, 4))
     """
@@ -82,8 +82,8 @@ class SamplePaths(ct.TimeResponseData):
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-        >>> simulate(sys, 4, trials=3, seed=0).trials
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> ncs.simulate(sys, 4, trials=3, seed=0).trials
         3
         """
         return self.ntraces
@@ -104,9 +104,9 @@ class SamplePaths(ct.TimeResponseData):
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
         ...           name="loop", outputs="z")
-        >>> print(simulate(sys, 4, initial_state=1.0, trials=50,
+        >>> print(ncs.simulate(sys, 4, initial_state=1.0, trials=50,
         ...                seed=0).summary())
         Sample paths of loop: 50 trials, 1 outputs, 1 states, 4 time points
           at t = 3: z: sample mean 0.16, sample std 1.12
@@ -150,8 +150,8 @@ class SamplePaths(ct.TimeResponseData):
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-        >>> paths = simulate(sys, 5, initial_state=1.0, trials=50, seed=0)
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> paths = ncs.simulate(sys, 5, initial_state=1.0, trials=50, seed=0)
         >>> cplt = paths.plot(paths=10)
         >>> cplt.axes.shape, len(cplt.lines[0, 0])
         ((1, 1), 10)
@@ -220,8 +220,8 @@ class EnsembleResponse:
 
     Examples
     --------
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> r = initial_response(sys, 3, 1.0, trials=100, keep_paths=5, seed=0)
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = ncs.initial_response(sys, 3, 1.0, trials=100, keep_paths=5, seed=0)
     >>> r.kind, r.trials, r.quantiles, r.paths.trials
     ('initial', 100, (0.05, 0.95), 5)
     >>> r.sample_mean.shape, r.quantile_values.shape
@@ -251,8 +251,8 @@ class EnsembleResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-        >>> r = initial_response(sys, 3, 1.0, trials=4000, seed=0)
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> r = ncs.initial_response(sys, 3, 1.0, trials=4000, seed=0)
         >>> bool(np.all(abs(r.sample_std - r.exact_std) < 0.05))
         True
         """
@@ -264,8 +264,8 @@ class EnsembleResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-        >>> r = initial_response(sys, 3, 1.0, trials=400, seed=0)
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> r = ncs.initial_response(sys, 3, 1.0, trials=400, seed=0)
         >>> bool(np.allclose(r.standard_error, r.sample_std / 20))
         True
         """
@@ -279,8 +279,8 @@ class EnsembleResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-        >>> initial_response(sys, 3, 1.0, trials=10, seed=0).exact_mean.round(6)
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> ncs.initial_response(sys, 3, 1.0, trials=10, seed=0).exact_mean.round(6)
         array([[1.  , 0.4 , 0.16]])
         """
         return self.exact.outputs_mean
@@ -293,8 +293,8 @@ class EnsembleResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-        >>> r = initial_response(sys, 3, 1.0, trials=10, seed=0)
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> r = ncs.initial_response(sys, 3, 1.0, trials=10, seed=0)
         >>> r.exact_std.round(4).tolist()        # sqrt(0.8**t - 0.4**(2t))
         [[0.0, 0.8, 0.7838]]
         """
@@ -306,9 +306,9 @@ class EnsembleResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
         ...           outputs=["z"])
-        >>> initial_response(sys, 3, 1.0, trials=10, seed=0).output_labels
+        >>> ncs.initial_response(sys, 3, 1.0, trials=10, seed=0).output_labels
         ['z']
         """
         return list(self.paths.output_labels)
@@ -332,9 +332,9 @@ class EnsembleResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8],
         ...           name="loop", outputs="z")
-        >>> r = initial_response(sys, 3, 1.0, trials=400, seed=0)
+        >>> r = ncs.initial_response(sys, 3, 1.0, trials=400, seed=0)
         >>> print(r.summary())
         EnsembleResponse (initial) of loop: 400 trials, 1 outputs, 3 time points
           at t = 2: z: exact mean 0.16 (std 0.784); sample mean 0.16 ± 0.0392 (std 0.785)
@@ -364,8 +364,8 @@ class EnsembleResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-        >>> data = initial_response(sys, 3, 1.0, trials=10, seed=0).to_response()
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> data = ncs.initial_response(sys, 3, 1.0, trials=10, seed=0).to_response()
         >>> data.outputs.shape, data.trace_labels[0]
         ((1, 4, 3), 'exact mean')
         """
@@ -404,8 +404,8 @@ class EnsembleResponse:
 
         Examples
         --------
-        >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-        >>> cplt = initial_response(sys, 3, 1.0, trials=10, seed=0).plot()
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+        >>> cplt = ncs.initial_response(sys, 3, 1.0, trials=10, seed=0).plot()
         >>> [line.get_linestyle() for line in cplt.lines[0, 0]]
         ['-', '--', ':', ':']
         """
@@ -536,8 +536,8 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     is either multiplied by 2 or set to 0.
 
     >>> from control_ncs.responses import simulate
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> paths = simulate(sys, 4, initial_state=[1.0], trials=3, seed=0)
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> paths = ncs.simulate(sys, 4, initial_state=[1.0], trials=3, seed=0)
     >>> paths.outputs.shape
     (1, 3, 4)
     >>> bool(np.all(np.isin(paths.outputs, [0, 1, 2, 4, 8])))
@@ -618,7 +618,7 @@ def default_steps(sys: Any) -> int:
     ``ms_radius = 0.8``: ``0.8^t < 1e-4`` from ``t = 42``:
 
     >>> from control_ncs.responses import default_steps
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
     >>> default_steps(sys)
     42
     """
@@ -721,8 +721,8 @@ def forced_response(sys: Any, timepts: Any, inputs: Any = None,
     Examples
     --------
     >>> from control_ncs.responses import forced_response
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> r = forced_response(sys, 3, initial_state=[1.0], trials=2000, seed=1)
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = ncs.forced_response(sys, 3, initial_state=[1.0], trials=2000, seed=1)
     >>> r.exact_mean.round(6).tolist()
     [[1.0, 0.4, 0.16]]
     >>> bool(np.all(abs(r.sample_mean - r.exact_mean) < 5 * r.standard_error + 1e-12))
@@ -778,8 +778,8 @@ def step_response(sys: Any, timepts: Any = None, *, input: int | str | None = No
     Examples
     --------
     >>> from control_ncs.responses import step_response
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> r = step_response(sys, 20, trials=500, seed=0)
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = ncs.step_response(sys, 20, trials=500, seed=0)
     >>> round(float(r.exact_mean[0, -1]), 4)   # 1 / (1 - 0.4)
     1.6667
     >>> cplt = r.plot()
@@ -830,8 +830,8 @@ def impulse_response(sys: Any, timepts: Any = None, *,
     Examples
     --------
     >>> from control_ncs.responses import impulse_response
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> impulse_response(sys, 4, trials=10, seed=0).exact_mean.round(4).tolist()
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> ncs.impulse_response(sys, 4, trials=10, seed=0).exact_mean.round(4).tolist()
     [[0.0, 1.0, 0.4, 0.16]]
     """
     no_extra_kwargs("impulse_response", kwargs)
@@ -873,8 +873,8 @@ def initial_response(sys: Any, timepts: Any = None, initial_state: Any = None,
     Examples
     --------
     >>> from control_ncs.responses import initial_response
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> r = initial_response(sys, 3, [1.0], trials=10, seed=0)
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> r = ncs.initial_response(sys, 3, [1.0], trials=10, seed=0)
     >>> r.exact_std.round(4).tolist()        # sqrt(0.8**t - 0.4**(2t))
     [[0.0, 0.8, 0.7838]]
     """

@@ -69,18 +69,18 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
     ``x⁺ = 2x`` with probability 0.2, else ``x⁺ = 0``: ``E x²`` is
     multiplied by ``0.2·4 = 0.8``.
 
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> second_moment_operator(sys).matvec(np.array([1.0])).round(12).tolist()
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> ncs.second_moment_operator(sys).matvec(np.array([1.0])).round(12).tolist()
     [0.8]
 
     With period 2 and ``x⁺ = 0.5x`` at phase 1, ``k=1`` gives that phase's
     map (``0.25``) and the monodromy both phases (``0.8·0.25 = 0.2``):
 
-    >>> sys2 = jss([[[[2.0]], [[0.0]]], [[[0.5]], [[0.5]]]], [[1.0]], [[1.0]],
+    >>> sys2 = ncs.jss([[[[2.0]], [[0.0]]], [[[0.5]], [[0.5]]]], [[1.0]], [[1.0]],
     ...            [[0.0]], [[0.2, 0.8], [0.5, 0.5]])
-    >>> second_moment_operator(sys2, k=1) @ np.array([1.0])
+    >>> ncs.second_moment_operator(sys2, k=1) @ np.array([1.0])
     array([0.25])
-    >>> (second_moment_operator(sys2) @ np.array([1.0])).round(12)
+    >>> (ncs.second_moment_operator(sys2) @ np.array([1.0])).round(12)
     array([0.2])
     """
     sys = as_jump(sys)
@@ -214,16 +214,16 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
     multiplied by ``0.2·4 = 0.8`` per step.
 
     >>> from control_ncs import jss
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> round(ms_radius(sys), 12)
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> round(ncs.ms_radius(sys), 12)
     0.8
 
     The same loop losing its control in bursts (mean length 2), with the
     same average loss 0.2: ``E x²`` now grows.
 
-    >>> bursty = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]],
+    >>> bursty = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]],
     ...              transition=[[0.5, 0.5], [0.125, 0.875]])
-    >>> round(ms_radius(bursty), 12)
+    >>> round(ncs.ms_radius(bursty), 12)
     2.0
     """
     no_extra_kwargs("ms_radius", kwargs)
@@ -305,10 +305,10 @@ def is_mss(sys: Any, **kwargs: Any) -> bool:
 
     Examples
     --------
-    >>> is_mss(ct.ss([[0.5]], [[1]], [[1]], [[0]], True))
+    >>> ncs.is_mss(ct.ss([[0.5]], [[1]], [[1]], [[0]], True))
     True
-    >>> sys = jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
-    >>> is_mss(sys), round(ms_radius(sys), 12)     # 0.3·2² = 1.2
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+    >>> ncs.is_mss(sys), round(ncs.ms_radius(sys), 12)     # 0.3·2² = 1.2
     (False, 1.2)
     """
     return ms_radius(sys, **kwargs) < 1.0

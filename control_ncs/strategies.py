@@ -100,9 +100,9 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     loses the actuator's message with probability 0.2; the modes are
     ``(θ1, θ2) = (0, 0), (1, 0), (0, 1), (1, 1)``:
 
-    >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+    >>> P = ncs.nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
     ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=0.2)
-    >>> plant = build(P)
+    >>> plant = ncs.build(P)
     >>> plant.probabilities.tolist(), plant.nominal.tolist()
     ([[0.0, 0.2, 0.0, 0.8]], [3])
     >>> plant.close(np.full((1, 1, 1), -2.0)).modes.A[0, :, 0, 0].tolist()
@@ -247,10 +247,10 @@ def require_state_measured(P: NetworkedStateSpace, controller: str) -> None:
 
     Examples
     --------
-    >>> P = nss([[2.0, 1.0], [0.0, 0.5]], [[0.0, 1.0], [1.0, 0.0]],
+    >>> P = ncs.nss([[2.0, 1.0], [0.0, 0.5]], [[0.0, 1.0], [1.0, 0.0]],
     ...         [[1.0, 0.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1)
-    >>> require_state_measured(P, "estimator")       # any C2 will do
+    >>> ncs.require_state_measured(P, "estimator")       # any C2 will do
     """
     if controller in ("static", "predictor") and not _measures_state(P):
         raise ControlArgument(
@@ -540,10 +540,10 @@ def loop_closes(P: NetworkedStateSpace) -> bool:
 
     Examples
     --------
-    >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
+    >>> P = ncs.nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
     ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
     ...         sensor_schedule=[1, 0], actuator_schedule=[0, 1])
-    >>> loop_closes(P), loop_closes(P.with_network(actuator_schedule=[1, 1]))
+    >>> ncs.loop_closes(P), ncs.loop_closes(P.with_network(actuator_schedule=[1, 1]))
     (False, True)
     """
     return bool((P.sensor_schedule.pattern.any(axis=1)
@@ -630,9 +630,9 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     Examples
     --------
     >>> import numpy as np
-    >>> P = nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1, actuator_loss=0.2)
-    >>> CL = feedback(P, [[-2.0]])                 # u = -2 x when it arrives
+    >>> CL = ncs.feedback(P, [[-2.0]])                 # u = -2 x when it arrives
     >>> CL.modes.probabilities.round(3).tolist()
     [[0.2, 0.8]]
     >>> CL.modes.A[0, :, 0, 0].tolist()           # lost: 2, arrived: 2 - 2
@@ -641,18 +641,18 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     An LQR gain is designed for ``u = -K x``: pass ``-K``.
 
     >>> K, _, _ = ct.dlqr(P.A, P.B2, np.eye(1), np.eye(1))
-    >>> CL = feedback(P, -K)
-    >>> bool(ms_radius(CL) < 1)
+    >>> CL = ncs.feedback(P, -K)
+    >>> bool(ncs.ms_radius(CL) < 1)
     True
 
     A PI controller ``u = -(2 y + 0.1 Σ y)`` (an LTI system, ``u = K y``
     with the sign inside it):
 
     >>> C = ct.ss([[1.0]], [[1.0]], [[-0.1]], [[-2.0]], True)
-    >>> CL = feedback(P, C)
+    >>> CL = ncs.feedback(P, C)
     >>> CL.jump_states
     ['x[0]', 'xc[0]', 'y[0]_rcv']
-    >>> bool(ms_radius(CL) < 1)
+    >>> bool(ncs.ms_radius(CL) < 1)
     True
     """
     no_extra_kwargs("feedback", kwargs)

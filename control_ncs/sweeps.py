@@ -362,9 +362,9 @@ class DesignMap:
 
     Examples
     --------
-    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1)
-    >>> dm = design_map(P, [0.0, 0.5], [0.0], decay=0.95, progress=False)
+    >>> dm = ncs.design_map(P, [0.0, 0.5], [0.0], decay=0.95, progress=False)
     >>> dm.feasible.tolist()
     [[True], [True]]
     """
@@ -525,9 +525,9 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     ``x⁺ = 1.2x + w + u``, ``z = x + w``: the certified η falls as the
     actuator loses more messages.
 
-    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1)
-    >>> dm = design_map(P, [0.0], [0.0, 0.3], decay=0.95, progress=False)
+    >>> dm = ncs.design_map(P, [0.0], [0.0, 0.3], decay=0.95, progress=False)
     >>> bool(dm.eta[0, 0] > dm.eta[0, 1])
     True
     """
@@ -809,9 +809,9 @@ class RankedSchedule:
 
     Examples
     --------
-    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1)
-    >>> best = schedule_search(P, 2, decay=0.98, progress=False).ranking[0]
+    >>> best = ncs.schedule_search(P, 2, decay=0.98, progress=False).ranking[0]
     >>> best.sensor_schedule, best.actuator_schedule
     ((1, 1), (1, 1))
     """
@@ -862,9 +862,9 @@ class ScheduleSearch:
 
     Examples
     --------
-    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1)
-    >>> res = schedule_search(P, 2, decay=0.98, progress=False)
+    >>> res = ncs.schedule_search(P, 2, decay=0.98, progress=False)
     >>> res.explored, res.pruned_counts, len(res.ranking)
     (10, {'loop_open': 6}, 4)
     """
@@ -1097,9 +1097,9 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     --------
     A scalar plant, period 2, the predictor over a shared channel:
 
-    >>> P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1)
-    >>> res = schedule_search(P, 2, shared_channel=True, controller='predictor',
+    >>> res = ncs.schedule_search(P, 2, shared_channel=True, controller='predictor',
     ...                       decay=0.98, progress=False)
     >>> res.explored, res.pruned_counts
     (6, {'loop_open': 3, 'not_detectable': 2})

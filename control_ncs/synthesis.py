@@ -179,9 +179,9 @@ class SynthesisResult:
     --------
     ``x⁺ = 2x + w + u``, ``z = x + w``, actuator loss 10 %:
 
-    >>> P = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1, actuator_loss=0.1)
-    >>> K, CL, eta = passivesyn(P, eta=0.0, decay=0.9)
+    >>> K, CL, eta = ncs.passivesyn(P, eta=0.0, decay=0.9)
     >>> res = K.result
     >>> res.structure, res.certificate.verified, bool(res.ms_radius < 0.81)
     ('full', True, True)
@@ -616,16 +616,16 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     --------
     ``x⁺ = 2x + w + u``, ``z = x + w``, actuator loss 10 %:
 
-    >>> P = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    >>> P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1, actuator_loss=0.1)
-    >>> K, CL, eta = passivesyn(P, decay=0.9)
-    >>> K.result.certificate.verified, bool(ms_radius(CL) < 0.81)
+    >>> K, CL, eta = ncs.passivesyn(P, decay=0.9)
+    >>> K.result.certificate.verified, bool(ncs.ms_radius(CL) < 0.81)
     (True, True)
 
     The same by the Riccati iteration:
 
-    >>> K, CL, eta = passivesyn(P, decay=0.9, solver='riccati')
-    >>> K.result.report.solver, bool(ms_radius(CL) < 0.81)
+    >>> K, CL, eta = ncs.passivesyn(P, decay=0.9, solver='riccati')
+    >>> K.result.report.solver, bool(ncs.ms_radius(CL) < 0.81)
     ('RICCATI', True)
 
     A gain from :func:`control.dlqr` is for ``u = -K x``: negate it.
@@ -634,28 +634,28 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     >>> import control_ncs as ncs
     >>> Klqr, _, _ = ct.dlqr([[2.0]], [[1.0]], [[1.0]], [[1.0]])
     >>> CL = ncs.feedback(P, ncs.PeriodicGain(-Klqr))
-    >>> bool(ms_radius(CL) < 1)
+    >>> bool(ncs.ms_radius(CL) < 1)
     True
 
     A bursty actuator link (6 % loss in bursts of 1/0.9 steps): gains on the
     previous mode, 4 of them for the modes ``(θ1, θ2)``.
 
-    >>> P3 = nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
-    ...          nmeas=1, ncon=1, actuator_loss=gilbert_elliott(fail=0.06,
+    >>> P3 = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
+    ...          nmeas=1, ncon=1, actuator_loss=ncs.gilbert_elliott(fail=0.06,
     ...                                                         recover=0.9))
-    >>> K, CL, eta = passivesyn(P3, decay=0.9)
-    >>> K.gains.shape, K.result.gain_kind, bool(ms_radius(CL) < 0.81)
+    >>> K, CL, eta = ncs.passivesyn(P3, decay=0.9)
+    >>> K.gains.shape, K.result.gain_kind, bool(ncs.ms_radius(CL) < 0.81)
     ((1, 4, 1, 1), 'mode', True)
 
     Only ``x[0]`` measured (``C2 = [1 0]``): the estimator-based design.
 
-    >>> P2 = nss([[1.2, 1.0], [0.0, 0.5]], [[1.0, 0.0], [0.0, 1.0]],
+    >>> P2 = ncs.nss([[1.2, 1.0], [0.0, 0.5]], [[1.0, 0.0], [0.0, 1.0]],
     ...          [[1.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [0.0, 0.0]],
     ...          nmeas=1, ncon=1, sensor_loss=0.1)
-    >>> K, CL, eta = passivesyn(P2, controller='estimator', decay=0.99)
+    >>> K, CL, eta = ncs.passivesyn(P2, controller='estimator', decay=0.99)
     >>> K.estimator_gain.shape, K.result.certificate.verified
     ((1, 2, 1), True)
-    >>> bool(ms_radius(ncs.feedback(P2, K)) == ms_radius(CL))
+    >>> bool(ncs.ms_radius(ncs.feedback(P2, K)) == ncs.ms_radius(CL))
     True
     """
     if controller == "lti":
