@@ -9,7 +9,7 @@ import control as ct
 import cvxpy as cp
 
 import control_ncs as ncs
-from control_ncs import driver, lmi, synthesis
+from control_ncs import _synthesis_routes, driver, lmi
 from control_ncs.exceptions import SynthesisError
 from control_ncs.verify import check_certificate
 
@@ -210,7 +210,7 @@ def test_inaccurate_infeasible_status_is_not_a_proof(monkeypatch, plant):
             report.status = "infeasible_inaccurate"
         return report
 
-    monkeypatch.setattr(synthesis, "solve", fake)
+    monkeypatch.setattr(_synthesis_routes, "solve", fake)
     try:
         K, CL, eta = ncs.passivesyn(plant, decay=0.9)
     except SynthesisError as err:
@@ -324,7 +324,7 @@ def scheduled_plant():
 
 def test_auto_structure_falls_back_to_block_and_says_so(monkeypatch):
     P = scheduled_plant()
-    real = synthesis.synthesis_model
+    real = _synthesis_routes.synthesis_model
 
     def broken_extended(plant, eta, decay, margin, structure, form, *gain):
         if structure == "extended":
@@ -333,7 +333,8 @@ def test_auto_structure_falls_back_to_block_and_says_so(monkeypatch):
             return real(plant, 10.0, decay, margin, structure, form, *gain)
         return real(plant, eta, decay, margin, structure, form, *gain)
 
-    monkeypatch.setattr(synthesis, "synthesis_model", broken_extended)
+    monkeypatch.setattr(_synthesis_routes, "synthesis_model",
+                        broken_extended)
     with pytest.raises(SynthesisError):
         ncs.passivesyn(P, structure="extended")
     K, CL, eta = ncs.passivesyn(P)

@@ -11,7 +11,7 @@ from hypothesis import given, settings, strategies as st
 
 from control_ncs import (SynthesisError, check_certificate,
                          ms_radius, passivesyn)
-from control_ncs import synthesis
+from control_ncs import _synthesis_routes
 from control_ncs.riccati import riccati_synthesis
 from control_ncs.strategies import build
 
@@ -139,7 +139,7 @@ def test_result_is_filled_like_the_lmi_route():
 
 # -- automatic choice of the route ---------------------------------------------------
 def test_auto_selects_riccati_above_threshold_and_clarabel_below():
-    n = synthesis.RICCATI_THRESHOLD
+    n = _synthesis_routes.RICCATI_THRESHOLD
     rng = np.random.default_rng(5)
     small = random_plant(rng, n, m1=2, m2=2, radius=1.05)
     big = random_plant(rng, n + 1, m1=2, m2=2, radius=1.05)
@@ -151,7 +151,7 @@ def test_auto_selects_riccati_above_threshold_and_clarabel_below():
 
 def test_auto_keeps_the_lmi_when_solver_options_are_given():
     rng = np.random.default_rng(6)
-    big = random_plant(rng, synthesis.RICCATI_THRESHOLD + 1, m1=2, m2=2,
+    big = random_plant(rng, _synthesis_routes.RICCATI_THRESHOLD + 1, m1=2, m2=2,
                        radius=1.05)
     K, _, _ = passivesyn(big, -5.0, max_iter=200)
     assert K.result.report.solver == "CLARABEL"
@@ -212,13 +212,13 @@ def test_riccati_synthesis_refuses_a_structured_plant():
 def test_auto_riccati_falls_back_to_lmi_only_when_inconclusive(
         monkeypatch, reason, falls_back):
     rng = np.random.default_rng(11)
-    P = random_plant(rng, synthesis.RICCATI_THRESHOLD + 1, m1=2, m2=2,
+    P = random_plant(rng, _synthesis_routes.RICCATI_THRESHOLD + 1, m1=2, m2=2,
                      radius=1.05)
 
     def refuse(*args, **kwargs):
         raise SynthesisError("riccati: stub verdict", reason, {})
 
-    monkeypatch.setattr(synthesis, "riccati_synthesis", refuse)
+    monkeypatch.setattr(_synthesis_routes, "riccati_synthesis", refuse)
     if falls_back:
         K, CL, eta = passivesyn(P, -5.0)
         assert K.result.report.solver == "CLARABEL"

@@ -17,7 +17,7 @@ import control as ct
 from control.exception import ControlArgument
 
 import control_ncs as ncs
-from control_ncs import sweeps
+from control_ncs import _schedules
 from control_ncs.exceptions import REASONS
 
 
@@ -306,8 +306,8 @@ def test_cyclic_shift_of_a_schedule_gives_the_same_certified_eta():
 
 
 def test_relabelling_is_used_only_when_the_plant_is_invariant():
-    assert len(sweeps._relabellings(two_state_plant())) == 1
-    group = sweeps._relabellings(symmetric_plant())
+    assert len(_schedules._relabellings(two_state_plant())) == 1
+    group = _schedules._relabellings(symmetric_plant())
     assert sorted(group) == [((0, 1), (0, 1)), ((1, 0), (1, 0))]
 
 
@@ -332,7 +332,7 @@ def test_relabelled_schedule_gives_the_same_certified_eta():
 
 def test_too_many_schedules_are_refused_with_their_number():
     P = two_state_plant()
-    count = sweeps._orbit_count(8, [tuple(range(6))])
+    count = _schedules._orbit_count(8, [tuple(range(6))])
     with pytest.raises(ValueError, match=f"gives {count} schedules"):
         ncs.schedule_search(P, 8, limit=100, progress=False)
 
@@ -500,7 +500,7 @@ def test_schedule_count_equals_a_brute_force_count_of_orbits(maps, N):
     for word in itertools.product(range(3), repeat=N):
         orbits.add(min(tuple(h[x] for x in word[r:] + word[:r])
                        for h in maps for r in range(N)))
-    assert sweeps._orbit_count(N, maps) == len(orbits)
+    assert _schedules._orbit_count(N, maps) == len(orbits)
 
 
 def test_a_map_over_a_bursty_link_keeps_the_bursts():

@@ -18,7 +18,7 @@ from hypothesis import given, settings, strategies as st
 
 import control_ncs
 from control_ncs import SynthesisError, feedback, ispassive, nss, passivesyn
-from control_ncs import lmi, synthesis
+from control_ncs import _synthesis_routes, lmi
 
 from helpers import kron_ms_radius
 
@@ -601,8 +601,8 @@ def test_keyboard_interrupt_is_not_swallowed(monkeypatch, plant):
 
 
 def _scripted_solve(monkeypatch, script):
-    """Make ``synthesis.solve`` rewrite the statuses of its first calls."""
-    real = synthesis.solve
+    """Make the LMI route's ``solve`` rewrite the statuses of its first calls."""
+    real = _synthesis_routes.solve
     calls = []
 
     def fake(problem, solver=None, **options):
@@ -612,7 +612,7 @@ def _scripted_solve(monkeypatch, script):
             report.status = script[len(calls) - 1]
         return report
 
-    monkeypatch.setattr(synthesis, "solve", fake)
+    monkeypatch.setattr(_synthesis_routes, "solve", fake)
     return calls
 
 
