@@ -16,6 +16,7 @@ import numpy as np
 from .gain import PeriodicGain
 from .openloop import JumpPlant
 from .lmi import (SolveReport)
+from ._results import Result
 from .exceptions import (CERTIFIED, CERTIFIED_SHORTAGE, MESSAGES)
 from .verify import (Certificate)
 
@@ -26,8 +27,8 @@ _SHORTAGE_HELP = ("a larger feedthrough D11 from w to z, a weaker decay "
                   "requirement or less loss on the links would raise eta")
 
 
-@dataclass
-class SynthesisResult:
+@dataclass(repr=False)
+class SynthesisResult(Result):
     """Everything :func:`passivesyn` knows about the gain it returned.
 
     The gain is applied as is, ``u = K_k ŷ`` (positive feedback; a
@@ -155,11 +156,6 @@ class SynthesisResult:
         return True
 
     @property
-    def verdict(self) -> bool:
-        """``success``, under its older name."""
-        return self.success
-
-    @property
     def passive(self) -> bool:
         """True when the certified level is passive (``η ≥ 0``).
 
@@ -184,42 +180,27 @@ class SynthesisResult:
             text += f"; the loop is not passive ({_SHORTAGE_HELP})"
         return text
 
-    def __repr__(self) -> str:
-        return (f"<SynthesisResult: {self.status}, eta = {self.eta:.6g}, "
-                f"N = {self.gain.period}, controller {self.gain.controller}, "
-                f"actuator {self.gain.actuator}, structure {self.structure}, "
-                f"{self.gain_kind} gains, "
-                f"solver {self.report.solver}: {self.report.status}>")
+    _repr_fields = ("eta", "ms_radius", "structure", "gain_kind", "method")
 
-    def summary(self) -> str:
-        """A few lines for humans: the figures that prove the result.
-
-        Returns
-        -------
-        str
-        """
+    def _details(self) -> list[str]:
         r = self.report
-        lines = [f"SynthesisResult: {self.status}",
-                 f"  {self.message}",
-                 f"  controller={self.gain.controller!r}, "
+        lines = [f"controller={self.gain.controller!r}, "
                  f"actuator={self.gain.actuator!r}, N={self.gain.period}, "
                  f"form={self.form}, structure={self.structure}, "
                  f"gain={self.gain_kind}",
-                 f"  certified eta = {self.eta:.6g} (solver "
+                 f"certified eta = {self.eta:.6g} (solver "
                  f"{self.eta_solver:.6g})",
-                 f"  solver {r.solver}: {r.status}, compile "
+                 f"solver {r.solver}: {r.status}, compile "
                  f"{r.compile_time:.3f} s, solve {r.solve_time:.3f} s, "
                  f"{len(self.attempts)} attempt(s)"]
         if self.gain.estimator_gain is not None:
             # theory: output feedback: the loop's rate is the larger of these
             # two loops'
-            lines.append(f"  estimator gain L_k of shape "
+            lines.append(f"estimator gain L_k of shape "
                          f"{self.gain.estimator_gain.shape} (N_L, n, nmeas)")
         if self.note:
-            lines.append(f"  note: {self.note}")
-        lines += ["  " + line for line in
-                  self.certificate.summary().splitlines()]
-        return "\n".join(lines)
+            lines.append(f"note: {self.note}")
+        return lines + self.certificate.summary().splitlines()
 
 
 def _finish(plant, X, Y, gains, CL, cert, eta_ok, eta_solver, decay, form,

@@ -20,7 +20,9 @@ import numpy as np
 from control.exception import ControlArgument
 
 from ._checks import decay_bound, real_array
-from .exceptions import INFEASIBLE, NOT_VERIFIED, SOLVER_FAILED, SynthesisError
+from ._results import Result
+from .exceptions import (CERTIFIED, INFEASIBLE, NOT_VERIFIED, SOLVER_FAILED,
+                         SynthesisError)
 from .jump import JumpStateSpace
 from .network import GilbertElliott
 from .plant import NetworkedStateSpace
@@ -32,7 +34,7 @@ BALANCE_FROM = 16.0
 __all__ = ["EstimatorGain", "estimator_gain", "estimation_error_loop"]
 
 
-class EstimatorGain:
+class EstimatorGain(Result):
     """Verified estimator gains ``L_k`` of the estimator controller.
 
     Parameters
@@ -86,10 +88,21 @@ class EstimatorGain:
         out = self.gains[0] if self.period == 1 else self.gains
         return np.array(out, dtype=dtype)
 
-    def __repr__(self) -> str:
-        return (f"<EstimatorGain: period {self.period}, L of shape "
-                f"{self.gains.shape[1:]}, error-loop ms_radius "
-                f"{self.ms_radius:.4g}>")
+    _repr_fields = ("period", "ms_radius")
+
+    #: Only gains whose error loop passed the exact check are returned.
+    success = True
+    status = CERTIFIED
+
+    @property
+    def message(self) -> str:
+        """One sentence: what the exact check of the error loop proved."""
+        return (f"certified: the estimation-error loop is mean-square "
+                f"stable, ms_radius = {self.ms_radius:.6g}")
+
+    def _details(self) -> list[str]:
+        return [f"L_k of shape {self.gains.shape[1:]} over {self.period} "
+                f"phase(s)"]
 
 
 def _check_plant(P: Any) -> NetworkedStateSpace:

@@ -50,6 +50,7 @@ from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE,
                          CertificationError)
 from .driver import drive
 from .riccati import dare_certificate
+from ._results import Result
 from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
                   analysis_model, check_options, check_solver, solve,
                   supply_model)
@@ -76,8 +77,8 @@ INDEX_ATTEMPTS = ((1.0, 0.0), (1.0, 1e-6), (1.0, 1e-4), (1.0, 1e-3),
 LEVEL_ATTEMPTS = ((1.0, 0.0), (1e2, 0.0), (None, 0.0))
 
 
-@dataclass
-class PassivityResult:
+@dataclass(repr=False)
+class PassivityResult(Result):
     """A verified (or refuted) passivity certificate of a jump system.
 
     Attributes
@@ -148,9 +149,11 @@ class PassivityResult:
     eta_upper: float = np.nan
     ofp_index: float = 0.0
 
+    _repr_fields = ("eta", "ofp_index", "method")
+
     @property
-    def verdict(self) -> bool:
-        """``passive``, under the name every result of the package uses."""
+    def success(self) -> bool:
+        """``passive``: a certificate passed the exact checks."""
         return self.passive
 
     @property
@@ -171,45 +174,18 @@ class PassivityResult:
             text += f" ({self.report.message})"
         return text
 
-    def __repr__(self) -> str:
-        verdict = "passive" if self.passive else "not certified"
-        solver = ("" if self.report is None
-                  else f", solver {self.report.solver}: {self.report.status}")
-        return (f"<PassivityResult: {verdict} ({self.reason}), eta = "
-                f"{self.eta:.6g}, ofp_index = {self.ofp_index:.6g}, method "
-                f"{self.method}{solver}>")
-
-    def summary(self) -> str:
-        """A few lines for humans: verdict, levels, route and the proof.
-
-        Returns
-        -------
-        str
-
-        Examples
-        --------
-        >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-        >>> print(ncs.passivity_certificate(G, 0.4).summary())  # doctest: +ELLIPSIS
-        PassivityResult: not certified (infeasible)
-          proven: no certificate exists at this level (λmin(G + Gᴴ)/2 = ...)
-          eta = 0.4, ofp_index = 0, method riccati, eta_upper = 0.333333
-          solver scipy.linalg.solve_discrete_are: infeasible, ... s
-        """
-        lines = [f"PassivityResult: "
-                 f"{'passive' if self.passive else 'not certified'} "
-                 f"({self.reason})", f"  {self.message}",
-                 f"  eta = {self.eta:.6g}, ofp_index = {self.ofp_index:.6g}, "
+    def _details(self) -> list[str]:
+        lines = [f"eta = {self.eta:.6g}, ofp_index = {self.ofp_index:.6g}, "
                  f"method {self.method}"
                  + ("" if np.isnan(self.eta_upper)
                     else f", eta_upper = {self.eta_upper:.6g}")]
         if self.report is not None:
             r = self.report
-            lines.append(f"  solver {r.solver}: {r.status}, "
+            lines.append(f"solver {r.solver}: {r.status}, "
                          f"{r.total_time:.3f} s")
         if self.certificate is not None:
-            lines += ["  " + line for line in
-                      self.certificate.summary().splitlines()]
-        return "\n".join(lines)
+            lines += self.certificate.summary().splitlines()
+        return lines
 
 
 def _feedthrough_refutes(sys, ifp_index, ofp_index=0.0) -> bool:

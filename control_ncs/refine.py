@@ -79,7 +79,8 @@ from scipy.sparse.linalg import (ArpackError, ArpackNoConvergence,
 
 from ._checks import (choice, decay_bound, finite_real, positive_int,
                       positive_real, real_array)
-from .exceptions import CERTIFIED, TIME_LIMIT, CertificationError
+from ._results import Result
+from .exceptions import CERTIFIED, NOT_FOUND, TIME_LIMIT, CertificationError
 from .gain import PeriodicGain, actuators, controllers
 from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
@@ -119,8 +120,8 @@ ETA_STEP = 1e-3
 WOLFE = (1e-4, 0.5)
 
 
-@dataclass
-class RefineResult:
+@dataclass(repr=False)
+class RefineResult(Result):
     """What :func:`refine_gain` found, and how far it moved the gain.
 
     Attributes
@@ -184,12 +185,25 @@ class RefineResult:
     starts: list = field(default_factory=list)
     time: float = 0.0
 
-    def __repr__(self) -> str:
-        what = "verified" if self.verified else "not verified"
-        return (f"<RefineResult: {what}, eta = {self.eta:.6g}, ms_radius = "
-                f"{self.ms_radius_before:.6g} -> {self.ms_radius:.6g}, start "
-                f"{self.start!r}, {self.iterations} iterations, stopped "
-                f"{self.stopped!r}>")
+    _repr_fields = ("eta", "ms_radius", "start", "iterations", "stopped")
+
+    @property
+    def success(self) -> bool:
+        """``verified``: the refined gain's certificate passed."""
+        return self.verified
+
+    @property
+    def status(self) -> str:
+        """``'certified'``, or ``'time_limit'`` / ``'not_found'``."""
+        if self.verified:
+            return CERTIFIED
+        return TIME_LIMIT if self.stopped == TIME_LIMIT else NOT_FOUND
+
+    def _details(self) -> list[str]:
+        return [f"ms_radius {self.ms_radius_before:.6g} -> "
+                f"{self.ms_radius:.6g} from the start {self.start!r}",
+                f"eta {self.eta_before:.6g} -> {self.eta:.6g}, "
+                f"{self.iterations} iterations, {self.time:.3f} s"]
 
 
 # -- the loop as a function of the free entries ---------------------------------

@@ -26,6 +26,7 @@ from control.exception import ControlDimension
 
 from ._checks import decay_bound, finite_real, real_array
 from .exceptions import CERTIFIED, NOT_VERIFIED
+from ._results import Result
 from .jump import JumpStateSpace, as_jump
 from .modes import Modes
 from .stability import ms_radius
@@ -514,8 +515,8 @@ def certified_index(sys: Any, P: Any, *, decay: float = 1.0,
     return _sup(sys, _certificate_array(P, sys), rho, decay)
 
 
-@dataclass
-class Certificate:
+@dataclass(repr=False)
+class Certificate(Result):
     """Exact verification figures of a passivity certificate.
 
     Attributes
@@ -573,9 +574,11 @@ class Certificate:
     failures: list[str] = field(default_factory=list)
     ofp_index: float = 0.0
 
+    _repr_fields = ("eta", "eta_sup", "ms_radius")
+
     @property
-    def verdict(self) -> bool:
-        """``verified``, under the name every result of the package uses."""
+    def success(self) -> bool:
+        """``verified``: every exact check passed."""
         return self.verified
 
     @property
@@ -591,40 +594,15 @@ class Certificate:
                     f"{self.eta:.6g} (every eta < {self.eta_sup:.6g})")
         return "not verified: " + "; ".join(self.failures)
 
-    def __repr__(self) -> str:
-        N, n = self.P.shape[0], self.P.shape[-1]
-        what = "verified" if self.verified else "not verified"
-        return (f"<Certificate: {what}, eta = {self.eta:.6g}, eta_sup = "
-                f"{self.eta_sup:.6g}, ms_radius = {self.ms_radius:.6g}, "
-                f"N = {N}, n = {n}>")
-
-    def summary(self) -> str:
-        """A few lines for humans: the figures that prove (or refute) it.
-
-        Returns
-        -------
-        str
-
-        Examples
-        --------
-        >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-        >>> print(ncs.check_certificate(G, [[1.0]], 0.3).summary())
-        Certificate of stochastic passivity (theory: passivity): verified
-          eta = 0.3 (sup proved by P: 0.333333), ofp_index = 0, decay = 1
-          max_k λmax(Θ_k) = -4.526e-02 < 0, min_k λmin(P_k) = 1.000e+00 > 0
-          ms_radius = 0.25 < 1
-        """
-        lines = [f"Certificate of stochastic passivity (theory: passivity): "
-                 f"{'verified' if self.verified else 'NOT verified'}",
-                 f"  eta = {self.eta:.6g} (sup proved by P: "
+    def _details(self) -> list[str]:
+        lines = [f"eta = {self.eta:.6g} (sup proved by P: "
                  f"{self.eta_sup:.6g}), ofp_index = {self.ofp_index:.6g}, "
                  f"decay = {self.decay:.6g}",
-                 f"  max_k λmax(Θ_k) = {np.max(self.theta_max):.3e} < 0, "
+                 f"max_k λmax(Θ_k) = {np.max(self.theta_max):.3e} < 0, "
                  f"min_k λmin(P_k) = {np.min(self.P_min):.3e} > 0",
-                 f"  ms_radius = {self.ms_radius:.6g} < "
+                 f"ms_radius = {self.ms_radius:.6g} < "
                  f"{min(1.0, self.decay ** 2):.6g}"]
-        lines += [f"  failed: {f}" for f in self.failures[:5]]
-        return "\n".join(lines)
+        return lines + [f"failed: {f}" for f in self.failures[:5]]
 
     def figures(self) -> dict[str, Any]:
         """The measured numbers as a plain dict (for messages and reports).

@@ -434,8 +434,10 @@ def test_verdicts_share_verdict_status_and_message():
 def test_certificate_that_fails_says_why_in_its_message():
     G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
     cert = cn.check_certificate(G, [[1.0]], 0.4)
-    assert not cert.verdict and cert.status == "not_verified"
-    assert "λmax(Θ_k)" in cert.message and "not verified" in repr(cert)
+    assert not cert.verdict and not cert.success
+    assert cert.status == "not_verified"
+    assert "λmax(Θ_k)" in cert.message and "not_verified" in repr(cert)
+    assert "λmax(Θ_k)" in cert.summary()
 
 
 def test_cvxpy_inaccuracy_warning_does_not_leak_from_passivity(monkeypatch):

@@ -216,3 +216,24 @@ def test_a_gain_that_respects_the_schedule_does_not_warn():
         warnings.simplefilter("error", ncs.ScheduleWarning)
         ncs.feedback(P, [[[-0.5, 0.0]], [[0.0, -0.2]]])
         ncs.feedback(P.with_network(sensor_schedule=None), [[-0.5, -0.2]])
+
+
+# -- one way to state a verdict ------------------------------------------------
+def test_every_result_states_its_verdict_in_the_same_words():
+    from control_ncs._results import Result
+    P = ncs.nss([[1.1]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=0.1,
+                sensor_loss=0.1)
+    K, CL, eta = ncs.passivesyn(P, decay=0.99)
+    results = [K.result, K.result.certificate, ncs.passivity_certificate(CL),
+               ncs.estimator_gain(P),
+               ncs.refine_gain(P.with_network(sensor_schedule=[1, 0]),
+                               eta=0.0)]
+    for res in results:
+        assert isinstance(res, Result)
+        assert isinstance(res.success, bool) and res.verdict == res.success
+        assert res.status in MESSAGES and isinstance(res.message, str)
+        head = res.summary().splitlines()[0]
+        assert head == f"{type(res).__name__}: {res.status}"
+        assert repr(res).startswith(f"<{type(res).__name__}: {res.status}")
+        assert len(repr(res)) < 200
