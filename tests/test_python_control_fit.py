@@ -538,3 +538,23 @@ def test_indexing_out_of_range_raises_control_dimension(key, match):
     from control.exception import ControlDimension
     with pytest.raises(ControlDimension, match=match):
         lossy_loop()[key]
+
+
+def test_python_controls_step_response_of_a_periodic_loop_is_per_period():
+    """What the README's table says: for N > 1, ct.step_response gives the
+    lifted mean (one sample per period, outputs per phase), not E z at the
+    base rate; ncs.step_response and ncs.moments give E z at every step."""
+    import numpy as np
+    P = cn.nss([[1.1, 0.1], [0.0, 0.9]], [[1.0, 0.0, 1.0], [0.0, 1.0, 0.0]],
+               [[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+               [[0.5, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]],
+               nmeas=2, ncon=1, sensor_schedule=[1, 2], sensor_loss=0.1)
+    CL = cn.feedback(P, [[[-0.5, 0.0]], [[0.0, -0.2]]])
+    lifted = ct.step_response(CL, np.arange(21))
+    assert CL.period == 2
+    assert lifted.outputs.shape[0] == 2 * len(CL.jump_outputs)
+    exact = cn.moments(CL, 41, inputs=np.vstack([np.ones(41), np.zeros(41)]))
+    mean = cn.step_response(CL, 41, input=0, trials=10, seed=0)
+    np.testing.assert_allclose(mean.exact.outputs_mean, exact.outputs_mean)
+    # the lifted response's phase-0 output after 20 periods is not E z(40)
+    assert not np.isclose(lifted.outputs[0, 0, -1], exact.outputs_mean[0, -1])
