@@ -23,6 +23,14 @@ __all__ = ["ensemble_plot", "plot_ensemble", "schedule_plot",
            "design_map_plot", "schedule_search_plot"]
 
 
+def _one_axes(ax: Any, drawn: list) -> ct.ControlPlot:
+    """python-control's ControlPlot of one axes and what was drawn on it."""
+    lines = np.empty((1, 1), dtype=object)
+    lines[0, 0] = drawn
+    return ct.ControlPlot(lines, np.array([[ax]], dtype=object), ax.figure,
+                          legend=np.full((1, 1), None, dtype=object))
+
+
 def _check_axes(ax: Any) -> None:
     if not isinstance(ax, Axes):
         raise ControlArgument(f"ax: expected a matplotlib Axes, got "
@@ -207,10 +215,7 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
         ax.axvline(t, color="0.8", lw=0.8, zorder=0)
     ax.set_title(title or (f"Schedule, period N = {P.period}, losses "
                            f"α1 = {P.sensor_loss:g}, α2 = {P.actuator_loss:g}"))
-    lines = np.empty((1, 1), dtype=object)
-    lines[0, 0] = drawn
-    return ct.ControlPlot(lines, np.array([[ax]], dtype=object), ax.figure,
-                          legend=np.full((1, 1), None, dtype=object))
+    return _one_axes(ax, drawn)
 
 
 def design_map_plot(dmap: Any, quantity: str = "eta", *, ax: Any = None,
@@ -264,10 +269,7 @@ def design_map_plot(dmap: Any, quantity: str = "eta", *, ax: Any = None,
     ax.set_ylabel(dmap.axes[0])
     ax.set_title(title or (f"{quantity} of the certified design "
                            f"(blank: none; red: feasibility boundary)"))
-    lines = np.empty((1, 1), dtype=object)
-    lines[0, 0] = drawn
-    return ct.ControlPlot(lines, np.array([[ax]], dtype=object), ax.figure,
-                          legend=np.full((1, 1), None, dtype=object))
+    return _one_axes(ax, drawn)
 
 
 def _edges(v: np.ndarray, axis: str) -> np.ndarray:

@@ -410,7 +410,7 @@ class DesignMap:
 
     def plot(self, quantity: str = "eta", *, ax: Any = None,
              title: str | None = None) -> ct.ControlPlot:
-        """Heat map of ``eta`` or ``ms_radius`` with its boundary.
+        """Heat map of ``eta`` or ``ms_radius``: :func:`design_map_plot`.
 
         Parameters
         ----------
@@ -421,8 +421,6 @@ class DesignMap:
         Returns
         -------
         control.ControlPlot
-            ``lines[0, 0]`` holds the image and, when the grid has two or
-            more points on each axis, the boundary contour.
         """
         from .plots import design_map_plot
         return design_map_plot(self, quantity, ax=ax, title=title)
@@ -727,25 +725,16 @@ class ScheduleSearch:
 
     def plot(self, count: int | None = None, *, title: str | None = None
              ) -> ct.ControlPlot:
-        """The best schedules as timelines, one row of axes each.
+        """The best schedules as timelines: :func:`schedule_search_plot`.
 
         Parameters
         ----------
         count : int, optional
-            Number of schedules to draw (default: the ranking, at most 6).
         title : str, optional
-            Figure title.
 
         Returns
         -------
         control.ControlPlot
-            ``axes`` has shape (count, 1); ``lines[i, 0]`` lists the cells
-            drawn for schedule ``i`` (one ``broken_barh`` per node).
-
-        Raises
-        ------
-        ValueError
-            Nothing was certified, or ``count`` is not an int >= 1.
         """
         from .plots import schedule_search_plot
         return schedule_search_plot(self, count, title=title)
