@@ -104,3 +104,50 @@ def lifted_names(names: Sequence[str], N: int) -> list[str]:
     if N == 1:
         return list(names)
     return [f"{s}[{k}]" for k in range(N) for s in names]
+
+
+#: The PBH tests' rank tolerance: ``[Φ − λI; O]`` is called rank-deficient
+#: only when its smallest singular value is below this times its largest,
+#: so that rounding never declares a mode unseen (or unreached) that a
+#: scheduled sensor (or actuator) sees (or reaches).
+PBH_RTOL = 1e-9
+
+
+def unseen_modes(A: np.ndarray, outputs: Sequence[np.ndarray]) -> list:
+    """Eigenvalues ``|λ| ≥ 1`` of ``A^N`` that periodic outputs never see.
+
+    The PBH test of the lifted pair: ``x_{k+1} = A x_k`` observed through
+    ``outputs[k] x_k`` for ``k = 0..N-1`` is, over one period, the pair
+    ``(Φ, O) = (A^N, [C_0; C_1 A; …; C_{N-1} A^{N-1}])``; a mode ``λ`` of
+    ``Φ`` is unseen when ``[Φ − λI; O]`` loses rank. Applied to
+    ``(Aᵀ, (B_{N-1-j})ᵀ)`` it finds the modes that periodic inputs
+    ``B_k u_k`` never reach (stabilisability through a schedule).
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+    outputs : sequence of ndarray, each of shape (p_k, n)
+        The output matrix at each phase of the period ``N = len(outputs)``.
+
+    Returns
+    -------
+    list of complex
+        The unseen eigenvalues on or outside the unit circle (empty:
+        detectable).
+    """
+    A = np.asarray(A, float)
+    n = A.shape[0]
+    rows, Ak = [], np.eye(n)
+    for C in outputs:
+        rows.append(np.asarray(C, float) @ Ak)
+        Ak = A @ Ak
+    Phi, O = Ak, np.vstack(rows)
+    bad = []
+    for lam in np.linalg.eigvals(Phi):
+        if abs(lam) < 1 - 1e-12:
+            continue
+        s = np.linalg.svd(np.vstack([Phi - lam * np.eye(n), O]),
+                          compute_uv=False)
+        if s[n - 1] <= PBH_RTOL * max(1.0, s[0]):
+            bad.append(complex(lam))
+    return bad

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from ._lifting import unseen_modes
 from .jump import jss
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
@@ -28,11 +29,6 @@ ESTIMATION_NOT_MSS = "estimation_not_mss"
 PRUNE_REASONS = (LOOP_OPEN, NOT_STABILISABLE, NOT_DETECTABLE,
                  ESTIMATION_NOT_MSS)
 
-#: Relative tolerance of the PBH rank tests: a rank is called deficient
-#: only when the smallest singular value is below this times the matrix's
-#: norm, so that rounding can never prune a schedule that could close the
-#: loop (a wrongly kept schedule only costs one synthesis).
-PBH_RTOL = 1e-9
 
 
 
@@ -191,22 +187,6 @@ def _canonical_schedules(N: int, maps: list, k: int):
             yield word
 
 
-def _pbh_fails(Phi: np.ndarray, M: np.ndarray, *, dual: bool) -> bool:
-    """True when some eigenvalue ``|λ| ≥ 1`` of ``Phi`` fails the PBH test
-    with ``M`` (``[Φ − λI, M]`` for stabilisability, ``[Φ − λI; M]`` for
-    detectability), rank deficiency taken with ``PBH_RTOL``."""
-    n = Phi.shape[0]
-    for lam in np.linalg.eigvals(Phi):
-        if abs(lam) < 1.0:
-            continue
-        T = Phi - lam * np.eye(n)
-        W = np.vstack([T, M]) if dual else np.hstack([T, M])
-        sv = np.linalg.svd(W, compute_uv=False)
-        if sv.size < n or sv[n - 1] <= PBH_RTOL * max(1.0, sv[0]):
-            return True
-    return False
-
-
 def _prune(P: NetworkedStateSpace, s1: np.ndarray, s2: np.ndarray,
            controller: str, actuator: str, sensor_loss: float,
            decay: float | None) -> str | None:
@@ -229,20 +209,14 @@ def _prune(P: NetworkedStateSpace, s1: np.ndarray, s2: np.ndarray,
     act = s2 & (sensing[:, None] if controller == "static" else True)
     Bk = [B2 * (act.any(axis=0) if actuator == "hold" else act[k])
           for k in range(N)]
-    # lifted pair over one period: Φ = A^N, Γ = [A^(N-1-k) B_k]
-    powers = [np.eye(n)]
-    for _ in range(N):
-        powers.append(A @ powers[-1])
-    Phi = powers[N]
-    Gamma = np.hstack([powers[N - 1 - k] @ Bk[k] for k in range(N)])
-    if _pbh_fails(Phi, Gamma, dual=False):
+    # the lifted pair's PBH test (dual: what the inputs never reach)
+    if unseen_modes(A.T, [Bk[N - 1 - j].T for j in range(N)]):
         return NOT_STABILISABLE
     # what the gain hears: the static gain only where an actuator listens
     C2 = np.asarray(P.C2)
     Ck = [(C2 * s1[k][:, None]) * (acting[k] if controller == "static"
                                    else 1.0) for k in range(N)]
-    Obs = np.vstack([Ck[k] @ powers[k] for k in range(N)])
-    if _pbh_fails(Phi, Obs, dual=True):
+    if unseen_modes(A, Ck):
         return NOT_DETECTABLE
     if controller == "predictor":
         # theory: predictor: e⁺ = (I − θ1 Σ1,k+1) A e, a loop no gain can

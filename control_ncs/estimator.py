@@ -23,6 +23,7 @@ from ._checks import decay_bound, real_array
 from ._results import Result
 from .exceptions import (CERTIFIED, INFEASIBLE, NOT_VERIFIED, SOLVER_FAILED,
                          SynthesisError)
+from ._lifting import unseen_modes
 from .jump import JumpStateSpace
 from .network import GilbertElliott
 from .plant import NetworkedStateSpace
@@ -198,55 +199,11 @@ def estimation_error_loop(P: NetworkedStateSpace, L: Any) -> JumpStateSpace:
                           name=f"{P.name} (estimation error)")
 
 
-def unobservable_modes(A: np.ndarray, outputs: list) -> list:
-    """Eigenvalues ``|λ| ≥ 1`` of ``A^N`` that the periodic outputs never see.
-
-    PBH test of the lifted pair: ``x_{k+1} = A x_k`` observed through
-    ``outputs[k] x_k`` for ``k = 0..N-1``. Applied to ``(Aᵀ, (B S_{N-1-j})ᵀ)``
-    it finds the modes a periodic input ``B S_k u_k`` never reaches
-    (stabilisability through an actuator schedule).
-
-    Parameters
-    ----------
-    A : ndarray, shape (n, n)
-    outputs : list of ndarray, each of shape (p_k, n)
-        The output matrix at each phase of the period ``N = len(outputs)``.
-
-    Returns
-    -------
-    list of complex
-        The unseen eigenvalues of the monodromy ``A^N`` on or outside the
-        unit circle (empty: detectable).
-
-    Examples
-    --------
-    >>> from control_ncs.estimator import unobservable_modes
-    >>> unobservable_modes(np.diag([2.0, 0.5]), [np.array([[0.0, 1.0]])])
-    [(2+0j)]
-    """
-    n = A.shape[0]
-    rows, Ak = [], np.eye(n)
-    for C in outputs:
-        rows.append(C @ Ak)
-        Ak = A @ Ak
-    Phi, O = Ak, np.vstack(rows)
-    scale = max(1.0, float(np.linalg.norm(Phi, 2)), float(np.linalg.norm(O, 2)))
-    bad = []
-    for lam in np.linalg.eigvals(Phi):
-        if abs(lam) < 1 - 1e-12:
-            continue
-        s = np.linalg.svd(np.vstack([lam * np.eye(n) - Phi, O]),
-                          compute_uv=False)
-        if s[-1] <= 1e-10 * scale:
-            bad.append(complex(lam))
-    return bad
-
-
 def _undetected_modes(P: NetworkedStateSpace) -> list:
     """Eigenvalues ``|λ| ≥ 1`` of the monodromy ``A^N`` that no scheduled
     sensor sees over a period (PBH test of the lifted pair)."""
-    return unobservable_modes(P.A, [P.sensor_schedule.selection(k) @ P.C2
-                                    for k in range(P.period)])
+    return unseen_modes(P.A, [P.sensor_schedule.selection(k) @ P.C2
+                              for k in range(P.period)])
 
 
 def estimator_gain(P: NetworkedStateSpace, *, decay: float | None = None,

@@ -33,6 +33,7 @@ from .plant import NetworkedStateSpace
 from .strategies import build, require_state_measured
 from .exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
 from .verify import (level_floor)
+from ._lifting import unseen_modes
 from ._synthesis_result import _SHORTAGE_HELP, SynthesisResult
 from ._synthesis_routes import (_feedthrough, _open_loop_bound, _plant_arrays,
                                 _refine_route, _riccati_options, _routes)
@@ -543,11 +544,11 @@ def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
     links the estimator gain and the error loop are those of the Markov
     sensor chain, and the loop is built on the joint chain of both links."""
     from .estimator import (EstimatorGain, estimation_error_loop,
-                            estimator_gain, unobservable_modes)
+                            estimator_gain)
     r = decay_bound(decay)
     N = P.period
     # dual PBH: what B2 Σ2,k never reaches over a period (lifted pair)
-    missed = unobservable_modes(P.A.T, [
+    missed = unseen_modes(P.A.T, [
         (P.B2 @ P.actuator_schedule.selection(N - 1 - j)).T
         for j in range(N)])
     if missed:

@@ -528,3 +528,23 @@ def test_a_loss_a_bursty_link_cannot_reach_is_refused_naming_it():
                 actuator_loss=link)
     with pytest.raises(ValueError, match="^loss: 0.95 cannot be reached"):
         ncs.design_map(P, [0.0], [0.95], progress=False)
+
+
+def test_pruning_and_the_estimator_use_one_lifted_pbh_test():
+    """A mode at 1.2 seen only by sensor 2: a schedule that never lets
+    sensor 2 send is pruned as not detectable by the search, and the
+    estimator refuses the same schedule, with one test and one tolerance."""
+    from control_ncs._lifting import unseen_modes
+    A = np.diag([0.5, 1.2])
+    C2 = np.eye(2)
+    sensor_1_only = [np.array([[1.0, 0.0], [0.0, 0.0]])]
+    assert unseen_modes(A, sensor_1_only) == [1.2 + 0j]
+    assert unseen_modes(A, [C2]) == []
+    P = ncs.nss(A, np.hstack([np.eye(2), np.eye(2)]),
+                np.vstack([np.eye(2), C2]), np.zeros((4, 4)),
+                nmeas=2, ncon=2, sensor_schedule=[1])
+    with pytest.raises(ValueError, match="not detectable"):
+        ncs.estimator_gain(P)
+    pruned = _schedules._prune(P, np.array([[1, 0]]), np.array([[1, 1]]),
+                               "predictor", "zero", 0.0, None)
+    assert pruned == "not_detectable"
