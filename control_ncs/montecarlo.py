@@ -51,8 +51,6 @@ need every trial's outputs, ``p · trials · T`` floats; pass
 
 from __future__ import annotations
 
-import contextlib
-import functools
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
@@ -64,6 +62,7 @@ from control.exception import ControlArgument
 from scipy.special import ndtri
 
 from ._checks import positive_int
+from ._tasks import progress_bar, progress_check
 from .jump import JumpStateSpace, as_jump
 from .meancov import covariance, initial_mean, input_signal, time_grid
 
@@ -82,30 +81,6 @@ STEP_FLOATS = 1 << 15
 #: slower), so each product covers at most that many trials' columns (but
 #: at least MIN_COLUMNS, where call overhead would dominate).
 GEMM_SERIAL, MIN_COLUMNS = 1 << 18, 16
-
-
-@functools.cache
-def tqdm_check() -> bool:
-    """True when the optional package ``tqdm`` (progress bars) is installed.
-
-    Cached: the import is tried once per process.
-
-    Returns
-    -------
-    bool
-
-    Examples
-    --------
-    >>> from control_ncs.montecarlo import tqdm_check
-    >>> import importlib.util
-    >>> tqdm_check() == (importlib.util.find_spec("tqdm") is not None)
-    True
-    """
-    try:
-        import tqdm  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 # -- arguments ----------------------------------------------------------------
@@ -457,25 +432,6 @@ def columnwise_product(A: np.ndarray, X: np.ndarray,
     return out
 
 
-def progress_check(progress: Any) -> bool:
-    """``progress`` as a bool, checked before any work is done."""
-    if not isinstance(progress, (bool, np.bool_)):
-        raise ControlArgument(f"progress: expected True or False, got "
-                              f"{progress!r}")
-    if progress and not tqdm_check():
-        raise ImportError("progress=True needs the optional package tqdm: "
-                          "pip install tqdm (or control_ncs[progress])")
-    return bool(progress)
-
-
-def progress_bar(progress: bool, total: int, desc: str):
-    """A tqdm bar of ``total`` steps, or a null context."""
-    if not progress_check(progress):
-        return contextlib.nullcontext(None)
-    from tqdm.auto import tqdm
-    return tqdm(total=total, desc=desc, unit="step")
-
-
 def run_chunks(run: Run, store: Storage, workers: int | None = None,
                progress: bool = False) -> None:
     """Simulate every trial of ``run`` into ``store`` (trial ``i`` in column
@@ -485,8 +441,8 @@ def run_chunks(run: Run, store: Storage, workers: int | None = None,
     if workers is None:
         workers = available_cpus()
     workers = min(workers, len(chunks))
-    with progress_bar(progress, len(chunks) * run.time.size,
-                      "simulate") as bar:
+    with progress_bar(progress_check(progress), len(chunks) * run.time.size,
+                      "simulate", "step") as bar:
         if workers <= 1:
             for a, b in chunks:
                 simulate_chunk(run, a, b, store, a, bar)
@@ -539,7 +495,8 @@ def ensemble_statistics(run: Run, levels: tuple, kept: Storage,
     count, mean, M2 = 0, np.zeros((T, p)), np.zeros((T, p, p))
     states_sum = np.zeros((T, n))
     nchunks = -(-run.trials // run.chunk)
-    with progress_bar(progress, nchunks * T, desc) as bar:
+    with progress_bar(progress_check(progress), nchunks * T, desc,
+                      "step") as bar:
         for a, b in run.chunks():
             c = b - a
             simulate_chunk(run, a, b, store, 0, bar)

@@ -28,10 +28,11 @@ import control as ct
 from control.exception import ControlArgument
 
 from ._checks import no_extra_kwargs, positive_int
+from ._tasks import progress_check
 from .jump import JumpStateSpace, as_jump
 from .meancov import MomentsResponse, moments, real_values, time_grid
 from .montecarlo import (CHUNK_FLOATS, Run, Storage, ensemble_statistics,
-                         prepare, progress_check, run_chunks)
+                         prepare, run_chunks)
 from .stability import ms_radius
 
 __all__ = ["simulate", "SamplePaths", "EnsembleResponse", "forced_response",
@@ -496,8 +497,9 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
         not exist ``os.process_cpu_count``, Python >= 3.13, else
         ``os.cpu_count``), at most one per chunk. Does not change the
         result.
-    progress : bool, optional
-        Show a progress bar (needs the optional package ``tqdm``).
+    progress : bool or None, optional
+        Show a progress bar (needs the optional package ``tqdm``); None:
+        only where a person watches (a terminal or a notebook).
     **kwargs
         Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
@@ -678,8 +680,9 @@ _OPTIONS_DOC = """trials : int, optional
         Trials simulated together (memory bound). Does not change the
         sample paths (as in :func:`simulate`); the statistics, accumulated
         chunk by chunk, agree to rounding.
-    progress : bool, optional
-        Show a progress bar (needs ``tqdm``).
+    progress : bool or None, optional
+        Show a progress bar (needs ``tqdm``); None: only where a person
+        watches (a terminal or a notebook).
     **kwargs
         Reserved: any keyword raises ``TypeError`` (unknown keyword)."""
 

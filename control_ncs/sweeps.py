@@ -22,7 +22,7 @@ import math
 import threading
 import time
 import warnings
-from concurrent.futures import Executor, as_completed
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
@@ -34,6 +34,7 @@ from .exceptions import (PROOFS, TIME_LIMIT, NotPassiveWarning,
                          ScheduleWarning, SynthesisError)
 from .network import GilbertElliott, gilbert_elliott
 from .plant import NetworkedStateSpace
+from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
                          _letter_maps, _loop_closes, _orbit_count, _prune,
                          _relabellings)
@@ -148,15 +149,6 @@ def _loss_grid(values: Any, name: str) -> np.ndarray:
     return np.array([_loss(v, f"{name}[{i}]") for i, v in enumerate(arr)])
 
 
-def _executor(executor: Any) -> Executor | None:
-    if executor is not None and not isinstance(executor, Executor):
-        raise ControlArgument(
-            f"executor: expected None or a concurrent.futures.Executor (a "
-            f"ThreadPoolExecutor, ProcessPoolExecutor or a Dask "
-            f"client.get_executor()), got {type(executor).__name__}")
-    return executor
-
-
 def _flag(value: Any, name: str) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise ControlArgument(f"{name}: expected True or False, got {value!r}")
@@ -171,52 +163,6 @@ def _positive_int(value: Any, name: str) -> int:
 
 
 # -- running tasks --------------------------------------------------------------
-
-def _progress_bar(total: int, enabled: bool, desc: str) -> Any:
-    if enabled:
-        try:
-            from tqdm import tqdm
-        except ImportError:  # the progress bar is optional
-            pass
-        else:
-            return tqdm(total=total, desc=desc, leave=False)
-    return None
-
-
-def _run(func: Callable, tasks: list, executor: Executor | None,
-         progress: bool, desc: str) -> list:
-    """``[func(*t) for t in tasks]``, sequentially or on ``executor``.
-
-    Results are placed by index, so the order of completion never shows.
-    On any exception (KeyboardInterrupt included) pending futures are
-    cancelled before it propagates.
-    """
-    results: list = [None] * len(tasks)
-    bar = _progress_bar(len(tasks), progress and len(tasks) > 1, desc)
-    try:
-        if executor is None:
-            for i, args in enumerate(tasks):
-                results[i] = func(*args)
-                if bar is not None:
-                    bar.update()
-            return results
-        futures = {}
-        try:
-            for i, args in enumerate(tasks):
-                futures[executor.submit(func, *args)] = i
-            for fut in as_completed(futures):
-                results[futures[fut]] = fut.result()
-                if bar is not None:
-                    bar.update()
-        except BaseException:
-            for fut in futures:
-                fut.cancel()
-            raise
-        return results
-    finally:
-        if bar is not None:
-            bar.close()
-
 
 def _synthesise(P: NetworkedStateSpace, eta: float | None,
                 decay: float | None, controller: str, actuator: str,
@@ -288,7 +234,7 @@ def _cells(tasks: list, method: str, executor: Executor | None,
     depend on the executor or on the order in which cells finish.
     """
     first = "lmi" if method == "auto" else method
-    out = _run(_synthesise, [t + (first,) for t in tasks], executor,
+    out = run_tasks(_synthesise, [t + (first,) for t in tasks], executor,
                progress, desc)
     if method != "auto":
         return out
@@ -300,7 +246,7 @@ def _cells(tasks: list, method: str, executor: Executor | None,
         near = [i] + (neighbours(i) if neighbours is not None else [])
         starts.append(next((out[j][4] for j in near
                             if out[j][2] and out[j][4] is not None), None))
-    again = _run(_synthesise, [tasks[i] + ("auto", s)
+    again = run_tasks(_synthesise, [tasks[i] + ("auto", s)
                                for i, s in zip(todo, starts)],
                  executor, progress, desc)
     for i, r in zip(todo, again):
@@ -438,7 +384,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
                actuator_loss: Any = (0.0,), *, eta: float | None = None,
                decay: float | None = None, controller: str = "static",
                actuator: str = "zero", executor: Executor | None = None,
-               progress: bool = True, method: str = "auto") -> DesignMap:
+               progress: bool | None = None, method: str = "auto"
+               ) -> DesignMap:
     """Verified passive synthesis over a grid of loss probabilities.
 
     Cell ``[i, j]`` is ``passivesyn(P.with_network(sensor_loss=a1[i],
@@ -468,8 +415,10 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         Runs one task per cell (thread or process pool, or a Dask
         ``client.get_executor()``); None runs sequentially in this thread.
         The result is identical either way.
-    progress : bool
-        Show a tqdm progress bar (when tqdm is installed).
+    progress : bool or None
+        Show a progress bar (needs tqdm). Default None: only where a person
+        watches (an interactive terminal or a notebook), never in scripts'
+        logs or CI.
     method : {'auto', 'lmi', 'refine'}
         How each cell is designed. ``'auto'`` (default): every cell by the
         LMI (exact with full information, fast), then every cell where the
@@ -518,8 +467,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     decay = _optional_decay(decay)
     controller = _choice(controller, "controller", _CONTROLLERS)
     actuator = _choice(actuator, "actuator", _ACTUATORS)
-    executor = _executor(executor)
-    progress = _flag(progress, "progress")
+    executor = check_executor(executor)
+    progress = progress_check(progress)
     method = _choice(method, "method", METHODS)
     if controller == "static" and not _loop_closes(
             P.sensor_schedule.pattern.any(axis=1),
@@ -747,7 +696,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
                     decay: float | None = None, controller: str = "static",
                     actuator: str = "zero", executor: Executor | None = None,
                     top: int = 10, limit: int | None = 5000,
-                    progress: bool = True, method: str = "auto"
+                    progress: bool | None = None, method: str = "auto"
                     ) -> ScheduleSearch:
     """Rank every schedule of one period by verified design.
 
@@ -813,8 +762,10 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     limit : int or None
         Refuse (ValueError) when there are more canonical schedules than
         this; None: up to ``MAX_SCHEDULES`` (10⁷).
-    progress : bool
-        Show a tqdm progress bar (when tqdm is installed).
+    progress : bool or None
+        Show a progress bar (needs tqdm). Default None: only where a person
+        watches (an interactive terminal or a notebook), never in scripts'
+        logs or CI.
     method : {'auto', 'lmi', 'refine'}
         How each cell is designed. ``'auto'`` (default): every cell by the
         LMI (exact with full information, fast), then every cell where the
@@ -875,11 +826,11 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     decay = _optional_decay(decay)
     controller = _choice(controller, "controller", _CONTROLLERS)
     actuator = _choice(actuator, "actuator", _ACTUATORS)
-    executor = _executor(executor)
+    executor = check_executor(executor)
     top = _positive_int(top, "top")
     if limit is not None:
         limit = _positive_int(limit, "limit")
-    progress = _flag(progress, "progress")
+    progress = progress_check(progress)
     method = _choice(method, "method", METHODS)
     start = time.perf_counter()
 

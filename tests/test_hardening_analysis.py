@@ -205,10 +205,15 @@ def test_quantiles_none_is_refused_naming_the_argument():
         cn.step_response(scalar(), 3, trials=3, quantiles=None)
 
 
-@pytest.mark.parametrize("progress", ["yes", 1, None])
-def test_progress_must_be_a_bool(progress):
+@pytest.mark.parametrize("progress", ["yes", 1, 0.5])
+def test_progress_must_be_true_false_or_none(progress):
     with pytest.raises(ControlArgument, match="^progress: "):
         cn.simulate(scalar(), 3, trials=3, progress=progress)
+
+
+def test_progress_none_shows_a_bar_only_where_someone_watches(capsys):
+    cn.simulate(scalar(), 3, trials=3, progress=None)
+    assert "simulate" not in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("paths", [-1, 0, 1.5, "a"])

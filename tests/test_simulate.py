@@ -14,8 +14,8 @@ import control as ct
 from control.exception import ControlArgument, ControlDimension
 
 import control_ncs as cn
-from control_ncs import montecarlo
-from control_ncs.montecarlo import tqdm_check
+from control_ncs import _tasks, montecarlo
+from control_ncs._tasks import tqdm_check
 from control_ncs.plots import plot_ensemble
 from control_ncs.responses import (EnsembleResponse, SamplePaths,
                                    default_steps, forced_response,
@@ -428,7 +428,7 @@ def test_progress_bar_is_shown(capsys, workers):
 
 
 def test_progress_without_tqdm_raises_a_clear_error(monkeypatch):
-    monkeypatch.setattr(montecarlo, "tqdm_check", lambda: False)
+    monkeypatch.setattr(_tasks, "tqdm_check", lambda: False)
     with pytest.raises(ImportError, match="tqdm"):
         simulate(closed_loop("static-zero"), 5, trials=2, progress=True)
 

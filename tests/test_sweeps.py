@@ -548,3 +548,26 @@ def test_pruning_and_the_estimator_use_one_lifted_pbh_test():
     pruned = _schedules._prune(P, np.array([[1, 0]]), np.array([[1, 1]]),
                                "predictor", "zero", 0.0, None)
     assert pruned == "not_detectable"
+
+
+def test_progress_is_quiet_by_default_where_nobody_watches(capsys):
+    """Under pytest stderr is captured (not a terminal) and no kernel runs:
+    the default shows no bar."""
+    pytest.importorskip("tqdm")
+    ncs.design_map(scalar_plant(), [0.0, 0.1], [0.0], eta=0.1)
+    assert "design_map" not in capsys.readouterr().err
+
+
+def test_progress_is_shown_by_default_in_a_terminal(capsys, monkeypatch):
+    pytest.importorskip("tqdm")
+    from control_ncs import _tasks
+    monkeypatch.setattr(_tasks, "_watched", lambda: True)
+    ncs.design_map(scalar_plant(), [0.0, 0.1], [0.0], eta=0.1)
+    assert "design_map" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("bad", ["yes", 1, 0.5])
+def test_progress_must_be_true_false_or_none(bad):
+    from control.exception import ControlArgument
+    with pytest.raises(ControlArgument, match="^progress: expected True"):
+        ncs.design_map(scalar_plant(), [0.0], [0.0], progress=bad)
