@@ -20,6 +20,7 @@ from control.exception import ControlDimension
 
 from ._checks import (positive_int, positive_real)
 from .jump import JumpStateSpace
+from .stability import ms_radius
 from .openloop import JumpPlant
 from .driver import RETRIES, drive
 from .lmi import (SolveReport, balancing_scale,
@@ -74,9 +75,6 @@ ETA_SEARCH_STEPS = 12
 LMI_START_MAX_STATES = 10
 
 
-#: Largest state dimension at which ``_open_loop_bound`` forms the
-#: ``n² × n²`` matrices of the gain-independent second-moment operator.
-OPEN_LOOP_BOUND_MAX = 24
 
 
 def _plant_arrays(plant: JumpPlant) -> None:
@@ -370,23 +368,21 @@ def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
     proof, with the figure on the error. A loss of exactly 1 on an unstable
     plant is the special case where every mode is gain-independent.
     """
+    # the gain-independent part as a jump system of its own: the modes a
+    # gain acts in contribute nothing to it (zero matrices), the law of the
+    # modes is the plant's, so the one second-moment kernel measures it
+    acts = np.array([[bool(np.any(plant.E[k]) and np.any(plant.Bu[k, i]))
+                      for i in range(plant.probabilities.shape[1])]
+                     for k in range(plant.period)])
+    A = np.where(acts[:, :, None, None], 0.0, plant.A)
     n = plant.shape["nx"]
-    p, N = plant.probabilities, plant.period
-    if plant.transition is not None:
-        if p.shape[1] * n * n > OPEN_LOOP_BOUND_MAX ** 2:
-            return
-        rho = _open_loop_rate_markov(plant)
-    else:
-        if n > OPEN_LOOP_BOUND_MAX:
-            return
-        M = np.eye(n * n)
-        for k in range(N):
-            step = np.zeros((n * n, n * n))
-            for i in np.flatnonzero(p[k] > 0):
-                if not np.any(plant.E[k]) or not np.any(plant.Bu[k, i]):
-                    step += p[k, i] * np.kron(plant.A[k, i], plant.A[k, i])
-            M = step @ M
-        rho = float(np.max(np.abs(np.linalg.eigvals(M)))) ** (1.0 / N)
+    alone = JumpStateSpace(A, np.zeros(A.shape[:3] + (1,)),
+                           np.zeros(A.shape[:2] + (1, n)),
+                           np.zeros(A.shape[:2] + (1, 1)),
+                           None if plant.transition is not None
+                           else plant.probabilities, plant.dt,
+                           transition=plant.transition)
+    rho = ms_radius(alone)
     bound = min(1.0, decay ** 2)
     # a clear margin over rounding (eigvals is backward stable)
     if rho >= bound * (1 + 1e-9):
@@ -399,33 +395,6 @@ def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
             + (f" with decay {decay}" if decay < 1 else ""),
             INFEASIBLE, dict(ms_radius_without_control=rho, bound=bound,
                                proof="gain-independent modes"))
-
-
-def _open_loop_rate_markov(plant: JumpPlant) -> float:
-    """Per-step rate of the gain-independent part on Markov modes.
-
-    With ``S_{k,ℓ} = E[ξ ξᵀ 1{σ_{k-1} = ℓ}]`` (:ref:`theory-markov`),
-    ``S_{k+1,i} = Σ_ℓ T_{k-1}[ℓ, i] Acl S_{k,ℓ} Aclᵀ`` dominates the same
-    sum over the modes ``i`` in which ``Acl = A_{k,i}`` whatever the gain
-    (also a gain using ``ℓ``); the operator on ``M``-tuples restricted to
-    them bounds every closed loop's rate from below. For the scalar
-    ``x⁺ = a x + u`` it is ``a² ρ(T_oo)`` (:ref:`theory-markov`).
-    """
-    n = plant.shape["nx"]
-    N, M = plant.probabilities.shape
-    T = plant.transitions()
-    size = M * n * n
-    total = np.eye(size)
-    for k in range(N):
-        step = np.zeros((M, n * n, M, n * n))
-        for i in range(M):
-            if np.any(plant.E[k]) and np.any(plant.Bu[k, i]):
-                continue
-            AA = np.kron(plant.A[k, i], plant.A[k, i])
-            for ell in np.flatnonzero(T[k - 1][:, i] > 0):
-                step[i, :, ell, :] = T[k - 1][ell, i] * AA
-        total = step.reshape(size, size) @ total
-    return float(np.max(np.abs(np.linalg.eigvals(total)))) ** (1.0 / N)
 
 
 def _pair_certificate(P: np.ndarray, CL: JumpStateSpace) -> np.ndarray:
