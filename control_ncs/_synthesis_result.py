@@ -180,7 +180,13 @@ class SynthesisResult(Result):
             text += f"; the loop is not passive ({_SHORTAGE_HELP})"
         return text
 
-    _repr_fields = ("eta", "ms_radius", "structure", "gain_kind", "method")
+    _repr_fields = ("eta", "ms_radius", "period", "structure", "gain_kind",
+                    "method")
+
+    @property
+    def period(self) -> int:
+        """The gain's period ``N``."""
+        return self.gain.period
 
     def _details(self) -> list[str]:
         r = self.report

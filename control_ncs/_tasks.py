@@ -51,7 +51,9 @@ def tqdm_check() -> bool:
 
 def _watched() -> bool:
     """True where a person watches the output: a terminal or a notebook."""
-    if "ipykernel" in sys.modules:
+    ipython = sys.modules.get("IPython")
+    shell = ipython.get_ipython() if ipython is not None else None
+    if type(shell).__name__ == "ZMQInteractiveShell":      # a Jupyter kernel
         return True
     stream = sys.stderr
     return bool(getattr(stream, "isatty", lambda: False)())

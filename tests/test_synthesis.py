@@ -681,7 +681,7 @@ def test_synthesis_result_has_verdict_status_message_and_a_one_line_repr(
     assert "certified" in res.message
     text = repr(res)
     assert "\n" not in text and text.startswith("<SynthesisResult: certified")
-    assert f"N = {K.period}" in text and "solver" in text
+    assert f"period = {K.period}" in text and "method = " in text
     assert res.certificate.summary().splitlines()[0] in res.summary()
 
 
