@@ -251,7 +251,7 @@ def design_map_plot(dmap: Any, quantity: str = "eta", *, ax: Any = None,
     """
     choice(quantity, "quantity", ("eta", "ms_radius"))
     if ax is None:
-        _, ax = plt.subplots(figsize=(5.5, 4.5))
+        _, ax = plt.subplots(figsize=(5.5, 4.5), layout="constrained")
     else:
         _check_axes(ax)
     data = np.ma.masked_invalid(getattr(dmap, quantity))
@@ -267,8 +267,9 @@ def design_map_plot(dmap: Any, quantity: str = "eta", *, ax: Any = None,
                                 linewidths=1.5))
     ax.set_xlabel(dmap.axes[1])
     ax.set_ylabel(dmap.axes[0])
-    ax.set_title(title or (f"{quantity} of the certified design "
-                           f"(blank: none; red: feasibility boundary)"))
+    ax.set_title(title or (f"{quantity} of the certified design\n"
+                           f"(blank: none; red: feasibility boundary)"),
+                 fontsize="medium")
     return _one_axes(ax, drawn)
 
 

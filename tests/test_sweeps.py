@@ -571,3 +571,20 @@ def test_progress_must_be_true_false_or_none(bad):
     from control.exception import ControlArgument
     with pytest.raises(ControlArgument, match="^progress: expected True"):
         ncs.design_map(scalar_plant(), [0.0], [0.0], progress=bad)
+
+
+def test_design_map_plot_reads_title_inside_and_probability_axes_from_zero():
+    import matplotlib.pyplot as plt
+    dm = ncs.design_map(scalar_plant(), [0.0, 0.1], [0.0, 0.1], eta=0.1,
+                        progress=False)
+    cp = ncs.design_map_plot(dm)
+    try:
+        fig, ax = cp.figure, cp.axes[0, 0]
+        fig.canvas.draw()
+        box = ax.title.get_window_extent(fig.canvas.get_renderer())
+        assert box.x0 >= 0 and box.x1 <= fig.bbox.width
+        assert ax.get_xlabel() == "actuator_loss"
+        assert ax.get_ylabel() == "sensor_loss"
+        assert min(ax.get_xlim()) >= 0 and min(ax.get_ylim()) >= 0
+    finally:
+        plt.close(cp.figure)
