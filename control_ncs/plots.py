@@ -356,6 +356,8 @@ def schedule_search_plot(search: Any, count: int | None = None, *,
         ax.set_title(f"#{r + 1}: η = {s.eta:.4g}, ms_radius = "
                      f"{s.ms_radius:.4g}", fontsize="small")
         lines[r, 0] = drawn
+    # one labelled tick per phase, at the middle of its bar
+    axs[-1, 0].set_xticks(np.arange(N) + 0.45, [str(k) for k in range(N)])
     axs[-1, 0].set_xlabel("phase k")
     fig.suptitle(title or f"Best schedules of period {N}"
                  + (" (shared channel)" if search.shared_channel else ""))
