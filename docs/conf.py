@@ -37,6 +37,10 @@ extensions = [
     "sphinx.ext.autosummary",
     "numpydoc",
     "sphinx.ext.mathjax",
+    # MathJax shipped with the build (copied into _static/mathjax), not
+    # fetched from a CDN: the site's formulas render on a machine without
+    # internet, as engineering labs often are
+    "sphinx-mathjax-offline",
     "myst_nb",
 ]
 

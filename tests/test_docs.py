@@ -151,3 +151,12 @@ def test_the_product_speaks_of_itself_not_of_how_it_was_made():
     left = {name: pattern.search(text).group(0)
             for name, text in _sources().items() if pattern.search(text)}
     assert not left, left
+
+
+def test_the_site_ships_its_math_renderer():
+    """Formulas must render without internet: MathJax comes with the build
+    (sphinx-mathjax-offline), and the docs extra installs it."""
+    conf = (DOCS / "conf.py").read_text(encoding="utf-8")
+    assert '"sphinx-mathjax-offline"' in conf
+    pyproject = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
+    assert "sphinx-mathjax-offline" in pyproject
