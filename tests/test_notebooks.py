@@ -69,3 +69,13 @@ def test_no_solver_warning_reaches_a_notebook(tmp_path):
         for out in cell.get("outputs", []))
     assert "Solution may be inaccurate" not in text
     assert "Warning" not in text
+
+
+@pytest.mark.parametrize("name", EXPECTED)
+def test_notebook_imports_the_installed_package_as_a_user_would(name):
+    """An installed package needs no path manipulation: the notebooks import
+    it as `import control_ncs as ncs`, as a user's notebook does."""
+    code = "".join(c.source for c in _read(name).cells
+                   if c.cell_type == "code")
+    assert "sys.path" not in code
+    assert "import control_ncs as ncs" in code
