@@ -124,26 +124,15 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     is for ``u = -K x``; negate such a gain before using it here, see the
     Examples).
 
-    Solves the LMI of :ref:`theory-synthesis` (paper Theorem 1, corrected) for
-    ``X_k ≻ 0``, ``Y_k`` and, when ``eta`` is None, the largest dissipation
-    ``η``; reads ``K_k = Y_k X_k⁻¹`` (or ``Y_k G_k⁻¹`` in the extended form);
-    then checks the closed loop exactly: ``λmax(Θ_k) < 0`` with ``P_k = X_k⁻¹``
-    for every phase and ``ms_radius < 1`` (``< r²`` with ``decay=r``). A gain
-    that fails is never returned. Over Markov (Gilbert–Elliott) links the LMI
-    is :ref:`theory-markov`'s, with ``X_{k,ℓ}``, ``Y_{k,ℓ}`` per previous mode
-    ``ℓ`` (see ``gain``), and the check is ``Θ_{k,ℓ}`` of the closed loop on
-    pair modes with ``P_{k,(ℓ',ℓ)} = X_{k,ℓ}⁻¹``.
-
-    The LMI is solved in balanced coordinates (a diagonal similarity by
-    powers of two, exact in floating point) and every solve goes through
-    one solve-and-verify loop (:func:`control_ncs.driver.drive`: retries
-    ``RETRIES``, then once ``lmi.FALLBACK_SOLVER``). Without ``solver=``
-    and with ``eta=None``, when the maximisation gives no verified gain,
-    fixed levels of ``η`` are tried (``_eta_search``) and, for structure
-    ``'full'``, the Riccati iteration; under ``structure='auto'`` a loop
-    that resolves to ``'extended'`` is also tried with ``'block'``.
-    Progress (each attempt) is logged on the ``'control_ncs'`` logger at
-    level INFO (``logging.basicConfig(level=logging.INFO)`` shows it).
+    Designs the gain with the synthesis LMI of :ref:`theory-synthesis`
+    (exact with full information, sufficient for structured gains, where
+    the default call also refines the gain locally), then proves the
+    closed loop with exact linear algebra: ``λmax(Θ_k) < 0`` for its
+    storage ``P_k`` and ``ms_radius < 1`` (``< r²`` with ``decay=r``). A
+    gain that fails the check is never returned; when nothing can be
+    certified, :class:`~control_ncs.SynthesisError` says why, and says
+    "infeasible" only with a proof. Over bursty (Gilbert–Elliott) links the
+    design and the check are those of :ref:`theory-markov`.
 
     Parameters
     ----------
@@ -317,6 +306,24 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         the loop is certified mean-square stable and dissipative with an
         input-feedforward shortage, not passive (``K.result.status`` is
         ``'certified_shortage'``).
+
+    Notes
+    -----
+    The LMI reads ``K_k = Y_k X_k⁻¹`` (or ``Y_k G_k⁻¹`` in the extended
+    form) and is checked with ``P_k = X_k⁻¹``; over Markov links it has
+    ``X_{k,ℓ}``, ``Y_{k,ℓ}`` per previous mode ``ℓ`` (see ``gain``), and the
+    check is ``Θ_{k,ℓ}`` of the closed loop on pair modes with
+    ``P_{k,(ℓ',ℓ)} = X_{k,ℓ}⁻¹``. The LMI is solved in balanced coordinates
+    (a diagonal similarity by powers of two, exact in floating point), and
+    every solve goes through one solve-and-verify loop
+    (:func:`control_ncs.driver.drive`: retries ``driver.RETRIES``, then once
+    ``lmi.FALLBACK_SOLVER``). Without ``solver=`` and with ``eta=None``,
+    when the maximisation gives no verified gain, fixed levels of ``η`` are
+    tried and, for structure ``'full'``, the Riccati iteration; under
+    ``structure='auto'`` a loop that resolves to ``'extended'`` is also
+    tried with ``'block'``. Progress (each attempt) is logged on the
+    ``'control_ncs'`` logger at level INFO
+    (``logging.basicConfig(level=logging.INFO)`` shows it).
 
     References
     ----------
