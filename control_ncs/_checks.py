@@ -129,6 +129,13 @@ def choice(value: Any, name: str, allowed: Iterable[str]) -> str:
     return value
 
 
+def flag(value: Any, name: str) -> bool:
+    """True or False (a bool or numpy bool), else ControlArgument."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ControlArgument(f"{name}: expected True or False, got {value!r}")
+    return bool(value)
+
+
 # overloads: without allow_none the result is never None, so callers need
 # no cast
 @overload

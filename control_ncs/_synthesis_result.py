@@ -211,9 +211,8 @@ class SynthesisResult(Result):
 
 def _finish(plant, X, Y, gains, CL, cert, eta_ok, eta_solver, decay, form,
             structure, width, report, attempts):
-    info = plant.info
-    K = PeriodicGain(gains, info["controller"], info["actuator"],
-                     estimator_gain=info.get("estimator_gain"))
+    K = PeriodicGain(gains, plant.controller, plant.actuator,
+                     estimator_gain=plant.estimator_gain)
     result = SynthesisResult(
         K, float(eta_ok), float(eta_solver), decay, cert,
         X, Y, form, structure, width, report, attempts, plant,

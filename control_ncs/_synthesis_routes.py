@@ -436,13 +436,9 @@ def _balancing(plant: JumpPlant) -> np.ndarray | None:
 def _scaled(plant: JumpPlant, t: np.ndarray) -> JumpPlant:
     """The plant in coordinates ``x = T x̃``, ``T = diag(t)``."""
     inv = 1.0 / t
-    return JumpPlant(plant.A * inv[:, None] * t[None, :],
-                     plant.Bu * inv[:, None], plant.Bw * inv[:, None],
-                     plant.Cz * t[None, :], plant.Du, plant.Dw, plant.E,
-                     plant.probabilities, plant.dt, nominal=plant.nominal,
-                     transition=plant.transition,
-                     inputs=plant.inputs, outputs=plant.outputs,
-                     states=plant.states, info=plant.info)
+    return replace(plant, A=plant.A * inv[:, None] * t[None, :],
+                   Bu=plant.Bu * inv[:, None], Bw=plant.Bw * inv[:, None],
+                   Cz=plant.Cz * t[None, :])
 
 
 def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,

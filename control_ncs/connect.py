@@ -59,51 +59,24 @@ about the mean:
 
 from __future__ import annotations
 
-import numbers
 import warnings
 from typing import Any, Sequence
 
 import numpy as np
 import control as ct
-from control.exception import ControlArgument, ControlDimension
+from control.exception import ControlArgument
 
 from ._checks import discrete_dt, no_extra_kwargs, real_array
 from ._lifting import check_lifted_size, lift, lifted_names
 from .jump import JumpStateSpace, as_jump
-from .plant import NetworkedStateSpace
+from ._lti import lti_operand
 
 __all__ = ["jump_feedback", "lift_lti", "interconnect"]
 
 
 def _deterministic(other: Any, rows: int, cols: int) -> ct.StateSpace:
     """``other`` as a StateSpace with ``rows`` outputs and ``cols`` inputs."""
-    if isinstance(other, (JumpStateSpace, NetworkedStateSpace)):
-        raise ControlArgument(
-            f"other: expected a deterministic LTI system, got a "
-            f"{type(other).__name__} (its StateSpace face is a mean or a plant "
-            f"without its network, not a deterministic system)")
-    if isinstance(other, ct.LTI):
-        G = other if isinstance(other, ct.StateSpace) else ct.ss(other)
-    elif isinstance(other, (numbers.Number, np.ndarray, list, tuple)):
-        K = real_array(other, "other", ndim=(0, 2))
-        if K.ndim == 0:
-            if rows != cols:
-                raise ControlDimension(
-                    f"other: a scalar gain needs as many inputs as outputs, "
-                    f"the loop needs {rows} × {cols}")
-            K = K * np.eye(rows)
-        G = ct.ss(np.zeros((0, 0)), np.zeros((0, K.shape[1])),
-                  np.zeros((K.shape[0], 0)), K, None, name="gain")
-    else:
-        raise ControlArgument(f"other: expected an LTI system (StateSpace, "
-                              f"TransferFunction) or a gain, got "
-                              f"{type(other).__name__}")
-    if (G.noutputs, G.ninputs) != (rows, cols):
-        raise ControlDimension(
-            f"other: expected {cols} inputs (the jump system's outputs) and "
-            f"{rows} outputs (its inputs), got {G.ninputs} inputs and "
-            f"{G.noutputs} outputs")
-    return G
+    return lti_operand(other, "other", gain=(rows, cols))
 
 
 def _common_dt(step: float | bool, dt: Any) -> float | bool:
@@ -272,10 +245,7 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
     ([[0.25]], 0.2, ['u[0][0]', 'u[0][1]'])
     """
     no_extra_kwargs("lift_lti", kwargs)
-    if not isinstance(sys, ct.LTI) or isinstance(sys, JumpStateSpace):
-        raise ControlArgument(f"sys: expected a deterministic LTI system, got "
-                              f"{type(sys).__name__}")
-    G = sys if isinstance(sys, ct.StateSpace) else ct.ss(sys)
+    G = lti_operand(sys, "sys")
     dt = discrete_dt(G.dt, "sys.dt")
     if isinstance(period, (bool, np.bool_)) or not isinstance(
             period, (int, np.integer)) or period < 1:
@@ -380,21 +350,9 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
         if s is J:
             others.append(None)
             continue
-        if isinstance(s, NetworkedStateSpace):
-            raise ControlArgument(
-                f"syslist: {s.name} is a NetworkedStateSpace, a plant without "
-                f"its network loop; close it first (control_ncs.feedback)")
-        if isinstance(s, ct.TransferFunction):
-            s = ct.ss(s)
-        if not isinstance(s, ct.StateSpace):
-            raise ControlArgument(
-                f"syslist: expected deterministic LTI systems (StateSpace, "
-                f"TransferFunction) besides the jump system, got "
-                f"{type(s).__name__}")
-        if ct.isctime(s, strict=True):
-            raise ValueError(f"syslist: {s.name} is continuous-time; discretize "
-                             f"it with {s.name}.sample({J.dt_step})")
-        _common_dt(J.dt_step, s.dt)
+        s = lti_operand(s, f"syslist: {s.name}" if isinstance(
+            s, ct.InputOutputSystem) else "syslist", dt=J.dt_step,
+            period=J.period)
         others.append(s)
     name = kwargs.pop("name", None)
 

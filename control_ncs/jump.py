@@ -15,6 +15,7 @@ that synthesis designs in :mod:`control_ncs.openloop`.
 
 from __future__ import annotations
 
+import numbers
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,7 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, no_extra_kwargs, real_array
 from ._lifting import check_lifted_size, lift, lifted_names
+from ._lti import lti_operand
 from .modes import (Modes, apply_groups, chain_law, check_probabilities,
                     markov_mean, merge_groups)
 from .plant import NetworkedStateSpace
@@ -509,7 +511,9 @@ class JumpStateSpace(ct.StateSpace):
                              states=self.jump_states, name=self.name)
 
     def _operand(self, other: Any, what: str) -> Any:
-        """``other`` checked to be deterministic LTI data at the base rate."""
+        """``other`` checked to be deterministic LTI data at the base rate
+        (:func:`control_ncs._lti.lti_operand`); NotImplemented for types
+        python's operator protocol should try elsewhere."""
         from control.exception import ControlArgument
         if isinstance(other, JumpStateSpace):
             raise ControlArgument(
@@ -520,40 +524,14 @@ class JumpStateSpace(ct.StateSpace):
                 f"joint modes with jss() (products of the probabilities if "
                 f"independent), or use the mean systems .mean() knowingly "
                 f"(exact for E z only without an algebraic loop)")
-        if isinstance(other, NetworkedStateSpace):
-            raise ControlArgument(
-                f"{what}: other is a NetworkedStateSpace, a plant without its "
-                f"network loop; close it first (control_ncs.feedback)")
-        if isinstance(other, ct.TransferFunction):
-            other = ct.ss(other)
-        if isinstance(other, ct.StateSpace):
-            if ct.isctime(other, strict=True):
-                raise ValueError(f"{what}: other is continuous-time; a jump "
-                                 f"system is discrete-time (dt = "
-                                 f"{self.dt_step}); discretize it with "
-                                 f"other.sample(dt)")
-            if other.dt is not True and self.dt_step is not True \
-                    and not np.isclose(other.dt, self.dt_step, rtol=1e-12,
-                                       atol=0):
-                hint = (f" (N = {self.period}: the modes act per step, so "
-                        f"other must run at the base rate dt, not N·dt)"
-                        if np.isclose(other.dt, self.dt_step * self.period)
-                        else "")
-                raise ValueError(f"{what}: sampling periods differ: the jump "
-                                 f"system steps with dt = {self.dt_step}, "
-                                 f"other has dt = {other.dt}{hint}")
-            return other
-        if isinstance(other, ct.InputOutputSystem):
-            raise ControlArgument(
-                f"{what}: expected a deterministic LTI system (StateSpace, "
-                f"TransferFunction), a scalar or an array, got "
-                f"{type(other).__name__}")
-        if isinstance(other, (list, tuple)):
-            other = np.array(other, dtype=float)
-        if isinstance(other, (int, float, np.number, np.ndarray)) \
-                and not isinstance(other, (bool, np.bool_, complex)):
-            return other
-        return NotImplemented
+        if not isinstance(other, (ct.InputOutputSystem, numbers.Number,
+                                  np.ndarray, list, tuple)):
+            return NotImplemented
+        try:
+            return lti_operand(other, "other", dt=self.dt_step,
+                               period=self.period, arrays=True)
+        except (ValueError, TypeError) as err:
+            raise type(err)(f"{what}: {err}") from None
 
     def mode_law(self) -> tuple[np.ndarray, np.ndarray | None]:
         """The ``(probabilities, transition)`` that rebuild this mode law.

@@ -9,7 +9,8 @@ still free (:ref:`theory-jump-system`); synthesis designs the gain and
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import KW_ONLY, dataclass, field, replace
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from .modes import apply_groups, merge_groups
 __all__ = ["JumpPlant"]
 
 
+@dataclass(frozen=True, eq=False)
 class JumpPlant:
     """A periodic jump system before its gain is chosen.
 
@@ -30,6 +32,11 @@ class JumpPlant:
     a unit vector or zero). Network strategies build this object
     (``strategies.py``); :func:`control_ncs.passivesyn` designs ``K``;
     :meth:`close` applies it.
+
+    The object is immutable: a transformation (merged modes, new
+    coordinates) is a new plant, made with :func:`dataclasses.replace`.
+    Everything synthesis reads is a named field; ``description`` is for
+    people only.
 
     Parameters
     ----------
@@ -44,68 +51,114 @@ class JumpPlant:
         Mode probabilities per phase; each row sums to 1.
     dt : True or float > 0, optional
         Sampling period of one step (default True, unspecified).
-    nominal : array_like of int, shape (N,), optional
-        The loss-free mode of each phase.
     transition : array_like, shape (N, M, M), optional
         Markov modes (:ref:`theory-markov`):
         ``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``; ``probabilities`` are then
         the stationary marginals. None: i.i.d.
+    nominal : array_like of int, shape (N,), optional
+        The loss-free mode of each phase.
     inputs, outputs, states : list of str, optional
         Names of ``w``, ``z`` and ``ξ``, handed to the closed loop.
-    info : dict, optional
-        Strategy description, kept as the ``info`` attribute.
+    name : str, optional
+        The plant's name; the closed loop is ``'<name> (closed loop)'``.
+    controller, actuator : str, optional
+        The controller and actuator kinds that built the plant (the labels
+        of the designed gain; see :data:`control_ncs.gain.CONTROLLERS`).
+    observed : array_like of int, shape (N, M), optional
+        Markov links: the observation class of each previous mode at each
+        phase; equal labels for modes the controller cannot tell apart (a
+        link reveals its state only when it was scheduled). Mode-dependent
+        gains ``K_{k,ℓ}`` are equal within a class.
+    estimator_gain : array_like, shape (N_L, n, nmeas), optional
+        The estimator's ``L_k`` of a ``controller='estimator'`` plant.
+    description : mapping, optional
+        The network's description (losses, links), copied into the closed
+        loop's ``info``.
 
     Attributes
     ----------
-    A, Bu, Bw, Cz, Du, Dw : ndarray, shape (N, M, ., .)
-        The matrices above, as float arrays.
-    E : ndarray, shape (N, nk, nx)
-        The selection of ``ξ`` that the gain acts on.
-    probabilities : ndarray, shape (N, M)
-        Mode probabilities per phase.
-    transition : ndarray, shape (N, M, M), or None
-        The Markov chain of the modes; None for i.i.d. modes.
-    dt : True or float
-        Sampling period of one step.
-    nominal : ndarray of int, shape (N,), or None
-        The loss-free mode of each phase.
-    inputs, outputs, states : list of str or None
-        Signal names of ``w``, ``z`` and ``ξ``.
-    info : dict
-        Strategy description (controller, actuator, network), for reference.
+    A, Bu, Bw, Cz, Du, Dw, E, probabilities, transition, nominal : ndarray
+        The parameters above as read-only float (``nominal``: int) arrays.
+    dt, inputs, outputs, states, name, controller, actuator
+        As given.
+    observed, estimator_gain : ndarray or None
+        As given, read-only.
+    description : dict
+        A copy, for people: synthesis never reads it.
 
     Examples
     --------
     The scalar plant ``x⁺ = 2x + u`` whose actuator message is lost with
     probability 0.2, closed with ``u = -2x``:
 
+    >>> import numpy as np
+    >>> import control_ncs as ncs
     >>> P = ncs.nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
-    ...         [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, actuator_loss=0.2)
+    ...             [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+    ...             actuator_loss=0.2)
     >>> plant = ncs.build(P)
     >>> plant.gain_shape(), plant.probabilities.tolist()
     ((1, 1, 1), [[0.0, 0.2, 0.0, 0.8]])
+    >>> plant.controller, plant.actuator
+    ('static', 'zero')
     >>> CL = plant.close(np.full((1, 1, 1), -2.0))
     >>> CL.modes.A[0, :, 0, 0].tolist(), CL.modes.probabilities.tolist()
     ([2.0, 0.0], [[0.2, 0.8]])
     """
 
+    A: np.ndarray
+    Bu: np.ndarray
+    Bw: np.ndarray
+    Cz: np.ndarray
+    Du: np.ndarray
+    Dw: np.ndarray
+    E: np.ndarray
+    probabilities: np.ndarray
+    dt: Any = True
+    _: KW_ONLY
+    transition: np.ndarray | None = None
+    nominal: np.ndarray | None = None
+    inputs: list | None = None
+    outputs: list | None = None
+    states: list | None = None
+    name: str | None = None
+    controller: str | None = None
+    actuator: str | None = None
+    observed: np.ndarray | None = None
+    estimator_gain: np.ndarray | None = None
+    description: Mapping = field(default_factory=dict)
+
     _FIELDS = ("A", "Bu", "Bw", "Cz", "Du", "Dw")
 
-    def __init__(self, A: Any, Bu: Any, Bw: Any, Cz: Any, Du: Any, Dw: Any,
-                 E: Any, probabilities: Any, dt: Any = True, *,
-                 transition: Any = None,
-                 nominal: Any = None, inputs: Any = None, outputs: Any = None,
-                 states: Any = None, info: dict | None = None):
-        self.A, self.Bu, self.Bw = (np.asarray(X, float) for X in (A, Bu, Bw))
-        self.Cz, self.Du, self.Dw = (np.asarray(X, float) for X in (Cz, Du, Dw))
-        self.E = np.asarray(E, float)
-        self.probabilities = np.asarray(probabilities, float)
-        self.transition = None if transition is None else np.asarray(
-            transition, float)
-        self.dt = dt
-        self.nominal = None if nominal is None else np.asarray(nominal, int)
-        self.inputs, self.outputs, self.states = inputs, outputs, states
-        self.info = dict(info or {})
+    def __post_init__(self) -> None:
+        def frozen(value: Any, dtype: Any) -> np.ndarray | None:
+            if value is None:
+                return None
+            out = np.array(value, dtype)
+            out.flags.writeable = False
+            return out
+
+        for f in self._FIELDS + ("E", "probabilities", "transition"):
+            object.__setattr__(self, f, frozen(getattr(self, f), float))
+        object.__setattr__(self, "nominal", frozen(self.nominal, int))
+        object.__setattr__(self, "observed", frozen(self.observed, int))
+        object.__setattr__(self, "estimator_gain",
+                           frozen(self.estimator_gain, float))
+        object.__setattr__(self, "description", dict(self.description))
+
+    @property
+    def info(self) -> dict:
+        """What the closed loop records in its ``info``.
+
+        The description, the plant's name, the controller and actuator
+        kinds, and the estimator gain and what is observed, when set.
+        """
+        out = dict(self.description, controller=self.controller,
+                   actuator=self.actuator, plant=self.name)
+        for key in ("observed", "estimator_gain"):
+            if getattr(self, key) is not None:
+                out[key] = getattr(self, key)
+        return out
 
     @property
     def period(self) -> int:
@@ -155,13 +208,12 @@ class JumpPlant:
         Returns
         -------
         JumpStateSpace
-            Coinciding modes merged; named ``'<plant> (closed loop)'`` after
-            ``info['plant']``, the plant's name, when the builder recorded
-            it (as :func:`control_ncs.build` does).
+            Coinciding modes merged; named ``'<name> (closed loop)'`` after
+            the plant's ``name``, when the builder recorded it (as
+            :func:`control_ncs.build` does).
         """
         K = np.asarray(gains, float)
-        plant = self.info.get("plant")
-        name = None if plant is None else f"{plant} (closed loop)"
+        name = None if self.name is None else f"{self.name} (closed loop)"
         if K.ndim == 4:
             return self._close_pairs(K, name, info)
         F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
@@ -279,9 +331,8 @@ class JumpPlant:
         groups, nominal = merge_groups(mats, self.probabilities, self.nominal)
         (A, Bu, Bw, Cz, Du, Dw), p = apply_groups(mats, self.probabilities,
                                                    groups)
-        return JumpPlant(A, Bu, Bw, Cz, Du, Dw, self.E, p, self.dt, nominal=nominal,
-                         inputs=self.inputs, outputs=self.outputs,
-                         states=self.states, info=self.info)
+        return replace(self, A=A, Bu=Bu, Bw=Bw, Cz=Cz, Du=Du, Dw=Dw,
+                       probabilities=p, nominal=nominal)
 
     def mean(self) -> tuple[np.ndarray, ...]:
         """Per-phase mean matrices ``Σ_i p_ki X_ki`` of every field.
@@ -346,4 +397,5 @@ class JumpPlant:
         s = self.shape
         return (f"<JumpPlant: {s['nx']} states, {s['nw']} w, {s['nz']} z, "
                 f"{s['nu']} u, period {self.period}, "
-                f"{self.probabilities.shape[1]} modes, info={self.info}>")
+                f"{self.probabilities.shape[1]} modes, "
+                f"controller={self.controller!r}, actuator={self.actuator!r}>")

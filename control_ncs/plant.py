@@ -11,7 +11,7 @@ import scipy.linalg
 import control as ct
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import discrete_dt, matrix, no_extra_kwargs
+from ._checks import discrete_dt, flag, matrix, no_extra_kwargs
 from .exceptions import ScheduleWarning
 from .network import (GilbertElliott, common_period, link_model,
                       mode_probabilities, mode_transition, schedule,
@@ -154,10 +154,7 @@ class NetworkedStateSpace(ct.StateSpace):
         self.sensor_loss, self.actuator_loss = (
             x.loss if isinstance(x, GilbertElliott) else x
             for x in (self.sensor_link, self.actuator_link))
-        if not isinstance(shared_channel, (bool, np.bool_)):
-            raise ControlArgument(f"shared_channel: expected True or False, "
-                                  f"got {shared_channel!r}")
-        self.shared_channel = bool(shared_channel)
+        self.shared_channel = flag(shared_channel, "shared_channel")
         if self.shared_channel:
             both = (self.sensor_schedule.pattern.any(axis=1)
                     & self.actuator_schedule.pattern.any(axis=1))

@@ -28,6 +28,7 @@ from .gain import PeriodicGain
 from ._lifting import check_lifted_size
 from .jump import JumpStateSpace
 from .openloop import JumpPlant
+from ._lti import lti_operand
 from .plant import NetworkedStateSpace
 
 __all__ = ["build", "feedback", "loop_closes", "require_state_measured"]
@@ -155,20 +156,23 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     # follows the same Kronecker chain as the static one's (θ1,k, θ2,k)
     T = P.mode_transition()
     transition = None if T is None else np.tile(T, (N, 1, 1))
-    info = dict(controller=controller, actuator=actuator, sensor_loss=a1,
-                actuator_loss=a2, plant_period=P.period, plant=P.name)
+    description: dict = dict(sensor_loss=a1, actuator_loss=a2,
+                             plant_period=P.period)
     if T is not None:
-        info.update(sensor_link=P.sensor_link, actuator_link=P.actuator_link,
-                    observed=_observed(P, controller, N))
+        description.update(sensor_link=P.sensor_link,
+                           actuator_link=P.actuator_link)
     if controller == "lti":
-        info["sensor"] = sensor
-    if "L" in opts:
-        info["estimator_gain"] = opts["L"]
+        description["sensor"] = sensor
     return JumpPlant(stacked["A"], stacked["Bu"], stacked["Bw"], stacked["Cz"],
                      stacked["Du"], stacked["Dw"], E, p, P.dt,
-                     transition=transition, nominal=np.full(N, 3), inputs=P.disturbance_labels,
+                     transition=transition, nominal=np.full(N, 3),
+                     inputs=P.disturbance_labels,
                      outputs=P.performance_labels,
-                     states=strategy.states(P, **opts), info=info)
+                     states=strategy.states(P, **opts), name=P.name,
+                     controller=controller, actuator=actuator,
+                     observed=(None if T is None
+                               else _observed(P, controller, N)),
+                     estimator_gain=opts.get("L"), description=description)
 
 
 def _observed(P: NetworkedStateSpace, controller: str, N: int) -> np.ndarray:
@@ -714,7 +718,7 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
             f"controller={controller!r}, actuator={actuator!r}, got "
             f"{gains.shape[1:]}")
     gains = np.tile(gains, (N // gains.shape[0],) + (1,) * (gains.ndim - 1))
-    observed = plant.info.get("observed")
+    observed = plant.observed
     if gains.ndim == 4 and observed is not None:
         _require_observed(gains, observed)
     effective = _warn_unused_gains(P, plant, gains, controller)
@@ -774,25 +778,13 @@ def _feedback_lti(P: NetworkedStateSpace, K: Any, controller: str | None,
                   actuator: str | None, sensor: str | None,
                   estimator_gain: Any) -> JumpStateSpace:
     """:func:`feedback` with an LTI controller: checks, then build + close."""
-    from .jump import JumpStateSpace as _JSS
-    if isinstance(K, (_JSS, NetworkedStateSpace)):
-        raise ControlArgument(
-            f"K: expected a deterministic LTI controller (control.StateSpace "
-            f"or TransferFunction), got a {type(K).__name__}")
     if controller not in (None, "lti"):
         raise ControlArgument(f"controller: a system K is an LTI controller "
                               f"(controller='lti'), got {controller!r}")
     if estimator_gain is not None:
         raise ControlArgument("estimator_gain: an LTI controller takes no "
                               "estimator gain")
-    if K.dt is None or K.dt == 0:
-        raise ControlArgument(
-            "K: a continuous-time controller (dt = 0); the loop is discrete "
-            f"time: discretise it first, e.g. K.sample({P.dt!r})")
-    if P.dt is not True and K.dt is not True and K.dt != P.dt:
-        raise ControlArgument(f"K: its dt = {K.dt!r} differs from the "
-                              f"plant's dt = {P.dt!r}")
-    Kss = ct.ss(K)
+    Kss = lti_operand(K, "K", dt=P.dt)
     nmeas, ncon = P.C2.shape[0], P.ncon
     if (Kss.ninputs, Kss.noutputs) != (nmeas, ncon):
         raise ControlDimension(

@@ -24,7 +24,7 @@ import time
 import warnings
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Any, Callable
 
 import numpy as np
 import control as ct
@@ -34,6 +34,8 @@ from .exceptions import (PROOFS, TIME_LIMIT, NotPassiveWarning,
                          ScheduleWarning, SynthesisError)
 from .network import GilbertElliott, gilbert_elliott
 from .plant import NetworkedStateSpace
+from ._checks import (choice, decay_bound, finite_real, flag,
+                      positive_int)
 from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
                          _letter_maps, _loop_closes, _orbit_count, _prune,
@@ -76,39 +78,9 @@ def _plant(P: Any) -> NetworkedStateSpace:
     return P
 
 
-def _choice(value: Any, name: str, allowed: Sequence[str]) -> str:
-    if not isinstance(value, str) or value not in allowed:
-        raise ControlArgument(f"{name}: expected one of {list(allowed)}, "
-                              f"got {value!r}")
-    return value
-
-
-def _real(value: Any, name: str) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(
-            value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name}: expected a real number, got {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise ValueError(f"{name}: expected a finite number, got {value!r}")
-    return value
-
-
-def _optional_eta(eta: Any) -> float | None:
-    return None if eta is None else _real(eta, "eta")
-
-
-def _optional_decay(decay: Any) -> float | None:
-    if decay is None:
-        return None
-    r = _real(decay, "decay")
-    if not 0.0 < r <= 1.0:
-        raise ValueError(f"decay: expected a bound r in (0, 1], got {decay!r}")
-    return r
-
-
 def _loss(value: Any, name: str) -> float:
     try:
-        alpha = _real(value, name)
+        alpha = finite_real(value, name)
     except ValueError:
         raise ValueError(f"{name}: expected a loss probability in [0, 1), "
                          f"got {value!r}") from None
@@ -147,19 +119,6 @@ def _loss_grid(values: Any, name: str) -> np.ndarray:
         raise ValueError(f"{name}: the grid is empty (give at least one loss "
                          f"probability in [0, 1))")
     return np.array([_loss(v, f"{name}[{i}]") for i, v in enumerate(arr)])
-
-
-def _flag(value: Any, name: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise ControlArgument(f"{name}: expected True or False, got {value!r}")
-    return bool(value)
-
-
-def _positive_int(value: Any, name: str) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(
-            value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name}: expected an int >= 1, got {value!r}")
-    return int(value)
 
 
 # -- running tasks --------------------------------------------------------------
@@ -463,13 +422,13 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     P = _plant(P)
     a1 = _loss_grid(sensor_loss, "sensor_loss")
     a2 = _loss_grid(actuator_loss, "actuator_loss")
-    eta = _optional_eta(eta)
-    decay = _optional_decay(decay)
-    controller = _choice(controller, "controller", _CONTROLLERS)
-    actuator = _choice(actuator, "actuator", _ACTUATORS)
+    eta = finite_real(eta, "eta", allow_none=True)
+    decay = None if decay is None else decay_bound(decay)
+    controller = choice(controller, "controller", _CONTROLLERS)
+    actuator = choice(actuator, "actuator", _ACTUATORS)
     executor = check_executor(executor)
     progress = progress_check(progress)
-    method = _choice(method, "method", METHODS)
+    method = choice(method, "method", METHODS)
     if controller == "static" and not _loop_closes(
             P.sensor_schedule.pattern.any(axis=1),
             P.actuator_schedule.pattern.any(axis=1)):
@@ -808,8 +767,8 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     ((0, 1), (1, 0))
     """
     P = _plant(P)
-    N = _positive_int(period, "period")
-    shared = _flag(shared_channel, "shared_channel")
+    N = positive_int(period, "period")
+    shared = flag(shared_channel, "shared_channel")
     if (sensor_loss is None or actuator_loss is None) and not P.is_iid:
         # the pruning and the synthesis are written for Bernoulli losses;
         # P's stationary loss would silently drop its bursts (theory: Markov
@@ -821,17 +780,17 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     a1 = P.sensor_loss if sensor_loss is None else sensor_loss
     a2 = P.actuator_loss if actuator_loss is None else actuator_loss
     a1, a2 = _loss(a1, "sensor_loss"), _loss(a2, "actuator_loss")
-    objective = _choice(objective, "objective", _OBJECTIVES)
-    eta = _optional_eta(eta)
-    decay = _optional_decay(decay)
-    controller = _choice(controller, "controller", _CONTROLLERS)
-    actuator = _choice(actuator, "actuator", _ACTUATORS)
+    objective = choice(objective, "objective", _OBJECTIVES)
+    eta = finite_real(eta, "eta", allow_none=True)
+    decay = None if decay is None else decay_bound(decay)
+    controller = choice(controller, "controller", _CONTROLLERS)
+    actuator = choice(actuator, "actuator", _ACTUATORS)
     executor = check_executor(executor)
-    top = _positive_int(top, "top")
+    top = positive_int(top, "top")
     if limit is not None:
-        limit = _positive_int(limit, "limit")
+        limit = positive_int(limit, "limit")
     progress = progress_check(progress)
-    method = _choice(method, "method", METHODS)
+    method = choice(method, "method", METHODS)
     start = time.perf_counter()
 
     p2, m2 = P.nmeas, P.ncon

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from dataclasses import replace
 from typing import Any
 
 from control.exception import ControlArgument, ControlDimension
@@ -410,15 +411,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     deadline = None if time_limit is None else time.perf_counter() + time_limit
     if isinstance(P, JumpPlant):
         # the gain's labels: the strategy that built the plant, if named
-        controller = P.info.get("controller", controller)
-        actuator = P.info.get("actuator", actuator)
-        plant = JumpPlant(P.A, P.Bu, P.Bw, P.Cz, P.Du, P.Dw, P.E,
-                          P.probabilities, P.dt, nominal=P.nominal,
-                          transition=P.transition,
-                          inputs=P.inputs, outputs=P.outputs,
-                          states=P.states, info=dict(
-                              P.info, controller=controller,
-                              actuator=actuator))
+        plant = replace(P, controller=P.controller or controller,
+                        actuator=P.actuator or actuator)
     elif isinstance(P, NetworkedStateSpace):
         if controller == "estimator":
             plant = _estimator_plant(P, actuator, estimator_gain, decay,
@@ -577,7 +571,7 @@ def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
                   estimator_gain=L)
     # separation (theory: output feedback): the loop's rate is at least the
     # error loop's, whatever K is: a proof of infeasibility, before any solve
-    rate = ms_radius(estimation_error_loop(P, plant.info["estimator_gain"]))
+    rate = ms_radius(estimation_error_loop(P, plant.estimator_gain))
     if not rate < r ** 2:
         raise SynthesisError(
             f"estimator_gain: the estimation-error loop of the given L has "

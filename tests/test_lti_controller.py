@@ -219,12 +219,13 @@ def scalar():
 
 
 def test_continuous_time_controller_is_refused_with_what_to_do():
-    with pytest.raises(ControlArgument, match=r"K: a continuous-time.*sample"):
+    with pytest.raises(ValueError, match=r"K: continuous-time.*sample"):
         feedback(scalar(), ct.tf([1], [1, 1]))
 
 
 def test_controller_with_another_dt_is_refused():
-    with pytest.raises(ControlArgument, match=r"K: its dt = 0.2 differs"):
+    with pytest.raises(ValueError, match=r"K: sampling periods differ.* 0.1, "
+                       r"K has dt = 0.2"):
         feedback(scalar(), ct.ss([[0.5]], [[1]], [[1]], [[0]], 0.2))
 
 

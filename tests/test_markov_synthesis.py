@@ -3,6 +3,7 @@
 forms of §11, and the pair-mode closed loop against sampling and the
 event-level protocol."""
 
+import dataclasses
 import pickle
 
 import numpy as np
@@ -197,10 +198,7 @@ def test_bursts_matter_six_percent_in_bursts_loses_to_27_percent_spread():
 # -- equal rows: the Bernoulli results ---------------------------------------
 def with_equal_rows(plant):
     """The i.i.d. plant with its transition written out (equal rows)."""
-    return JumpPlant(plant.A, plant.Bu, plant.Bw, plant.Cz, plant.Du,
-                     plant.Dw, plant.E, plant.probabilities, plant.dt,
-                     transition=plant.transitions(), nominal=plant.nominal,
-                     info=plant.info)
+    return dataclasses.replace(plant, transition=plant.transitions())
 
 
 @pytest.mark.parametrize("gain", ["mode", "phase"])
@@ -260,7 +258,7 @@ def two_mode_plant(a=1.2, e=0.05):
     T = np.array([[[1 - e, e], [e, 1 - e]]])
     return JumpPlant(A, Bu, Bw, Cz, Du, Dw, np.ones((1, 1, 1)),
                      [[0.5, 0.5]], transition=T,
-                     info=dict(controller="static", actuator="zero"))
+                     controller="static", actuator="zero")
 
 
 def test_knowing_the_previous_mode_stabilises_what_no_phase_gain_can():
@@ -419,8 +417,8 @@ def test_unknown_gain_kind_is_refused_by_name():
 
 
 def test_a_jump_plant_with_a_bad_transition_is_refused_by_name():
-    plant = two_mode_plant()
-    plant.transition = np.array([[[0.5, 0.6], [0.5, 0.5]]])
+    plant = dataclasses.replace(two_mode_plant(),
+                                transition=[[[0.5, 0.6], [0.5, 0.5]]])
     with pytest.raises(ValueError, match="transition"):
         passivesyn(plant)
 

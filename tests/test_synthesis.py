@@ -7,6 +7,7 @@ built from the plant matrices and the schedules as given, ``Θ_k`` with
 ``verify.py``, ``stability.py`` and the builders.
 """
 
+import dataclasses
 import itertools
 import warnings
 
@@ -732,7 +733,7 @@ def test_synthesis_on_a_hand_made_jump_plant_gives_a_verified_gain():
 
 def test_jump_plant_with_mismatched_arrays_raises_control_dimension(plant):
     built = control_ncs.build(plant)
-    built.Bw = built.Bw[..., :1, :]
+    built = dataclasses.replace(built, Bw=built.Bw[..., :1, :])
     with pytest.raises(ControlDimension, match="Bw"):
         passivesyn(built)
 

@@ -87,7 +87,7 @@ def gain_kinds(plant: JumpPlant, gain: str) -> tuple[str, ...]:
     controller can tell apart. Acknowledgements and arrivals reveal a
     link's state only at steps where it carries a message: a link idle the
     step before hides its bit of ``ℓ`` (:ref:`theory-markov`). A builder
-    records what is observed as ``plant.info['observed']``, shape (N, M):
+    records what is observed as ``plant.observed``, shape (N, M):
     the observation class of each ``ℓ`` per phase (no entry: all of ``ℓ``
     is known). A phase keeps ``'mode'`` when every observation class lies
     in one class of equal rows ``T_{k-1}[ℓ]`` (:func:`mode_classes`: there
@@ -108,7 +108,7 @@ def gain_kinds(plant: JumpPlant, gain: str) -> tuple[str, ...]:
     N = plant.period
     if gain == "phase":
         return ("phase",) * N
-    observed = plant.info.get("observed")
+    observed = plant.observed
     if plant.transition is None or observed is None:
         return ("mode",) * N
     T = plant.transitions()
