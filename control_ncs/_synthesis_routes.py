@@ -12,7 +12,7 @@ import the dispatcher.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -397,7 +397,8 @@ def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
                                proof="gain-independent modes"))
 
 
-def _pair_certificate(P: np.ndarray, CL: JumpStateSpace) -> np.ndarray:
+def _pair_certificate(P: np.ndarray, plant: JumpPlant, gains: np.ndarray,
+                      CL: JumpStateSpace) -> np.ndarray:
     """``P_{k,ℓ}`` (shape (N, M, n, n)) as the certificate of the closed
     loop of gains ``K_{k,ℓ}`` on (lumped) pair modes (``JumpPlant.close``):
     a previous pair mode whose current plant mode was ``ℓ`` gets
@@ -405,40 +406,62 @@ def _pair_certificate(P: np.ndarray, CL: JumpStateSpace) -> np.ndarray:
     if CL.modes.is_iid:
         # lumped to i.i.d. modes: a single class of ℓ at every phase
         return P[:, 0]
-    cur = np.roll(CL.info["pair_modes"], 1, axis=0)   # [k] = modes at k-1
+    cur = np.roll(plant.pair_modes(gains), 1, axis=0)   # [k] = modes at k-1
     return np.array([P[k][cur[k]] for k in range(P.shape[0])])
 
 
-def _unscale(P: Any, t: np.ndarray) -> Any:
-    """``T⁻¹ P T⁻¹`` for each certificate matrix, ``T = diag(t)``."""
-    if isinstance(P, list):
-        return [np.asarray(Pk) / t[:, None] / t[None, :] for Pk in P]
-    return np.asarray(P) / t[:, None] / t[None, :]
-
-
-def _balancing(plant: JumpPlant) -> np.ndarray | None:
-    """Diagonal state scaling ``t`` (powers of two), or None.
-
-    Balances ``Σ |A_ki|`` (plus the input and output matrices' weights on
-    each state) like :func:`scipy.linalg.matrix_balance`: a similarity by
-    powers of two is exact in floating point and keeps every zero pattern.
-    Only for coordinate-selection ``E_k`` (then ``K = K̃ diag(E_k t)⁻¹``).
+@dataclass(frozen=True)
+class Balancing:
+    """The state scaling ``x = T x̃``, ``T = diag(t)``, as an apply/invert
+    pair: :meth:`apply` maps the plant into balanced coordinates, where the
+    LMI is solved and its answer verified; :meth:`invert` maps the design
+    back. ``t`` holds powers of two, so both ways are exact in floating
+    point; ``t = None`` is the identity.
     """
-    if not plant.is_selection():
-        return None
-    A = np.abs(plant.A).sum(axis=(0, 1))
-    b = np.abs(np.concatenate([plant.Bu, plant.Bw], axis=-1)).sum(
-        axis=(0, 1)).sum(axis=1)
-    c = np.abs(plant.Cz).sum(axis=(0, 1)).sum(axis=0)
-    return balancing_scale(A, b, c, BALANCE_FROM)
 
+    t: np.ndarray | None
 
-def _scaled(plant: JumpPlant, t: np.ndarray) -> JumpPlant:
-    """The plant in coordinates ``x = T x̃``, ``T = diag(t)``."""
-    inv = 1.0 / t
-    return replace(plant, A=plant.A * inv[:, None] * t[None, :],
-                   Bu=plant.Bu * inv[:, None], Bw=plant.Bw * inv[:, None],
-                   Cz=plant.Cz * t[None, :])
+    @classmethod
+    def of(cls, plant: JumpPlant) -> "Balancing":
+        """Balance ``Σ |A_ki|`` (plus the input and output matrices'
+        weights on each state) like :func:`scipy.linalg.matrix_balance`: a
+        similarity by powers of two keeps every zero pattern. Only for
+        coordinate-selection ``E_k`` (then ``K = K̃ diag(E_k t)⁻¹``);
+        otherwise the identity."""
+        if not plant.is_selection():
+            return cls(None)
+        A = np.abs(plant.A).sum(axis=(0, 1))
+        b = np.abs(np.concatenate([plant.Bu, plant.Bw], axis=-1)).sum(
+            axis=(0, 1)).sum(axis=1)
+        c = np.abs(plant.Cz).sum(axis=(0, 1)).sum(axis=0)
+        return cls(balancing_scale(A, b, c, BALANCE_FROM))
+
+    def apply(self, plant: JumpPlant) -> JumpPlant:
+        """The plant in the coordinates ``x̃ = T⁻¹ x``."""
+        if self.t is None:
+            return plant
+        t, inv = self.t, 1.0 / self.t
+        return replace(plant, A=plant.A * inv[:, None] * t[None, :],
+                       Bu=plant.Bu * inv[:, None], Bw=plant.Bw * inv[:, None],
+                       Cz=plant.Cz * t[None, :])
+
+    def invert(self, work: JumpPlant, gains: np.ndarray, X: np.ndarray,
+               Y: np.ndarray, cert: Any) -> tuple:
+        """A design found on ``apply(plant) = work``, for the plant:
+        ``K_k = K̃_k diag(E_k t)⁻¹``, ``X_k = T X̃_k T``, ``Y_k = Ỹ_k T``,
+        ``P_k = T⁻¹ P̃_k T⁻¹``."""
+        t = self.t
+        if t is None:
+            return gains, X, Y, cert
+        d = np.einsum("kjx,x->kj", work.E, t)
+        d[d == 0] = 1.0
+        if gains.ndim == 4:
+            d = d[:, None]
+        P = cert.P
+        P = ([np.asarray(Pk) / t[:, None] / t[None, :] for Pk in P]
+             if isinstance(P, list) else np.asarray(P) / t[:, None] / t[None, :])
+        return (gains / d[..., None, :], X * t[:, None] * t[None, :], Y * t,
+                replace(cert, P=P))
 
 
 def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
@@ -446,12 +469,12 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
     """The LMI of ``structure``, through the one driver (``driver.drive``).
 
     Returns the driver's outcome and a function building the result. The
-    LMI is solved in balanced coordinates (``_balancing``); gains and
-    certificates are mapped back (``K_k = K̃_k diag(E_k t)⁻¹``,
-    ``P_k = T⁻¹ P̃_k T⁻¹``) and verified exactly on the original plant.
+    LMI is solved in balanced coordinates (:class:`Balancing`); gains and
+    certificates are mapped back by its inverse and verified exactly on the
+    original plant.
     """
-    t = _balancing(plant)
-    work = plant if t is None else _scaled(plant, t)
+    balancing = Balancing.of(plant)
+    work = balancing.apply(plant)
     scale_of_data = data_scale(work.A, work.Bu, work.Bw, work.Cz, work.Du,
                                work.Dw)
 
@@ -491,7 +514,7 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
         CL = work.close(c["gains"])
         P = c["P"]
         if c["gains"].ndim == 4:
-            P = _pair_certificate(P, CL)    # the pair-mode loop's
+            P = _pair_certificate(P, work, c["gains"], CL)  # the pair loop's
         elif P.ndim == 4 and CL.modes.is_iid:
             # equal rows: one class per phase, and the loop is i.i.d.
             P = P[:, 0]
@@ -506,18 +529,8 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
 
     def finish():
         c, cert = out.candidate, out.certificate
-        gains, X, Y = c["gains"], c["X"], c["Y"]
-        if t is not None:
-            # back to x = T x̃: K_k = K̃_k diag(E_k t)⁻¹, P_k = T⁻¹ P̃_k T⁻¹,
-            # X_k = T X̃_k T, Y_k = Ỹ_k T (all exact: powers of two)
-            d = np.einsum("kjx,x->kj", work.E, t)
-            d[d == 0] = 1.0
-            if gains.ndim == 4:
-                d = d[:, None]
-            gains = gains / d[..., None, :]
-            X = X * t[:, None] * t[None, :]
-            Y = Y * t
-            cert = replace(cert, P=_unscale(cert.P, t))
+        gains, X, Y, cert = balancing.invert(work, c["gains"], c["X"],
+                                             c["Y"], cert)
         return _finish(plant, X, Y, gains, plant.close(gains), cert,
                        cert.eta, out.eta_solver, decay, form, structure,
                        c["width"], out.report, out.attempts)
@@ -571,7 +584,8 @@ def _riccati(plant, eta, decay, margin, options):
     CL = plant.close(res.gains)
     # Markov modes: K_{k,ℓ}, checked on the pair-mode loop (theory: Markov
     # losses)
-    Pv = _pair_certificate(res.P, CL) if res.gains.ndim == 4 else res.P
+    Pv = (_pair_certificate(res.P, plant, res.gains, CL)
+          if res.gains.ndim == 4 else res.P)
     cert = (certify_index(CL, Pv, decay=decay) if eta is None
             else check_certificate(CL, Pv, eta, decay=decay))
     if not cert.verified:

@@ -264,31 +264,13 @@ class JumpPlant:
         ``i``) have the same future and are lumped into one mode; phases
         with fewer lumped modes repeat their last one, unreachable. The
         current plant mode ``i`` of each lumped mode is
-        ``info['pair_modes']``, shape (N, G). The initial law is the
-        stationary one.
+        :meth:`pair_modes` (also recorded as ``info['pair_modes']``). The
+        initial law is the stationary one.
         """
+        A, C, where, padded = self._lumped_pairs(K)
         N, M = self.probabilities.shape
         T = self.transitions()
-        F = np.einsum("kluj,kjx->klux", K, self.E)  # K_{k,ℓ} E_k
-        A = self.A[:, None] + np.einsum("kmxu,kluy->klmxy", self.Bu, F)
-        C = self.Cz[:, None] + np.einsum("kmzu,kluy->klmzy", self.Du, F)
-        # lumped mode of the pair (ℓ, i) at each phase; first member kept
-        where: list = []
-        groups: list = []
-        for k in range(N):
-            index: dict = {}
-            where.append({})
-            groups.append([])
-            for i in range(M):
-                for ell in range(M):
-                    key = (i, A[k, ell, i].tobytes(), C[k, ell, i].tobytes())
-                    if key not in index:
-                        index[key] = len(groups[k])
-                        groups[k].append((i, ell))
-                    where[k][(ell, i)] = index[key]
-        G = max(map(len, groups))
-        # unreachable copies keep the shape (N, G): no flow enters them
-        padded = [g + [g[-1]] * (G - len(g)) for g in groups]
+        G = len(padded[0])
         cur = np.array([[i for i, _ in g] for g in padded])
         Ap = np.array([[A[k, ell, i] for i, ell in g]
                        for k, g in enumerate(padded)])
@@ -314,6 +296,53 @@ class JumpPlant:
                               name=name,
                               info=dict(self.info, gains=K, pair_modes=cur,
                                         **info))
+
+    def pair_modes(self, gains: np.ndarray) -> np.ndarray:
+        """The current plant mode of each lumped pair mode.
+
+        With gains ``K_{k,ℓ}`` per previous mode, :meth:`close` builds a
+        Markov jump system on pair modes ``(ℓ, i)``, lumping pairs with the
+        same future; this is the plant mode ``i`` of each of them.
+
+        Parameters
+        ----------
+        gains : array_like, shape (N, M, nu, nk)
+
+        Returns
+        -------
+        ndarray of int, shape (N, G)
+            Row ``k``: the plant mode of each closed-loop mode at phase
+            ``k`` (the loop's modes in the order :meth:`close` gives them).
+        """
+        padded = self._lumped_pairs(np.asarray(gains, float))[3]
+        return np.array([[i for i, _ in g] for g in padded])
+
+    def _lumped_pairs(self, K: np.ndarray) -> tuple:
+        """Mode matrices of the pairs ``(ℓ, i)`` and their lumping:
+        ``A[k, ℓ, i]``, ``C[k, ℓ, i]``, ``where[k][(ℓ, i)]`` (the lumped
+        mode) and the padded groups ``[(i, ℓ), …]`` per phase."""
+        N, M = self.probabilities.shape
+        F = np.einsum("kluj,kjx->klux", K, self.E)  # K_{k,ℓ} E_k
+        A = self.A[:, None] + np.einsum("kmxu,kluy->klmxy", self.Bu, F)
+        C = self.Cz[:, None] + np.einsum("kmzu,kluy->klmzy", self.Du, F)
+        # lumped mode of the pair (ℓ, i) at each phase; first member kept
+        where: list = []
+        groups: list = []
+        for k in range(N):
+            index: dict = {}
+            where.append({})
+            groups.append([])
+            for i in range(M):
+                for ell in range(M):
+                    key = (i, A[k, ell, i].tobytes(), C[k, ell, i].tobytes())
+                    if key not in index:
+                        index[key] = len(groups[k])
+                        groups[k].append((i, ell))
+                    where[k][(ell, i)] = index[key]
+        G = max(map(len, groups))
+        # unreachable copies keep the shape (N, G): no flow enters them
+        padded = [g + [g[-1]] * (G - len(g)) for g in groups]
+        return A, C, where, padded
 
     def merged(self) -> "JumpPlant":
         """The same plant with coinciding modes merged.
