@@ -83,13 +83,14 @@ class FrequencyResponse:
         lam = np.linalg.eigvalsh(0.5 * (G + G.conj().transpose(0, 2, 1)))
         return lam[:, 0], np.sqrt(np.sum(np.abs(X) ** 2, axis=(0, 2)))
 
-    def refine(self, lo: Any, hi: Any) -> tuple[float, float]:
+    def refine(self, lo: Any, hi: Any, fn: Any = None) -> tuple[float, float]:
         """Lowest ``λmin`` in the brackets ``[lo, hi]`` (arrays: several
         at once): (value, θ).
 
         Successive local grids of ``ZOOM_POINTS`` points, each spanning the
         two neighbours of the previous grid's lowest point, until the
-        spacing is below ``1e-12`` rad. Every round is one vectorised
+        spacing is below ``1e-12`` rad. ``fn(thetas)`` replaces
+        ``λmin`` when given. Every round is one vectorised
         evaluation (instead of ~40 scalar ones per bracket for a scalar
         search: measured, small LAPACK calls are what costs here).
         """
@@ -99,7 +100,9 @@ class FrequencyResponse:
         while True:
             grids = lo[:, None] + np.outer(hi - lo,
                                            np.linspace(0, 1, ZOOM_POINTS))
-            lam = self.values(grids.ravel())[0].reshape(grids.shape)
+            flat = grids.ravel()
+            lam = (self.values(flat)[0] if fn is None else fn(flat)
+                   ).reshape(grids.shape)
             j = lam.argmin(axis=1)
             k = int(lam[rows, j].argmin())
             if lam[k, j[k]] < best:
@@ -112,7 +115,7 @@ class FrequencyResponse:
             hi = np.minimum(centre + step, hi)
 
     def minimum(self, thetas: np.ndarray, lam: np.ndarray,
-                refine: bool = True) -> tuple[float, float]:
+                refine: bool = True, fn: Any = None) -> tuple[float, float]:
         """Lowest ``λmin`` on the grid ``thetas`` (ascending; ``lam`` its
         values), refined between the neighbours of its three lowest local
         minima when ``refine``: (value, θ)."""
@@ -124,7 +127,7 @@ class FrequencyResponse:
             local = local[np.argsort(lam[local])][:3]
             last = lam.size - 1
             value, at = self.refine(thetas[np.maximum(local - 1, 0)],
-                                    thetas[np.minimum(local + 1, last)])
+                                    thetas[np.minimum(local + 1, last)], fn)
             if value < best:
                 best, theta = value, at
         return best, theta
@@ -185,3 +188,225 @@ def frequency_minimum(resp: FrequencyResponse,
         thetas = np.linspace(0.0, np.pi,
                              KYP_POINTS if points is None else points)
     return resp.minimum(thetas, resp.values(thetas)[0], refine)[0]
+
+
+# -- non-strict passivity of deterministic LTI systems ------------------------
+#: A pole whose modulus is within this of 1 lies on the boundary (discrete
+#: time, after the Cayley map of a continuous-time system).
+BOUNDARY_TOL = 1e-9
+#: Relative tolerance of "≥ 0" for the Popov function (python-control's
+#: boundary cases: a system shifted by exactly its index is passive,
+#: shifted by 1e-6 more it is not).
+POPOV_TOL = 1e-9
+#: Radial offsets at which ``(z - z0) G(z)`` estimates a residue.
+_RESIDUE_STEPS = (1e-6, 1e-7)
+
+
+def cayley(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
+           ) -> tuple[tuple[np.ndarray, ...], float]:
+    """A continuous-time system as ``G_d(z) = G_c(a (z - 1)/(z + 1))``.
+
+    The Cayley (bilinear) map sends the imaginary axis onto the unit
+    circle (``ω = a tan(θ/2)``) and the open left half plane into the open
+    disk, so it keeps positive realness and every Popov inequality
+    exactly; ``a`` is kept away from the eigenvalues of ``A``.
+
+    Returns
+    -------
+    (Ad, Bd, Cd, Dd), a
+    """
+    n = A.shape[0]
+    eig = np.linalg.eigvals(A) if n else np.zeros(0)
+    scale = max(1.0, float(np.abs(eig).max()) if n else 1.0)
+    candidates = scale * np.array([1.0, 1.7, 2.9, 0.6, 4.3])
+    a = float(max(candidates, key=lambda c: np.abs(eig - c).min()
+                  if n else 1.0))
+    M = a * np.eye(n) - A
+    MB, CM = np.linalg.solve(M, B), np.linalg.solve(M.T, C.T).T
+    Ad = np.linalg.solve(M, a * np.eye(n) + A)
+    root = np.sqrt(2 * a)
+    return (Ad, root * MB, root * CM, D + C @ MB), a
+
+
+class PositiveReal:
+    """Non-strict passivity of a deterministic, square LTI system.
+
+    For a transfer function ``G`` (discrete time; a continuous-time one
+    through :func:`cayley`) and the supply ``(1 + ρν) yᵀu - ρ yᵀy - ν uᵀu``
+    (python-control's), ``G`` is passive when
+
+    * every pole ``|z| > 1`` is absent (hidden modes do not count: the
+      test is of the input-output map from rest);
+    * poles on the unit circle are simple, with ``ρ ≤ 0`` and a residue
+      whose continuous-time image ``2R/(z0 + 1)²`` (``-R/2`` at
+      ``z0 = -1``) is Hermitian positive semidefinite;
+    * the Popov function
+      ``Φ(θ) = (1 + ρν) (G + Gᴴ)/2 - ρ GᴴG - νI ⪰ 0`` on the circle.
+
+    The minimum of ``λmin Φ`` is found on a grid refined around its
+    lowest local minima; with ``ρ = 0`` (``Φ`` affine in ``G``) the
+    Hamiltonian pencil's unit-circle eigenvalues (:meth:`FrequencyResponse
+    .crossings`) catch any dip the grid missed.
+    """
+
+    def __init__(self, A: np.ndarray, B: np.ndarray, C: np.ndarray,
+                 D: np.ndarray, continuous: bool):
+        self.continuous = continuous
+        self.a = 1.0
+        if continuous:
+            (A, B, C, D), self.a = cayley(A, B, C, D)
+        self.resp = FrequencyResponse(A, B, C, D)
+        self.A, self.D = A, D
+        eig = np.linalg.eigvals(A) if A.shape[0] else np.zeros(0)
+        outside = eig[np.abs(eig) > 1 + BOUNDARY_TOL]
+        self.unstable = [z for z in outside if self._pole_order(z) > 0]
+        edge = eig[np.abs(np.abs(eig) - 1) <= BOUNDARY_TOL]
+        # one representative per distinct boundary eigenvalue; the grid
+        # avoids them all, poles of G or hidden modes
+        reps: list = []
+        for z in edge:
+            if all(abs(z - r) > 1e-6 for r in reps):
+                reps.append(z)
+        self.edge_angles = np.abs(np.angle(np.array(reps, complex)))
+        boundary = [(z, self._residue(z)) for z in reps]
+        self.boundary = [(z, R) for z, R in boundary if R is not None]
+
+    # -- G at any complex point ----------------------------------------------
+    def at(self, z: complex) -> np.ndarray:
+        """``G(z)``."""
+        X = self.resp._resolvent(np.array([z], complex))
+        return self.resp.D + self.resp.CU @ X[:, 0, :]
+
+    def _scale(self) -> float:
+        return max(1.0, float(np.linalg.norm(self.D, 2)),
+                   float(np.linalg.norm(self.at(np.exp(0.5j)), 2)))
+
+    def _limits(self, z0: complex) -> list[np.ndarray]:
+        return [(z0 * d) * self.at(z0 * (1 + d)) for d in _RESIDUE_STEPS]
+
+    def _pole_order(self, z0: complex) -> int:
+        """0: not a pole of ``G`` (hidden mode); 1: simple; 2: higher."""
+        r1, r2 = self._limits(z0)
+        size = max(np.linalg.norm(r1), np.linalg.norm(r2))
+        if size <= 1e-8 * self._scale():
+            return 0
+        return 1 if np.linalg.norm(r1 - r2) <= 1e-3 * size else 2
+
+    def _residue(self, z0: complex) -> np.ndarray | str | None:
+        """The continuous-time residue at a boundary pole; None if ``z0``
+        is not a pole of ``G``; ``'multiple'`` for a multiple pole."""
+        order = self._pole_order(z0)
+        if order == 0:
+            return None
+        if order == 2:
+            return "multiple"
+        R = self._limits(z0)[1]
+        if abs(z0 + 1) < 1e-6:
+            return -R / 2
+        return 2 * R / (z0 + 1) ** 2
+
+    # -- the decision -------------------------------------------------------
+    def transfer(self, thetas: np.ndarray) -> np.ndarray:
+        """``G(e^{jθ})`` at each ``θ``, shape (len(θ), p, m)."""
+        z = np.exp(1j * np.atleast_1d(np.asarray(thetas, float)))
+        X = self.resp._resolvent(z)
+        n, F, m = X.shape
+        CX = (self.resp.CU @ X.reshape(n, F * m)).reshape(-1, F, m)
+        return self.resp.D + CX.transpose(1, 0, 2)
+
+    def grid(self) -> np.ndarray:
+        """``KYP_POINTS`` angles of ``[0, π]``, away from boundary modes."""
+        thetas = np.linspace(0.0, np.pi, KYP_POINTS)
+        for angle in self.edge_angles:
+            thetas = thetas[np.abs(thetas - angle) > 1e-6]
+        return thetas
+
+    def popov(self, thetas: np.ndarray, rho: float, nu: float) -> np.ndarray:
+        """``λmin Φ(θ)`` at each ``θ``."""
+        G = self.transfer(thetas)
+        Gh = G.conj().transpose(0, 2, 1)
+        Phi = (0.5 * (1 + rho * nu) * (G + Gh) - rho * (Gh @ G)
+               - nu * np.eye(G.shape[-1]))
+        return np.linalg.eigvalsh(Phi)[:, 0]
+
+    def minimum(self, rho: float = 0.0, nu: float = 0.0
+                ) -> tuple[float, float]:
+        """``min_θ λmin Φ(θ)`` and where (rad/sample of the discrete
+        image), away from the boundary poles."""
+        thetas = self.grid()
+        values = self.popov(thetas, rho, nu)
+        best, at = self.resp.minimum(thetas, values, True,
+                                     fn=lambda t: self.popov(t, rho, nu))
+        if rho == 0.0 and not self.edge_angles.size:
+            # Φ = (G + Gᴴ)/2 - ν: the pencil at the level λmin (G + Gᴴ)/2
+            low = self.resp.lower_near_crossings(best + nu + POPOV_TOL)
+            if low is not None and low[0] - nu < best:
+                best, at = low[0] - nu, low[1]
+        return best, at
+
+    def frequency(self, theta: float) -> float:
+        """``θ`` of the discrete image as the system's own frequency
+        (rad per time unit for continuous time: ``a tan(θ/2)``)."""
+        if not self.continuous:
+            return theta
+        return float(np.inf) if theta >= np.pi else self.a * np.tan(theta / 2)
+
+    def refusal(self, rho: float = 0.0, nu: float = 0.0) -> str | None:
+        """Why the poles alone refute passivity, or None."""
+        if self.unstable:
+            return "unstable"
+        for _, R in self.boundary:
+            if isinstance(R, str):
+                return "multiple boundary pole"
+            if rho > 0:
+                return "boundary pole with rho > 0"
+            W = (1 + rho * nu) * R
+            size = max(1.0, float(np.linalg.norm(W)))
+            if np.linalg.norm(W - W.conj().T) > 1e-6 * size or \
+                    np.linalg.eigvalsh(0.5 * (W + W.conj().T))[0] < \
+                    -1e-6 * size:
+                return "boundary residue"
+        return None
+
+    def decide(self, rho: float = 0.0, nu: float = 0.0
+               ) -> tuple[bool, str, float]:
+        """(passive, reason, ``min λmin Φ``)."""
+        why = self.refusal(rho, nu)
+        if why is not None:
+            return False, why, -np.inf
+        value, _ = self.minimum(rho, nu)
+        tol = POPOV_TOL * self._scale() ** (2 if rho else 1)
+        return bool(value >= -tol), "popov", value
+
+    def ofp_bound(self) -> float:
+        """``min_θ λmin(G⁻¹ + G⁻ᴴ)/2``: the largest ``ρ`` with
+        ``G + Gᴴ - 2ρ GᴴG ⪰ 0`` on the circle (where ``G`` is invertible);
+        ``inf`` if ``G`` is nowhere invertible."""
+        def values(thetas: np.ndarray) -> np.ndarray:
+            G = self.transfer(thetas)
+            out = np.full(G.shape[0], np.inf)
+            ok = np.linalg.cond(G) < 1e8
+            if ok.any():
+                Gi = np.linalg.inv(G[ok])
+                out[ok] = np.linalg.eigvalsh(
+                    0.5 * (Gi + Gi.conj().transpose(0, 2, 1)))[:, 0]
+            return out
+
+        thetas = self.grid()
+        return self.resp.minimum(thetas, values(thetas), True, fn=values)[0]
+
+
+def output_feedback_loop(A: np.ndarray, B: np.ndarray, C: np.ndarray,
+                         D: np.ndarray, rho: float
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                    np.ndarray] | None:
+    """``G (I - ρG)⁻¹`` (``u = v + ρy``), or None if ``I - ρD`` is singular.
+
+    The loop transformation of the output-feedback index: ``G`` is
+    dissipative for ``yᵀu - ρ yᵀy`` exactly when this loop is passive
+    (same state, same storage)."""
+    M = np.eye(D.shape[0]) - rho * D
+    if np.linalg.cond(M) > 1e12:
+        return None
+    Mi = np.linalg.inv(M)
+    return A + rho * B @ Mi @ C, B @ Mi, Mi @ C, Mi @ D

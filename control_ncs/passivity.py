@@ -39,6 +39,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any, cast
 
+import control as ct
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
@@ -55,6 +56,7 @@ from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
                   analysis_model, check_options, check_solver, solve,
                   supply_model)
 from .jump import JumpStateSpace
+from .plant import NetworkedStateSpace
 from .stability import ms_radius
 from .verify import (Certificate, certify_index, certify_ofp_index,
                      check_certificate, level_floor, square_system,
@@ -272,8 +274,10 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         If ``sys`` is not square or has no state.
     ValueError
         If ``ifp_index``, ``ofp_index`` or ``margin`` is not a finite
-        number (``margin > 0``), both indices are None, or ``decay`` is not
-        in (0, 1].
+        number (``margin > 0``), or ``decay`` is not in (0, 1].
+    ControlArgument
+        If both indices are None (as python-control's
+        ``solve_passivity_LMI``).
     CertificationError
         If no attempt (``INDEX_ATTEMPTS`` or ``LEVEL_ATTEMPTS``, then the
         fallback solver) gives an answer that passes the exact checks:
@@ -319,16 +323,17 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     >>> result.passive, result.reason, result.certificate.verified
     (True, 'certified', True)
     """
+    ifp_index = finite_real(ifp_index, "ifp_index", allow_none=True)
+    ofp_index = finite_real(ofp_index, "ofp_index", allow_none=True)
+    if ifp_index is None and ofp_index is None:
+        raise ControlArgument("ifp_index, ofp_index: at most one may be None "
+                              "(the index maximised); the other must be a "
+                              "number")
     sys = square_system(sys)
     choice(method, "method", METHODS)
     # unknown keywords are refused here, not only when a solver runs (a
     # loop that is not mean-square stable never reaches one)
     check_options(check_solver(solver), solver_options)
-    ifp_index = finite_real(ifp_index, "ifp_index", allow_none=True)
-    ofp_index = finite_real(ofp_index, "ofp_index", allow_none=True)
-    if ifp_index is None and ofp_index is None:
-        raise ValueError("ifp_index, ofp_index: at most one may be None (the "
-                         "index maximised); the other must be a number")
     margin = positive_real(margin, "margin")
     decay = decay_bound(decay)
     if sys.modes.A.shape[-1] == 0:
@@ -509,27 +514,109 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
         dict(out.figures(), attempts=log))
 
 
-def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
-              **kwargs: Any) -> bool:
-    """True if ``sys`` is certified strictly passive at these indices.
+def _strict(sys: Any, strict: Any, kwargs: dict) -> bool:
+    """``strict`` resolved: None means strict for jump systems, and for a
+    deterministic LTI system python-control's non-strict meaning unless a
+    keyword of the certified test (``decay``, ``method``, ``solver``, …)
+    asks for it."""
+    if strict is None:
+        return bool(kwargs) or isinstance(sys, JumpStateSpace) or \
+            not isinstance(sys, ct.LTI)
+    if not isinstance(strict, (bool, np.bool_)):
+        raise ControlArgument(f"strict: expected True, False or None, got "
+                              f"{strict!r}")
+    return bool(strict)
 
-    Same signature as :func:`control.ispassive`. Stochastic strict
-    passivity (:ref:`theory-passivity`): mean-square stability and an ``ε > 0``
-    such that ``E Σ_t (wᵀz - ρ zᵀz - ν wᵀw) ≥ ε E Σ_t wᵀw`` from rest, for
-    every input adapted to the past (``ρ = ofp_index``, ``ν = ifp_index``).
-    True only with a certificate that passed the exact checks (see
-    :func:`passivity_certificate`, which also returns the figures).
+
+def _nonstrict_system(sys: Any, name: str, kwargs: dict
+                      ) -> kyp.PositiveReal:
+    """The positive-real test of ``sys`` for ``strict=False``: a
+    deterministic LTI system (continuous or discrete time), or a jump
+    system with one mode and period 1."""
+    if kwargs:
+        raise ControlArgument(
+            f"{name}: {', '.join(sorted(kwargs))} apply to the certified, "
+            f"strict test only (strict=True); the non-strict test of an LTI "
+            f"system is exact without them")
+    if isinstance(sys, NetworkedStateSpace):
+        square_system(sys)      # refuses it with what to do
+    if isinstance(sys, JumpStateSpace):
+        mats = sys.deterministic() if sys.period == 1 else None
+        if mats is None:
+            raise ControlArgument(
+                f"{name}: strict=False is the positive-real test of a "
+                f"deterministic LTI system; a jump system is certified "
+                f"strictly passive (strict=True, the default)")
+        A, B, C, D = (np.asarray(X[0], float) for X in mats)
+        continuous = False
+    elif isinstance(sys, ct.LTI):
+        G = sys if isinstance(sys, ct.StateSpace) else ct.ss(sys)
+        A, B, C, D = (np.asarray(X, float) for X in (G.A, G.B, G.C, G.D))
+        continuous = bool(G.isctime(strict=True))
+    else:
+        raise ControlArgument(f"sys: expected an LTI system or a "
+                              f"JumpStateSpace, got {type(sys).__name__}")
+    if D.shape[0] != D.shape[1]:
+        raise ControlDimension(
+            f"sys: passivity needs as many inputs as outputs, got "
+            f"{D.shape[1]} inputs and {D.shape[0]} outputs")
+    return kyp.PositiveReal(A, B, C, D, continuous)
+
+
+def _nonstrict(test: kyp.PositiveReal, rho: float, nu: float) -> bool:
+    """Non-strict passivity for python-control's supply
+    ``(1 + ρν) yᵀu - ρ yᵀy - ν uᵀu``."""
+    if rho != 0 and nu == 0:
+        # ρ alone: G (I - ρG)⁻¹ passive, which also decides an unstable G
+        # that output feedback makes passive (ρ < 0)
+        r = test.resp
+        A, B, C, D = r.A, r.B, r.C, r.D
+        loop = kyp.output_feedback_loop(A, B, C, D, rho)
+        if loop is None:
+            return False
+        return kyp.PositiveReal(*loop, False).decide()[0]
+    return test.decide(rho, nu)[0]
+
+
+def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
+              *, strict: bool | None = None, **kwargs: Any) -> bool:
+    """True if ``sys`` is passive at these indices.
+
+    Same signature as :func:`control.ispassive`, with two meanings
+    (``strict``):
+
+    * ``strict=True`` (the default for a jump system): stochastic strict
+      passivity (:ref:`theory-passivity`): mean-square stability and an
+      ``ε > 0`` such that ``E Σ_t (wᵀz - ρ zᵀz - ν wᵀw) ≥ ε E Σ_t wᵀw``
+      from rest, for every input adapted to the past (``ρ = ofp_index``,
+      ``ν = ifp_index``). True only with a certificate that passed the
+      exact checks (see :func:`passivity_certificate`, which also returns
+      the figures). Discrete time only.
+    * ``strict=False`` (the default for a deterministic LTI system, as
+      python-control means it): the transfer function is positive real
+      for python-control's supply ``(1 + ρν) yᵀu - ρ yᵀy - ν uᵀu``, in
+      continuous or discrete time: no pole outside the stability region,
+      simple boundary poles (integrators) with positive semidefinite
+      residues, and ``Φ(ω) ⪰ 0`` at every frequency (within a relative
+      ``kyp.POPOV_TOL``). Exact up to rounding and without a solver: the
+      Popov function on a refined grid, and with ``ρ = 0`` the
+      Hamiltonian pencil's crossings. ``ρ`` alone is decided on the loop
+      ``G (I - ρG)⁻¹``.
 
     Parameters
     ----------
-    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+    sys : JumpStateSpace, StateSpace or TransferFunction
     ofp_index : float, optional
         Output-feedback index ``ρ`` to certify (default 0).
     ifp_index : float, optional
         Input-feedforward index ``ν`` to certify (default 0: passivity).
+    strict : bool, optional
+        See above; default: True for a jump system, False for a
+        deterministic LTI system unless a keyword of the certified test
+        is given.
     **kwargs
-        ``decay``, ``method``, ``solver``, ``margin`` and solver options, as
-        for :func:`passivity_certificate`.
+        ``strict=True`` only: ``decay``, ``method``, ``solver``, ``margin``
+        and solver options, as for :func:`passivity_certificate`.
 
     Returns
     -------
@@ -543,11 +630,21 @@ def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
     ValueError
         If ``ofp_index`` or ``ifp_index`` is not a finite number; see
         :func:`passivity_certificate` for the others.
+    ControlDimension
+        If ``sys`` is not square.
+    ControlArgument
+        ``strict=False`` for a jump system with more than one mode or
+        phase, or with keywords of the strict test.
 
     Notes
     -----
     With both indices nonzero, :func:`control.ispassive` weights ``wᵀz``
-    by ``1 + ρν``; here it stays 1 (see the module's docstring).
+    by ``1 + ρν``; ``strict=False`` does too, ``strict=True`` keeps the
+    weight 1 (see the module's docstring). python-control decides its
+    meaning with an LMI whose storage ``xᵀPx`` must be ``⪰ 0`` on every
+    state, so a realisation's hidden modes can change its answer;
+    ``strict=False`` decides the input-output map from rest, the same
+    for every realisation (equal answers for minimal ones).
 
     References
     ----------
@@ -565,15 +662,27 @@ def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
     input-feedforward index 4/3:
 
     >>> import control as ct
+    >>> import control_ncs as ncs
     >>> G = ct.tf([2, 0], [1, -0.5], True)
     >>> ncs.ispassive(G), ncs.ispassive(G, 0.2), ncs.ispassive(G, 0.3)
     (True, True, False)
     >>> ncs.ispassive(G, ifp_index=1.3), ncs.ispassive(G, ifp_index=1.4)
     (True, False)
+
+    An integrator is passive, not strictly, and in continuous time too:
+
+    >>> ncs.ispassive(ct.tf([1], [1, 0]))
+    True
+    >>> ncs.ispassive(ct.tf([1], [1, 0]).sample(0.1, method="bilinear"),
+    ...               strict=True)
+    False
     """
     # finite_real without allow_none never returns None
     ofp_index = finite_real(ofp_index, "ofp_index")
     ifp_index = finite_real(ifp_index, "ifp_index")
+    if not _strict(sys, strict, kwargs):
+        return _nonstrict(_nonstrict_system(sys, "ispassive", kwargs),
+                          ofp_index, ifp_index)
     return passivity_certificate(sys, ifp_index, ofp_index=ofp_index,
                                  **kwargs).passive
 
@@ -599,7 +708,72 @@ def _index(sys: Any, result: PassivityResult, name: str) -> None:
             result.reason, dict(status=status))
 
 
-def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
+def _lti_index_exists(test: kyp.PositiveReal, name: str) -> None:
+    """Raise when no input-feedforward index exists for an LTI system."""
+    why = test.refusal()
+    if why == "unstable":
+        poles = np.array(test.unstable)
+        figures: dict = dict(poles=poles)
+        if not test.continuous:
+            figures["ms_radius"] = float(np.abs(poles).max() ** 2)
+        raise CertificationError(
+            f"{name}: sys has a pole outside the stability region; no "
+            f"passivity index exists", NOT_MSS, figures)
+    if why in ("multiple boundary pole", "boundary residue"):
+        raise CertificationError(
+            f"{name}: sys has a {why} on the stability boundary that no "
+            f"feedforward ν makes passive (a multiple pole, or a residue that "
+            f"is not Hermitian positive semidefinite)", INFEASIBLE, {})
+
+
+def _lti_ofp_index(test: kyp.PositiveReal) -> float:
+    """The output-feedback index of an LTI system (non-strict): the largest
+    ``ρ`` with ``G (I - ρG)⁻¹`` positive real. Lowering ``ρ`` only adds
+    ``-ρ yᵀy`` to the supply, so the feasible ``ρ`` form an interval
+    ``(-∞, ρ*]``; ``ρ*`` is at most the frequency bound
+    ``min λmin(G⁻¹ + G⁻ᴴ)/2``, and equals it unless the loop is unstable
+    there (then bisection below it)."""
+    name = "get_output_fb_index"
+    r = test.resp
+    if np.linalg.cond(r.D) < 1e8:
+        # the zeros of G are the zeros of every G (I - ρG)⁻¹, and a
+        # positive real function has none outside the stability region
+        Di = np.linalg.inv(r.D)
+        inverse = kyp.PositiveReal(r.A - r.B @ Di @ r.C, r.B @ Di,
+                                   -Di @ r.C, Di, False)
+        if inverse.unstable:
+            raise CertificationError(
+                f"{name}: sys has zero dynamics outside the stability region "
+                f"(a zero of G); no output feedback makes it passive",
+                INFEASIBLE, dict(zeros=np.array(inverse.unstable)))
+    bound = float(test.ofp_bound())
+    if not np.isfinite(bound):
+        raise CertificationError(
+            f"{name}: G is singular at every frequency; no index is "
+            f"computed", NOT_VERIFIED, dict(bound=bound))
+    if _nonstrict(test, bound, 0.0):
+        return bound
+    scale = max(1.0, abs(bound))
+    hi, lo = bound, None
+    for k in range(60):
+        trial = bound - scale * 1e-9 * 2.0 ** k
+        if _nonstrict(test, trial, 0.0):
+            lo = trial
+            break
+        hi = trial
+    if lo is None:
+        raise CertificationError(
+            f"{name}: G (I - ρG)⁻¹ is not passive for any ρ down to "
+            f"{hi:.3g} (it stays unstable); no output-feedback index is "
+            f"found", NOT_VERIFIED, dict(bound=bound))
+    while hi - lo > 1e-10 * scale:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if _nonstrict(test, mid, 0.0) else (lo, mid)
+    return lo
+
+
+def get_input_ff_index(sys: Any, *, strict: bool | None = None,
+                       **kwargs: Any) -> float:
     """Largest certified input-feedforward passivity index.
 
     The supremum of ``η`` for which a certificate ``P_k`` with ``Θ_k ≺ 0``
@@ -614,12 +788,21 @@ def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
     Riccati route by default (no cvxpy solve, see
     :func:`passivity_certificate`).
 
+    With ``strict=False`` (the default for a deterministic LTI system,
+    python-control's meaning) the index is the exact
+    ``min_ω λmin(G + Gᴴ)/2`` of the positive-real test of
+    :func:`ispassive`, in continuous or discrete time, without a solver.
+
     Parameters
     ----------
-    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+    sys : JumpStateSpace, StateSpace or TransferFunction
+    strict : bool, optional
+        As for :func:`ispassive`: default True for a jump system, False
+        for a deterministic LTI system unless ``**kwargs`` are given.
     **kwargs
-        As for :func:`passivity_certificate` (``method``, ``decay``,
-        ``ofp_index`` held fixed, ``solver``, ``margin``, solver options).
+        ``strict=True`` only: as for :func:`passivity_certificate`
+        (``method``, ``decay``, ``ofp_index`` held fixed, ``solver``,
+        ``margin``, solver options).
 
     Returns
     -------
@@ -650,12 +833,17 @@ def get_input_ff_index(sys: Any, **kwargs: Any) -> float:
     >>> round(ncs.get_input_ff_index(G), 5)
     0.33333
     """
+    if not _strict(sys, strict, kwargs):
+        test = _nonstrict_system(sys, "get_input_ff_index", kwargs)
+        _lti_index_exists(test, "get_input_ff_index")
+        return float(test.minimum()[0])
     result = passivity_certificate(sys, None, **kwargs)
     _index(sys, result, "get_input_ff_index")
     return result.eta
 
 
-def get_output_fb_index(sys: Any, **kwargs: Any) -> float:
+def get_output_fb_index(sys: Any, *, strict: bool | None = None,
+                        **kwargs: Any) -> float:
     """Largest certified output-feedback passivity index (stochastic).
 
     The supremum of ``ρ`` for which a certificate ``P_k`` exists with the
@@ -670,12 +858,22 @@ def get_output_fb_index(sys: Any, **kwargs: Any) -> float:
     returned. For a deterministic system it equals
     :func:`control.get_output_fb_index`. Always by the LMI.
 
+    With ``strict=False`` (the default for a deterministic LTI system,
+    python-control's meaning) the index is the largest ``ρ`` for which
+    ``G (I - ρG)⁻¹`` is positive real (:func:`ispassive`), continuous or
+    discrete time, without a solver: the frequency bound
+    ``min_ω λmin(G⁻¹ + G⁻ᴴ)/2``, or below it by bisection where that loop
+    is unstable; it can be negative for an unstable ``G``.
+
     Parameters
     ----------
-    sys : JumpStateSpace, discrete-time StateSpace or TransferFunction
+    sys : JumpStateSpace, StateSpace or TransferFunction
+    strict : bool, optional
+        As for :func:`ispassive`: default True for a jump system, False
+        for a deterministic LTI system unless ``**kwargs`` are given.
     **kwargs
-        As for :func:`passivity_certificate` (``decay``, ``solver``,
-        ``margin``, solver options).
+        ``strict=True`` only: as for :func:`passivity_certificate`
+        (``decay``, ``solver``, ``margin``, solver options).
 
     Returns
     -------
@@ -706,6 +904,9 @@ def get_output_fb_index(sys: Any, **kwargs: Any) -> float:
     >>> round(ncs.get_output_fb_index(G), 4)
     0.25
     """
+    if not _strict(sys, strict, kwargs):
+        return _lti_ofp_index(_nonstrict_system(sys, "get_output_fb_index",
+                                                kwargs))
     result = passivity_certificate(sys, 0.0, ofp_index=None, **kwargs)
     _index(sys, result, "get_output_fb_index")
     return result.ofp_index
@@ -824,3 +1025,39 @@ def frequency_ff_index(sys: Any, omega: Any = None, *,
     if thetas.size == 0:
         raise ValueError("omega: expected at least one frequency")
     return kyp.frequency_minimum(resp, thetas)
+
+
+def _ispassive_method(self: JumpStateSpace, ofp_index: float = 0.0,
+                      ifp_index: float = 0.0, **kwargs: Any) -> bool:
+    """True if the jump system is certified strictly passive.
+
+    ``sys.ispassive()`` is :func:`control_ncs.ispassive` ``(sys, ...)``,
+    as :meth:`control.LTI.ispassive` is :func:`control.ispassive`: the
+    stochastic, certified meaning (python-control's own method would test
+    the mean system with an LMI).
+
+    Parameters
+    ----------
+    ofp_index, ifp_index : float, optional
+        The indices to certify (default 0).
+    **kwargs
+        As for :func:`control_ncs.ispassive`.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> import control_ncs as ncs
+    >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[1.0]], [0.3, 0.7])
+    >>> sys.ispassive()
+    True
+    """
+    return ispassive(self, ofp_index, ifp_index, **kwargs)
+
+
+# python-control's LTI.ispassive imports control.passivity; a jump system
+# answers with its own, certified test (attached here, where it lives, so
+# that jump.py needs no import of the analysis layer)
+JumpStateSpace.ispassive = _ispassive_method

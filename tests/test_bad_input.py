@@ -362,7 +362,9 @@ def test_passivity_certificate_bad_argument_raises_naming_it(name, args,
 def test_passivity_of_a_system_without_state_raises_control_dimension():
     from control_ncs import get_input_ff_index
     with pytest.raises(ControlDimension, match="^sys: "):
-        get_input_ff_index(ct.ss([], [], [], [[1.0]], True))
+        get_input_ff_index(ct.ss([], [], [], [[1.0]], True), strict=True)
+    # python-control's meaning needs no state: a static gain of 1
+    assert get_input_ff_index(ct.ss([], [], [], [[1.0]], True)) == 1.0
 
 
 def test_frequency_test_with_no_frequencies_raises_naming_omega():

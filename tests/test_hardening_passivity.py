@@ -93,8 +93,20 @@ def test_ispassive_agrees_with_control_when_one_index_is_zero(ofp, ifp):
 
 
 def test_output_fb_index_matches_closed_form():
-    rho = get_output_fb_index(two_z_over())
+    rho = get_output_fb_index(two_z_over(), strict=True)
     assert 0.25 - 1e-5 < rho < 0.25
+    # python-control's (non-strict) meaning: the supremum itself
+    assert get_output_fb_index(two_z_over()) == pytest.approx(0.25, abs=1e-12)
+
+
+def test_output_fb_index_of_an_unstable_system_is_negative_in_python_controls_sense():
+    """``G = (z - 0.2)/(z - 1.2)``: ``min Re 1/G = -1/4`` at ``z = 1``,
+    and ``G (1 + G/4)⁻¹ = 0.8 (z - 0.2)/(z - 1)`` is positive real (a
+    boundary pole with residue 0.64): dissipative for ``yu + y²/4`` with
+    a storage ``xᵀPx ⪰ 0``, though unstable (no stochastic index)."""
+    G = ct.ss([[1.2]], [[1.0]], [[1.0]], [[1.0]], True)
+    assert get_output_fb_index(G) == pytest.approx(-0.25, abs=1e-9)
+    assert ispassive(G, -0.25) and not ispassive(G, -0.24)
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -182,7 +194,7 @@ def test_riccati_method_refuses_an_output_feedback_level():
 
 
 def test_both_indices_maximised_is_a_named_error():
-    with pytest.raises(ValueError, match="ifp_index, ofp_index"):
+    with pytest.raises(ControlArgument, match="ifp_index, ofp_index"):
         passivity_certificate(two_z_over(), None, ofp_index=None)
 
 
@@ -297,7 +309,7 @@ def test_one_reason_for_not_mean_square_stable_on_every_path():
         cn.get_input_ff_index(G)
     assert info.value.reason == exceptions.NOT_MSS
     with pytest.raises(CertificationError) as info:
-        get_output_fb_index(G)
+        get_output_fb_index(G, strict=True)
     assert info.value.reason == exceptions.NOT_MSS
     assert set(exceptions.REASONS) >= {"not_mss", "infeasible",
                                        "solver_failed", "inaccurate",

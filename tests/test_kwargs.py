@@ -51,6 +51,7 @@ CALLS = {
     "is_mss": lambda **kw: ncs.is_mss(_loop(), **kw),
     "moments": lambda **kw: ncs.moments(_loop(), 3, **kw),
     "ispassive": lambda **kw: ncs.ispassive(_loop(), **kw),
+    "JumpStateSpace.ispassive": lambda **kw: _loop().ispassive(**kw),
     "get_input_ff_index": lambda **kw: ncs.get_input_ff_index(_loop(), **kw),
     "get_output_fb_index": lambda **kw: ncs.get_output_fb_index(
         ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True), **kw),
