@@ -59,10 +59,10 @@ about the mean:
 
 from __future__ import annotations
 
-import warnings
 from typing import Any, Sequence
 
 import numpy as np
+from scipy.linalg import block_diag
 import control as ct
 from control.exception import ControlArgument
 
@@ -260,6 +260,29 @@ def lift_lti(sys: Any, period: int, **kwargs: Any) -> ct.StateSpace:
                          states=list(G.state_labels), name=f"{G.name}$lifted")
 
 
+def _closed(systems: list[ct.StateSpace], maps: tuple, where: tuple
+            ) -> tuple[np.ndarray, ...]:
+    """The interconnection of ``systems`` (python-control's maps
+    ``u = M y + N r``, ``z = O [y; u]``), algebraic loops included:
+    ``y = C x + D u`` gives ``(I - D M) y = C x + D N r``."""
+    M, N, O = maps
+    A = block_diag(*[np.asarray(S.A, float) for S in systems])
+    B = block_diag(*[np.asarray(S.B, float) for S in systems])
+    C = block_diag(*[np.asarray(S.C, float) for S in systems])
+    D = block_diag(*[np.asarray(S.D, float) for S in systems])
+    L = np.eye(D.shape[0]) - D @ M
+    if np.linalg.cond(L) > 1e12:
+        raise ValueError(f"syslist: the algebraic loop is singular (I - D·M "
+                         f"not invertible) at phase {where[0]}, mode "
+                         f"{where[1]}: the interconnection is not well "
+                         f"posed")
+    Yx = np.linalg.solve(L, C)             # y = Yx x + Yr r
+    Yr = np.linalg.solve(L, D @ N)
+    Ux, Ur = M @ Yx, M @ Yr + N            # u = Ux x + Ur r
+    Ox, Or = O[:, :D.shape[0]], O[:, D.shape[0]:]
+    return (A + B @ Ux, B @ Ur, Ox @ Yx + Or @ Ux, Ox @ Yr + Or @ Ur)
+
+
 def interconnect(syslist: Sequence[Any], connections: Any = None,
                  inplist: Any = None, outlist: Any = None,
                  **kwargs: Any) -> JumpStateSpace:
@@ -356,20 +379,29 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
         others.append(s)
     name = kwargs.pop("name", None)
 
-    def mode(k: int, i: int) -> ct.StateSpace:
+    def blocks(k: int, i: int) -> list[ct.StateSpace]:
         mode_sys = J.mode_system(k, i)
-        return ct.interconnect([mode_sys if s is None else s for s in others],
-                               connections, inplist, outlist, **kwargs)
+        return [mode_sys if s is None else s for s in others]
 
-    first = mode(0, 0)  # python-control's warnings (unused signals) once
-    done = []
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for k in range(J.period):
-            done.append([first if (k, i) == (0, 0) else mode(k, i)
-                         for i in range(J.nmodes)])
-    A, B, C, D = (np.array([[getattr(S, X) for S in row] for row in done],
-                           dtype=float) for X in "ABCD")
+    # python-control parses the signal names (connect, input and output
+    # maps); its own linearisation iterates to a fixed point and stops at an
+    # algebraic loop, so the maps are taken from the systems with D = 0 and
+    # each mode is closed exactly below
+    def static_free(sys: ct.StateSpace) -> ct.StateSpace:
+        return ct.ss(sys.A, sys.B, sys.C, np.zeros_like(sys.D), sys.dt,
+                     name=sys.name, inputs=list(sys.input_labels),
+                     outputs=list(sys.output_labels),
+                     states=list(sys.state_labels))
+
+    first = ct.interconnect([static_free(S) for S in blocks(0, 0)],
+                            connections, inplist, outlist, **kwargs)
+    maps = (np.asarray(first.connect_map, float),
+            np.asarray(first.input_map, float),
+            np.asarray(first.output_map, float))
+    done = [[_closed(blocks(k, i), maps, (k, i)) for i in range(J.nmodes)]
+            for k in range(J.period)]
+    A, B, C, D = (np.array([[m[j] for m in row] for row in done], dtype=float)
+                  for j in range(4))
     dt = J.dt_step if first.dt is True else first.dt
     info = dict(J.info, interconnect=[s.name for s in others if s is not None])
     law, transition = J.mode_law()   # the chain is kept (theory: Markov losses)

@@ -39,11 +39,12 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any, cast
 
-import control as ct
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
 from . import kyp
+from ._positive_real import (lti_ofp_index, lti_index_exists, nonstrict,
+                             nonstrict_system, resolve_strict)
 from ._checks import (choice, decay_bound, finite_real, no_extra_kwargs,
                       positive_int, positive_real, real_array)
 from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE,
@@ -56,7 +57,6 @@ from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
                   analysis_model, check_options, check_solver, solve,
                   supply_model)
 from .jump import JumpStateSpace
-from .plant import NetworkedStateSpace
 from .stability import ms_radius
 from .verify import (Certificate, certify_index, certify_ofp_index,
                      check_certificate, level_floor, square_system,
@@ -514,70 +514,6 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
         dict(out.figures(), attempts=log))
 
 
-def _strict(sys: Any, strict: Any, kwargs: dict) -> bool:
-    """``strict`` resolved: None means strict for jump systems, and for a
-    deterministic LTI system python-control's non-strict meaning unless a
-    keyword of the certified test (``decay``, ``method``, ``solver``, …)
-    asks for it."""
-    if strict is None:
-        return bool(kwargs) or isinstance(sys, JumpStateSpace) or \
-            not isinstance(sys, ct.LTI)
-    if not isinstance(strict, (bool, np.bool_)):
-        raise ControlArgument(f"strict: expected True, False or None, got "
-                              f"{strict!r}")
-    return bool(strict)
-
-
-def _nonstrict_system(sys: Any, name: str, kwargs: dict
-                      ) -> kyp.PositiveReal:
-    """The positive-real test of ``sys`` for ``strict=False``: a
-    deterministic LTI system (continuous or discrete time), or a jump
-    system with one mode and period 1."""
-    if kwargs:
-        raise ControlArgument(
-            f"{name}: {', '.join(sorted(kwargs))} apply to the certified, "
-            f"strict test only (strict=True); the non-strict test of an LTI "
-            f"system is exact without them")
-    if isinstance(sys, NetworkedStateSpace):
-        square_system(sys)      # refuses it with what to do
-    if isinstance(sys, JumpStateSpace):
-        mats = sys.deterministic() if sys.period == 1 else None
-        if mats is None:
-            raise ControlArgument(
-                f"{name}: strict=False is the positive-real test of a "
-                f"deterministic LTI system; a jump system is certified "
-                f"strictly passive (strict=True, the default)")
-        A, B, C, D = (np.asarray(X[0], float) for X in mats)
-        continuous = False
-    elif isinstance(sys, ct.LTI):
-        G = sys if isinstance(sys, ct.StateSpace) else ct.ss(sys)
-        A, B, C, D = (np.asarray(X, float) for X in (G.A, G.B, G.C, G.D))
-        continuous = bool(G.isctime(strict=True))
-    else:
-        raise ControlArgument(f"sys: expected an LTI system or a "
-                              f"JumpStateSpace, got {type(sys).__name__}")
-    if D.shape[0] != D.shape[1]:
-        raise ControlDimension(
-            f"sys: passivity needs as many inputs as outputs, got "
-            f"{D.shape[1]} inputs and {D.shape[0]} outputs")
-    return kyp.PositiveReal(A, B, C, D, continuous)
-
-
-def _nonstrict(test: kyp.PositiveReal, rho: float, nu: float) -> bool:
-    """Non-strict passivity for python-control's supply
-    ``(1 + ρν) yᵀu - ρ yᵀy - ν uᵀu``."""
-    if rho != 0 and nu == 0:
-        # ρ alone: G (I - ρG)⁻¹ passive, which also decides an unstable G
-        # that output feedback makes passive (ρ < 0)
-        r = test.resp
-        A, B, C, D = r.A, r.B, r.C, r.D
-        loop = kyp.output_feedback_loop(A, B, C, D, rho)
-        if loop is None:
-            return False
-        return kyp.PositiveReal(*loop, False).decide()[0]
-    return test.decide(rho, nu)[0]
-
-
 def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
               *, strict: bool | None = None, **kwargs: Any) -> bool:
     """True if ``sys`` is passive at these indices.
@@ -680,8 +616,8 @@ def ispassive(sys: Any, ofp_index: float = 0.0, ifp_index: float = 0.0,
     # finite_real without allow_none never returns None
     ofp_index = finite_real(ofp_index, "ofp_index")
     ifp_index = finite_real(ifp_index, "ifp_index")
-    if not _strict(sys, strict, kwargs):
-        return _nonstrict(_nonstrict_system(sys, "ispassive", kwargs),
+    if not resolve_strict(sys, strict, kwargs):
+        return nonstrict(nonstrict_system(sys, "ispassive", kwargs),
                           ofp_index, ifp_index)
     return passivity_certificate(sys, ifp_index, ofp_index=ofp_index,
                                  **kwargs).passive
@@ -706,70 +642,6 @@ def _index(sys: Any, result: PassivityResult, name: str) -> None:
             f"{name}: no index could be certified (reason {result.reason!r},"
             f" status {status!r}) although sys is mean-square stable{why}",
             result.reason, dict(status=status))
-
-
-def _lti_index_exists(test: kyp.PositiveReal, name: str) -> None:
-    """Raise when no input-feedforward index exists for an LTI system."""
-    why = test.refusal()
-    if why == "unstable":
-        poles = np.array(test.unstable)
-        figures: dict = dict(poles=poles)
-        if not test.continuous:
-            figures["ms_radius"] = float(np.abs(poles).max() ** 2)
-        raise CertificationError(
-            f"{name}: sys has a pole outside the stability region; no "
-            f"passivity index exists", NOT_MSS, figures)
-    if why in ("multiple boundary pole", "boundary residue"):
-        raise CertificationError(
-            f"{name}: sys has a {why} on the stability boundary that no "
-            f"feedforward ν makes passive (a multiple pole, or a residue that "
-            f"is not Hermitian positive semidefinite)", INFEASIBLE, {})
-
-
-def _lti_ofp_index(test: kyp.PositiveReal) -> float:
-    """The output-feedback index of an LTI system (non-strict): the largest
-    ``ρ`` with ``G (I - ρG)⁻¹`` positive real. Lowering ``ρ`` only adds
-    ``-ρ yᵀy`` to the supply, so the feasible ``ρ`` form an interval
-    ``(-∞, ρ*]``; ``ρ*`` is at most the frequency bound
-    ``min λmin(G⁻¹ + G⁻ᴴ)/2``, and equals it unless the loop is unstable
-    there (then bisection below it)."""
-    name = "get_output_fb_index"
-    r = test.resp
-    if np.linalg.cond(r.D) < 1e8:
-        # the zeros of G are the zeros of every G (I - ρG)⁻¹, and a
-        # positive real function has none outside the stability region
-        Di = np.linalg.inv(r.D)
-        inverse = kyp.PositiveReal(r.A - r.B @ Di @ r.C, r.B @ Di,
-                                   -Di @ r.C, Di, False)
-        if inverse.unstable:
-            raise CertificationError(
-                f"{name}: sys has zero dynamics outside the stability region "
-                f"(a zero of G); no output feedback makes it passive",
-                INFEASIBLE, dict(zeros=np.array(inverse.unstable)))
-    bound = float(test.ofp_bound())
-    if not np.isfinite(bound):
-        raise CertificationError(
-            f"{name}: G is singular at every frequency; no index is "
-            f"computed", NOT_VERIFIED, dict(bound=bound))
-    if _nonstrict(test, bound, 0.0):
-        return bound
-    scale = max(1.0, abs(bound))
-    hi, lo = bound, None
-    for k in range(60):
-        trial = bound - scale * 1e-9 * 2.0 ** k
-        if _nonstrict(test, trial, 0.0):
-            lo = trial
-            break
-        hi = trial
-    if lo is None:
-        raise CertificationError(
-            f"{name}: G (I - ρG)⁻¹ is not passive for any ρ down to "
-            f"{hi:.3g} (it stays unstable); no output-feedback index is "
-            f"found", NOT_VERIFIED, dict(bound=bound))
-    while hi - lo > 1e-10 * scale:
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if _nonstrict(test, mid, 0.0) else (lo, mid)
-    return lo
 
 
 def get_input_ff_index(sys: Any, *, strict: bool | None = None,
@@ -833,9 +705,9 @@ def get_input_ff_index(sys: Any, *, strict: bool | None = None,
     >>> round(ncs.get_input_ff_index(G), 5)
     0.33333
     """
-    if not _strict(sys, strict, kwargs):
-        test = _nonstrict_system(sys, "get_input_ff_index", kwargs)
-        _lti_index_exists(test, "get_input_ff_index")
+    if not resolve_strict(sys, strict, kwargs):
+        test = nonstrict_system(sys, "get_input_ff_index", kwargs)
+        lti_index_exists(test, "get_input_ff_index")
         return float(test.minimum()[0])
     result = passivity_certificate(sys, None, **kwargs)
     _index(sys, result, "get_input_ff_index")
@@ -904,8 +776,8 @@ def get_output_fb_index(sys: Any, *, strict: bool | None = None,
     >>> round(ncs.get_output_fb_index(G), 4)
     0.25
     """
-    if not _strict(sys, strict, kwargs):
-        return _lti_ofp_index(_nonstrict_system(sys, "get_output_fb_index",
+    if not resolve_strict(sys, strict, kwargs):
+        return lti_ofp_index(nonstrict_system(sys, "get_output_fb_index",
                                                 kwargs))
     result = passivity_certificate(sys, 0.0, ofp_index=None, **kwargs)
     _index(sys, result, "get_output_fb_index")

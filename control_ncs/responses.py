@@ -905,3 +905,27 @@ for _f in (forced_response, step_response, impulse_response, initial_response):
     if _f.__doc__:                 # None under python -OO
         _f.__doc__ = _with_options(_f.__doc__)
 del _f
+
+
+def _response_method(func: Any) -> Any:
+    def method(self: JumpStateSpace, *args: Any, **kwargs: Any) -> Any:
+        return func(self, *args, **kwargs)
+
+    method.__name__ = func.__name__
+    method.__qualname__ = f"JumpStateSpace.{func.__name__}"
+    method.__doc__ = (
+        f"The exact ensemble response at the base rate (any period).\n\n"
+        f"``sys.{func.__name__}(...)`` is :func:`control_ncs.{func.__name__}`"
+        f" ``(sys, ...)``, as python-control's ``LTI.{func.__name__}`` is\n"
+        f"its module function: exact ``E z`` for every period, with Monte "
+        f"Carlo\npaths and bands, where python-control's function would "
+        f"simulate the\n(lifted) mean face.\n")
+    return method
+
+
+# python-control's LTI response methods call its own functions on the
+# mean face; a jump system answers with the exact ensemble response
+# (attached here, where the responses live: jump.py imports nothing above)
+for _func in (forced_response, step_response, impulse_response,
+              initial_response):
+    setattr(JumpStateSpace, _func.__name__, _response_method(_func))

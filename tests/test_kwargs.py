@@ -52,6 +52,14 @@ CALLS = {
     "moments": lambda **kw: ncs.moments(_loop(), 3, **kw),
     "ispassive": lambda **kw: ncs.ispassive(_loop(), **kw),
     "JumpStateSpace.ispassive": lambda **kw: _loop().ispassive(**kw),
+    "JumpStateSpace.step_response": lambda **kw: _loop().step_response(
+        5, trials=4, seed=1, **kw),
+    "JumpStateSpace.impulse_response": lambda **kw: _loop().impulse_response(
+        5, trials=4, seed=1, **kw),
+    "JumpStateSpace.initial_response": lambda **kw: _loop().initial_response(
+        5, [1.0], trials=4, seed=1, **kw),
+    "JumpStateSpace.forced_response": lambda **kw: _loop().forced_response(
+        np.arange(5), np.ones((1, 5)), trials=4, seed=1, **kw),
     "get_input_ff_index": lambda **kw: ncs.get_input_ff_index(_loop(), **kw),
     "get_output_fb_index": lambda **kw: ncs.get_output_fb_index(
         ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True), **kw),

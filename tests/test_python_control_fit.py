@@ -14,6 +14,7 @@ import control as ct
 from control.exception import ControlArgument
 
 import control_ncs as cn
+import control_ncs as ncs
 from control_ncs.connect import jump_feedback
 
 DT = 0.1
@@ -558,3 +559,17 @@ def test_python_controls_step_response_of_a_periodic_loop_is_per_period():
     np.testing.assert_allclose(mean.exact.outputs_mean, exact.outputs_mean)
     # the lifted response's phase-0 output after 20 periods is not E z(40)
     assert not np.isclose(lifted.outputs[0, 0, -1], exact.outputs_mean[0, -1])
+
+
+def test_response_methods_of_a_jump_system_are_the_exact_ensemble_responses():
+    """``CL.step_response()`` is ``ncs.step_response(CL)`` (exact ``E z``
+    at the base rate), not python-control's lifted per-period face."""
+    CL = ncs.jss([[[[0.5]], [[0.9]]], [[[0.2]], [[1.1]]]], [[1.0]], [[1.0]],
+                 [[0.0]], [[0.3, 0.7], [0.5, 0.5]])
+    ours = CL.step_response(20, trials=8, seed=3)
+    ref = ncs.step_response(CL, 20, trials=8, seed=3)
+    np.testing.assert_array_equal(ours.exact.outputs_mean,
+                                  ref.exact.outputs_mean)
+    np.testing.assert_array_equal(ours.sample_mean, ref.sample_mean)
+    lifted = ct.step_response(CL, np.arange(11) * 2)
+    assert lifted.outputs.shape[0] == 2      # one output per phase
