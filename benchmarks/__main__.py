@@ -33,6 +33,7 @@ SECTIONS = [
     ("bench_markov", "markov_section"),
     ("bench_estimator", "estimator_section"),
     ("bench_refine", "refine_section"),
+    ("bench_performance", "performance_section"),
 ]
 
 

@@ -15,20 +15,23 @@ reference simulator (``protocol``) export nothing here.
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from . import (connect, estimator, exceptions, gain, jump, meancov, modes,
-               network, openloop, passivity, plant, plots, refine, responses,
-               stability, strategies, sweeps, synthesis, verify)
+from . import (connect, estimator, exceptions, gain, jump, lq, meancov,
+               modes, network, openloop, passivity, performance, plant, plots,
+               refine, responses, stability, strategies, sweeps, synthesis,
+               verify)
 from ._lifting import lift
 from .connect import *  # noqa: F403
 from .estimator import *  # noqa: F403
 from .exceptions import *  # noqa: F403
 from .gain import *  # noqa: F403
 from .jump import *  # noqa: F403
+from .lq import *  # noqa: F403
 from .meancov import *  # noqa: F403
 from .modes import *  # noqa: F403
 from .network import *  # noqa: F403
 from .openloop import *  # noqa: F403
 from .passivity import *  # noqa: F403
+from .performance import *  # noqa: F403
 from .plant import *  # noqa: F403
 from .plots import *  # noqa: F403
 from .refine import *  # noqa: F403
@@ -41,8 +44,8 @@ from .verify import *  # noqa: F403
 
 __all__ = [name for module in (
     network, modes, jump, openloop, plant, gain, strategies, stability,
-    meancov, exceptions, verify, passivity, synthesis, refine, estimator,
-    responses, plots, connect, sweeps)
+    meancov, exceptions, verify, passivity, performance, lq, synthesis,
+    refine, estimator, responses, plots, connect, sweeps)
     for name in module.__all__] + ["lift"]
 
 try:

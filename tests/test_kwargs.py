@@ -52,6 +52,11 @@ CALLS = {
     "moments": lambda **kw: ncs.moments(_loop(), 3, **kw),
     "ispassive": lambda **kw: ncs.ispassive(_loop(), **kw),
     "JumpStateSpace.ispassive": lambda **kw: _loop().ispassive(**kw),
+    "norm": lambda **kw: ncs.norm(_loop(), **kw),
+    "lyapunov_exponent": lambda **kw: ncs.lyapunov_exponent(
+        _loop(), steps=20, trials=2, seed=1, **kw),
+    "dlqr": lambda **kw: ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]],
+                                  arrival=0.5, **kw),
     "JumpStateSpace.step_response": lambda **kw: _loop().step_response(
         5, trials=4, seed=1, **kw),
     "JumpStateSpace.impulse_response": lambda **kw: _loop().impulse_response(

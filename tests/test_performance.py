@@ -1,0 +1,211 @@
+"""H2 norm, Lyapunov exponent and LQ over a lossy link, against closed forms
+and independent routes (theory: performance)."""
+
+from __future__ import annotations
+
+import math
+
+import control as ct
+import numpy as np
+import pytest
+from control.exception import ControlArgument
+from hypothesis import given, settings, strategies as st
+
+import control_ncs as ncs
+
+
+def scalar_iid(a, p):
+    """``x⁺ = a_i x + w``, ``z = x``, mode ``i`` with probability ``p_i``."""
+    return ncs.jss([[[x]] for x in a], [[1.0]], [[1.0]], [[0.0]], p)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(-1.2, 1.2), min_size=2, max_size=3),
+       st.floats(0.05, 0.95))
+def test_h2_of_a_scalar_iid_system_is_one_over_one_minus_e_a_squared(a, q):
+    p = [q, 1 - q] + [0.0] * (len(a) - 2)
+    Ea2 = sum(pi * ai ** 2 for pi, ai in zip(p, a))
+    sys = scalar_iid(a, p)
+    if Ea2 < 0.999:
+        assert ncs.norm(sys) ** 2 == pytest.approx(1 / (1 - Ea2), rel=1e-9)
+    elif Ea2 > 1.001:
+        with pytest.warns(UserWarning, match="not mean-square stable"):
+            assert ncs.norm(sys) == math.inf
+
+
+@pytest.mark.parametrize("method", ["dense", "matrix-free"])
+def test_h2_of_the_costa_fragoso_marques_example_is_31_over_3(method):
+    A = np.array([[[[2.0, -1.0], [0.0, 0.0]], [[0.0, 1.0], [0.0, 2.0]]]])
+    sys = ncs.jss(A, np.eye(2), np.eye(2), np.zeros((2, 2)),
+                  transition=[[0.1, 0.9], [0.9, 0.1]])
+    assert ncs.norm(sys, method=method) ** 2 == pytest.approx(31 / 3,
+                                                              rel=1e-10)
+
+
+def test_h2_of_a_lossy_loop_is_not_the_mean_systems():
+    """x⁺ = 1.1x + θu + w, u = -x, loss 0.3, z = x, built as users do."""
+    P = ncs.nss([[1.1]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]],
+                True, nmeas=1, ncon=1, actuator_loss=0.3)
+    CL = ncs.feedback(P, [[-1.0]])
+    assert ncs.norm(CL, 2) == pytest.approx(1.25988, abs=5e-6)
+    assert ncs.norm(CL, 2) == pytest.approx(math.sqrt(1 / 0.63), rel=1e-12)
+    assert ct.norm(CL.mean(), 2) == pytest.approx(1.09109, abs=5e-6)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_h2_of_a_deterministic_system_equals_python_control(seed):
+    rng = np.random.default_rng(seed)
+    n, m, p = 4, 2, 3
+    A = rng.standard_normal((n, n))
+    A *= 0.9 / np.abs(np.linalg.eigvals(A)).max()
+    G = ct.ss(A, rng.standard_normal((n, m)), rng.standard_normal((p, n)),
+              rng.standard_normal((p, m)), 0.1)
+    assert ncs.norm(G) == pytest.approx(ct.norm(G, 2), rel=1e-10)
+    square = G[:2, :]       # python-control's H∞ (without slycot): square
+    assert ncs.norm(square, "inf") == pytest.approx(ct.norm(square, "inf"),
+                                                    rel=1e-10)
+    Gc = ct.ss([[-1.0]], [[1.0]], [[1.0]], [[0.0]])
+    assert ncs.norm(Gc) == pytest.approx(ct.norm(Gc, 2), rel=1e-10)
+
+
+def test_h2_of_a_periodic_system_is_the_lifted_norm_per_step():
+    """One mode, period 3: the lifted system's squared H2 norm is the
+    energy of a whole period, N times the per-step power."""
+    rng = np.random.default_rng(5)
+    A = rng.standard_normal((3, 1, 2, 2)) * 0.5
+    B = rng.standard_normal((3, 1, 2, 1))
+    C = rng.standard_normal((3, 1, 1, 2))
+    D = rng.standard_normal((3, 1, 1, 1))
+    sys = ncs.jss(A, B, C, D, [[1.0]] * 3)
+    lifted = ct.ss(sys.A, sys.B, sys.C, sys.D, True)
+    assert ncs.norm(sys) ** 2 == pytest.approx(ct.norm(lifted, 2) ** 2 / 3,
+                                               rel=1e-9)
+
+
+def test_h2_agrees_with_a_long_sample_path():
+    """Independent route: the time average of z² along one long path of a
+    period-2 Markov system driven by white noise."""
+    A = np.array([[[[0.6, 0.3], [0.0, 0.5]], [[1.1, 0.0], [0.2, 0.3]]],
+                  [[[0.4, -0.2], [0.1, 0.7]], [[0.2, 0.5], [0.0, 0.9]]]])
+    B = np.array([[[[1.0], [0.5]]] * 2] * 2)
+    C = np.array([[[[1.0, -1.0]]] * 2] * 2)
+    T = np.array([[[0.8, 0.2], [0.4, 0.6]], [[0.7, 0.3], [0.5, 0.5]]])
+    sys = ncs.jss(A, B, C, np.zeros((2, 2, 1, 1)), transition=T)
+    h2sq = ncs.norm(sys) ** 2
+    rng = np.random.default_rng(7)
+    steps, x, mode = 400_000, np.zeros(2), 0
+    noise = rng.standard_normal(steps)
+    u = rng.random(steps)
+    zs = np.empty(steps)
+    for t in range(steps):
+        k = t % 2
+        zs[t] = C[k, mode, 0] @ x
+        x = A[k, mode] @ x + B[k, mode, :, 0] * noise[t]
+        mode = int(u[t] > T[k, mode, 0])
+    power = zs[1000:] ** 2
+    # batch means for the standard error of a correlated series
+    batches = power[: power.size // 100 * 100].reshape(100, -1).mean(axis=1)
+    se = batches.std(ddof=1) / 10
+    assert abs(power.mean() - h2sq) < 4 * se
+
+
+def test_norm_refuses_what_it_does_not_compute():
+    sys = scalar_iid([0.5, 0.9], [0.3, 0.7])
+    with pytest.raises(NotImplementedError, match="l2-gain"):
+        ncs.norm(sys, "inf")
+    with pytest.raises(ControlArgument, match="^p:"):
+        ncs.norm(sys, 1)
+    with pytest.raises(TypeError, match="unknown_kw"):
+        ncs.norm(sys, unknown_kw=1)
+
+
+# -- Lyapunov exponent ----------------------------------------------------------
+def test_lyapunov_exponent_of_the_scalar_example_is_exact():
+    sys = scalar_iid([2.0, 0.25], [0.5, 0.5])
+    res = ncs.lyapunov_exponent(sys)
+    assert res.exact and res.exponent == pytest.approx(0.5 * math.log(0.5),
+                                                       abs=1e-15)
+    assert res.exponent == pytest.approx(-0.34657, abs=5e-6)
+    assert not ncs.is_mss(sys) and res.ms_bound > 0
+    assert "almost surely stable; not mean-square stable" in res.summary()
+
+
+def test_lyapunov_exponent_estimate_lies_below_jensens_bound_and_repeats():
+    A = np.array([[[[1.5, 0.3], [0.0, 0.2]], [[0.1, 0.0], [0.5, 0.4]]]])
+    sys = ncs.jss(A, np.zeros((2, 1)), np.zeros((1, 2)), [[0.0]], [0.5, 0.5])
+    res = ncs.lyapunov_exponent(sys, seed=3)
+    assert res.confidence_interval[1] < res.ms_bound
+    again = ncs.lyapunov_exponent(sys, seed=3)
+    assert again.exponent == res.exponent
+    longer = ncs.lyapunov_exponent(sys, steps=40_000, trials=10, seed=11)
+    lo, hi = res.confidence_interval
+    assert lo - 0.01 < longer.exponent < hi + 0.01
+
+
+def test_lyapunov_exponent_of_a_deterministic_system_is_log_spectral_radius():
+    A = np.array([[0.5, 1.0], [0.0, 0.8]])
+    res = ncs.lyapunov_exponent(ct.ss(A, [[0.0], [1.0]], [[1.0, 0.0]],
+                                      [[0.0]], True), steps=20_000, seed=1)
+    assert res.exponent == pytest.approx(math.log(0.8), abs=2e-3)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(trials=1), "^trials:"), (dict(steps=0), "^steps:"),
+    (dict(seed=-1), "^seed:")])
+def test_lyapunov_exponent_bad_input_names_the_argument(kwargs, match):
+    sys = ncs.jss(np.eye(2)[None, None] * 0.5, np.zeros((2, 1)),
+                  np.zeros((1, 2)), [[0.0]], [1.0])
+    with pytest.raises((ValueError, ControlArgument), match=match):
+        ncs.lyapunov_exponent(sys, **kwargs)
+
+
+# -- LQ over a lossy actuator link ------------------------------------------------
+def test_modified_riccati_solution_of_the_scalar_example():
+    K, S, E = ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]], arrival=0.5)
+    assert S[0, 0] == pytest.approx(5.762615414813, rel=1e-12)
+    # the closed form of 0.28 S² - 1.44 S - 1 = 0
+    assert S[0, 0] == pytest.approx((1.44 + math.sqrt(1.44 ** 2 + 1.12))
+                                    / 0.56, rel=1e-12)
+    assert K[0, 0] == pytest.approx(1.2 * S[0, 0] / (S[0, 0] + 1), rel=1e-12)
+    assert E[0] == pytest.approx(1.2 - 0.5 * K[0, 0], rel=1e-12)
+
+
+def test_lossless_dlqr_equals_python_control():
+    rng = np.random.default_rng(2)
+    A, B = rng.standard_normal((3, 3)), rng.standard_normal((3, 2))
+    Q, R = np.eye(3), np.diag([1.0, 2.0])
+    K, S, E = ncs.dlqr(A, B, Q, R)
+    K2, S2, E2 = ct.dlqr(A, B, Q, R)
+    np.testing.assert_allclose(K, K2, rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(S, S2, rtol=1e-8, atol=1e-10)
+
+
+def test_dlqr_below_the_critical_probability_says_what_it_is():
+    with pytest.raises(ValueError, match=r"critical arrival probability "
+                       r"0\.30556"):
+        ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]], arrival=0.3)
+
+
+def test_dlqr_takes_the_actuator_link_of_a_networked_plant():
+    P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]],
+                True, nmeas=1, ncon=1, actuator_loss=0.5)
+    K, S, _ = ncs.dlqr(P, [[1.0]], [[1.0]])
+    assert S[0, 0] == pytest.approx(5.762615414813, rel=1e-12)
+    # the optimal loop is mean-square stable, and its cost is tr(B1ᵀ S B1)
+    # for unit noise: check with the H2 norm of z = [x; θu] weighted by
+    # q = r = 1
+    CL = ncs.jss([[[1.2 - K[0, 0]]], [[1.2]]], [[1.0]], [[[1.0], [-K[0, 0]]],
+                                                       [[1.0], [0.0]]],
+                 [[0.0], [0.0]], [0.5, 0.5])
+    assert ncs.norm(CL) ** 2 == pytest.approx(S[0, 0], rel=1e-9)
+
+
+def test_dlqr_refuses_what_it_does_not_solve():
+    P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]],
+                True, nmeas=1, ncon=1, sensor_loss=0.1)
+    with pytest.raises(ControlArgument, match="sensor_loss=0"):
+        ncs.dlqr(P, [[1.0]], [[1.0]])
+    with pytest.raises(ValueError, match="^R:"):
+        ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[0.0]])
+    with pytest.raises(ValueError, match="^arrival:"):
+        ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]], arrival=1.5)
