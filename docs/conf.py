@@ -25,6 +25,11 @@ sys.path.insert(0, str(ROOT))
 
 import control_ncs  # noqa: E402  (after the path above)
 
+# the kernels executing the notebooks read their configuration from here
+# (quiet startup logs, see _jupyter/ipython_kernel_config.py); a caller's
+# own JUPYTER_CONFIG_DIR is kept
+os.environ.setdefault("JUPYTER_CONFIG_DIR", str(DOCS / "_jupyter"))
+
 project = "control_ncs"
 author = "control_ncs developers"
 copyright = "control_ncs developers"
