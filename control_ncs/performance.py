@@ -1,11 +1,14 @@
-"""Performance of jump systems beyond passivity: the H2 norm and the top
-Lyapunov exponent (:ref:`theory-performance`).
+"""Performance of jump systems beyond passivity: the H2 norm, the ℓ2 gain
+and the top Lyapunov exponent (:ref:`theory-performance`).
 
 * :func:`norm` mirrors :func:`control.norm`: for a jump system the H2 norm
   is the stationary output power under unit white noise, exact, from the
   linear fixed point of :func:`control_ncs.stability_covariances`; it is
   not the mean system's H2 norm (which ``ct.norm(CL, 2)`` would compute on
   the StateSpace face).
+* :func:`l2_gain` brackets the ℓ2 gain (H∞ norm): a certified upper bound
+  from the bounded real lemma (an LMI, checked exactly) and the mean
+  system's gain below it.
 * :func:`lyapunov_exponent` estimates the almost-sure growth rate
   ``lim (1/t) log ‖ξ_t‖`` from renormalised products along sample paths,
   with a confidence interval; exact in the scalar case. It can lie far
@@ -25,13 +28,17 @@ import numpy as np
 from control.exception import ControlArgument
 
 from ._checks import choice, no_extra_kwargs, positive_int, positive_real
+from .exceptions import NOT_MSS, NOT_VERIFIED, SOLVER_FAILED, CertificationError
+from .lmi import DEFAULT_MARGIN, check_options, check_solver, gain_model, solve
 from ._results import Result
 from ._lti import is_jump
 from .jump import as_jump
 from .montecarlo import root_entropy
 from .stability import ms_radius, output_power
+from .verify import gain_certificate_check
 
-__all__ = ["norm", "lyapunov_exponent", "LyapunovResult"]
+__all__ = ["norm", "l2_gain", "GainResult", "lyapunov_exponent",
+           "LyapunovResult"]
 
 
 def norm(sys: Any, p: Any = 2, *, tol: float = 1e-10, method: str = "auto",
@@ -49,9 +56,10 @@ def norm(sys: Any, p: Any = 2, *, tol: float = 1e-10, method: str = "auto",
     ----------
     sys : JumpStateSpace, StateSpace or TransferFunction
     p : 2 or 'inf', optional
-        The norm (default 2). ``'inf'`` (or ``numpy.inf``) is delegated to
-        :func:`control.norm` for a deterministic system; for a jump system
-        it raises ``NotImplementedError``.
+        The norm (default 2). ``'inf'`` (or ``numpy.inf``): for a jump
+        system the certified upper bound on its ℓ2 gain
+        (:func:`l2_gain`, whose result also gives the lower end of the
+        bracket); for a deterministic system :func:`control.norm`.
     tol : float, optional
         Relative residual of the matrix-free solve; for a deterministic
         continuous-time system, python-control's ``tol``.
@@ -70,10 +78,11 @@ def norm(sys: Any, p: Any = 2, *, tol: float = 1e-10, method: str = "auto",
 
     Raises
     ------
-    NotImplementedError
-        ``p='inf'`` for a jump system.
     ControlArgument
         Unknown ``p`` or ``method``.
+    CertificationError
+        ``p='inf'``: no certificate passed the exact check (see
+        :func:`l2_gain`).
 
     See Also
     --------
@@ -97,10 +106,13 @@ def norm(sys: Any, p: Any = 2, *, tol: float = 1e-10, method: str = "auto",
     if isinstance(p, str) or p == np.inf:
         choice(p if isinstance(p, str) else "inf", "p", ("inf",))
         if is_jump(sys):
-            raise NotImplementedError(
-                "norm(sys, 'inf') of a jump system: the certified l2-gain "
-                "bound is not available yet; ncs.norm(sys, 2), ncs.ms_radius "
-                "and the supply-rate certificates are")
+            if not ms_radius(sys) < 1.0:
+                if print_warning:
+                    warnings.warn("norm: sys is not mean-square stable "
+                                  "(ms_radius >= 1): its l2 gain is infinite",
+                                  UserWarning, stacklevel=2)
+                return float("inf")
+            return l2_gain(sys).gamma
         return float(ct.norm(sys, "inf", print_warning=print_warning))
     if p != 2:
         raise ControlArgument(f"p: expected 2 or 'inf', got {p!r}")
@@ -112,6 +124,169 @@ def norm(sys: Any, p: Any = 2, *, tol: float = 1e-10, method: str = "auto",
         warnings.warn("norm: sys is not mean-square stable (ms_radius >= 1): "
                       "its H2 norm is infinite", UserWarning, stacklevel=2)
     return math.sqrt(max(power, 0.0))
+
+
+#: Relative back-offs above the solver's γ² tried by the exact check.
+GAIN_BACKOFFS = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
+
+
+@dataclass(repr=False)
+class GainResult(Result):
+    """A certified ℓ2-gain bracket of a jump system.
+
+    Attributes
+    ----------
+    gamma : float
+        Certified upper bound: ``E Σ zᵀz ≤ γ² E Σ wᵀw`` from rest, for every
+        input adapted to the past, proven by ``P`` (exact check).
+    lower : float
+        A lower bound: the largest gain of the mean system (the map from
+        deterministic ``w`` to ``E z``) on a frequency grid.
+    P : ndarray
+        The certificate, (N, n, n) or (N, M, n, n) (Markov modes).
+    theta_max, P_min : ndarray
+        ``λmax`` of every bounded-real matrix ``Θ`` and ``λmin`` of every
+        ``P``, as checked.
+    gamma_solver : float
+        The solver's optimum (never the certified number).
+    report : SolveReport
+
+    Examples
+    --------
+    >>> import control_ncs as ncs
+    >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.5, 0.5])
+    >>> res = ncs.l2_gain(sys)
+    >>> res.status, bool(res.lower <= res.gamma)
+    ('certified', True)
+    """
+
+    gamma: float
+    lower: float
+    P: np.ndarray
+    theta_max: np.ndarray
+    P_min: np.ndarray
+    gamma_solver: float
+    report: Any
+
+    _repr_fields: ClassVar[tuple[str, ...]] = ("gamma", "lower")
+
+    @property
+    def success(self) -> bool:
+        """True: a result exists only with a verified certificate."""
+        return True
+
+    @property
+    def status(self) -> str:
+        """``'certified'``."""
+        return "certified"
+
+    @property
+    def message(self) -> str:
+        """The bracket in words."""
+        return (f"the l2 gain lies in [{self.lower:.6g}, {self.gamma:.6g}] "
+                f"(upper end certified)")
+
+    def _details(self) -> list[str]:
+        return [f"certified gamma {self.gamma:.8g} (solver {self.gamma_solver:.8g}), "
+                f"lower bound {self.lower:.8g} from the mean system",
+                f"max λmax(Θ) = {self.theta_max.max():.3e}, "
+                f"min λmin(P) = {self.P_min.min():.3e}"]
+
+
+def _mean_gain_lower(sys: Any) -> float:
+    """``max_θ σmax(Ḡ(e^{jθ}))`` of the mean face on a grid: a lower bound on
+    the ℓ2 gain (deterministic inputs, ``‖E z‖ ≤ (E ‖z‖²)^{1/2}``)."""
+    face = sys.mean() if hasattr(sys, "mean") else sys
+    A, B, C, D = (np.asarray(X, float) for X in (face.A, face.B, face.C,
+                                                  face.D))
+    thetas = np.linspace(0.0, np.pi, 2000)
+    best = float(np.linalg.norm(D, 2)) if D.size else 0.0
+    n = A.shape[0]
+    for th in thetas:
+        G = D + C @ np.linalg.solve(np.exp(1j * th) * np.eye(n) - A, B) \
+            if n else D
+        best = max(best, float(np.linalg.norm(G, 2)))
+    return best
+
+
+def l2_gain(sys: Any, *, solver: str | None = None,
+            margin: float = DEFAULT_MARGIN, **solver_options: Any
+            ) -> GainResult:
+    """Certified bracket of the ℓ2 gain (H∞ norm) of a jump system.
+
+    The bounded real lemma (:ref:`theory-performance`): storages ``P_k``
+    (Markov modes: ``P_{k,ℓ}`` per previous mode) with
+    ``Θ_{k,ℓ}(P, γ²) ≺ 0`` prove ``E Σ zᵀz < γ² E Σ wᵀw`` from rest for
+    every input adapted to the past. The LMI minimising ``γ²`` is solved
+    by cvxpy; the returned ``gamma`` is the smallest of the solver's ``γ²``
+    raised by ``GAIN_BACKOFFS`` for which the exact check passes. The lower
+    end is the mean system's largest gain on a frequency grid. The LMI is
+    exact for a fixed jump system (mode-dependent storage), so the bracket
+    closes as far as the mean and the stochastic gains agree.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time StateSpace
+    solver : str, optional
+        Any installed cvxpy solver (default Clarabel).
+    margin : float, optional
+        Relative strictness margin of the LMI.
+    **solver_options
+        Passed to the solver.
+
+    Returns
+    -------
+    GainResult
+
+    Raises
+    ------
+    CertificationError
+        ``'not_mss'`` (no finite gain), ``'solver_failed'``, or
+        ``'not_verified'`` when no back-off passes the exact check.
+
+    Examples
+    --------
+    ``x⁺ = a x + w``, ``z = x``, ``a = 0.5`` or ``0.9`` (probabilities 0.5):
+    the gain lies between the mean system's (``1/(1 - 0.7)``) and the
+    certified bound.
+
+    >>> import control_ncs as ncs
+    >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.5, 0.5])
+    >>> res = ncs.l2_gain(sys)
+    >>> round(res.lower, 4), round(res.gamma, 4)
+    (3.3333, 3.574)
+    """
+    J = as_jump(sys)
+    name = check_solver(solver)
+    check_options(name, solver_options)
+    margin = positive_real(margin, "margin")
+    rho = ms_radius(J)
+    if not rho < 1.0:
+        raise CertificationError(
+            "l2_gain: sys is not mean-square stable (ms_radius >= 1): its "
+            "l2 gain is infinite", NOT_MSS, dict(ms_radius=rho))
+    model = gain_model(J, margin)
+    report = solve(model.problem, name, **solver_options)
+    if report.status not in ("optimal", "optimal_inaccurate") or \
+            model.gamma2.value is None:
+        raise CertificationError(
+            f"l2_gain: the solver gave no certificate (status "
+            f"{report.status!r})", SOLVER_FAILED, dict(status=report.status))
+    g2 = float(model.gamma2.value)
+    P = model.certificate()
+    if J.modes.is_iid:
+        P = P[:, 0]                                 # one storage per phase
+    scale = max(g2, 1e-12)
+    for backoff in GAIN_BACKOFFS:
+        gamma = math.sqrt(g2 + backoff * scale)
+        ok, theta_max, P_min = gain_certificate_check(J, P, gamma)
+        if ok:
+            return GainResult(gamma, min(_mean_gain_lower(J), gamma), P,
+                              theta_max, P_min, math.sqrt(g2), report)
+    raise CertificationError(
+        f"l2_gain: the solver's gamma = {math.sqrt(g2):.6g} could not be "
+        f"certified exactly with back-offs up to {GAIN_BACKOFFS[-1]:g}",
+        NOT_VERIFIED, dict(gamma_solver=math.sqrt(g2)))
 
 
 @dataclass(repr=False)

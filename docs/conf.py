@@ -13,10 +13,12 @@ by myst-nb, executed once per build (they are committed without outputs).
 
 from __future__ import annotations
 
+import atexit
 import os
 import re
 import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 DOCS = Path(__file__).resolve().parent
@@ -25,10 +27,19 @@ sys.path.insert(0, str(ROOT))
 
 import control_ncs  # noqa: E402  (after the path above)
 
-# the kernels executing the notebooks read their configuration from here
-# (quiet startup logs, see _jupyter/ipython_kernel_config.py); a caller's
-# own JUPYTER_CONFIG_DIR is kept
-os.environ.setdefault("JUPYTER_CONFIG_DIR", str(DOCS / "_jupyter"))
+# The kernels that execute the notebooks log only errors: ipykernel 7 warns
+# at every start that it runs over TCP without encryption (the build talks to
+# a kernel on the same machine through the loopback interface). The profile
+# lives in a temporary directory of this build; a caller's own IPYTHONDIR is
+# kept.
+if "IPYTHONDIR" not in os.environ:
+    _profile = Path(tempfile.mkdtemp(prefix="control_ncs_docs_ipython_"))
+    (_profile / "profile_default").mkdir()
+    (_profile / "profile_default" / "ipython_kernel_config.py").write_text(
+        "c = get_config()  # noqa: F821\nc.IPKernelApp.log_level = 'ERROR'\n",
+        encoding="utf-8")
+    os.environ["IPYTHONDIR"] = str(_profile)
+    atexit.register(shutil.rmtree, _profile, ignore_errors=True)
 
 project = "control_ncs"
 author = "control_ncs developers"

@@ -53,6 +53,7 @@ CALLS = {
     "ispassive": lambda **kw: ncs.ispassive(_loop(), **kw),
     "JumpStateSpace.ispassive": lambda **kw: _loop().ispassive(**kw),
     "norm": lambda **kw: ncs.norm(_loop(), **kw),
+    "l2_gain": lambda **kw: ncs.l2_gain(_loop(), **kw),
     "lyapunov_exponent": lambda **kw: ncs.lyapunov_exponent(
         _loop(), steps=20, trials=2, seed=1, **kw),
     "dlqr": lambda **kw: ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]],

@@ -109,10 +109,50 @@ def test_h2_agrees_with_a_long_sample_path():
     assert abs(power.mean() - h2sq) < 4 * se
 
 
+def _scalar_gain(a, b, c, d, p):
+    """MATH's scalar bounded real lemma: γ² = min over P of
+    E b² P + E d² + (E(ab) P + E(cd))² / (P (1 - E a²) - E c²)."""
+    from scipy.optimize import minimize_scalar
+    E = lambda x: float(np.dot(p, x))          # noqa: E731
+    a, b, c, d = map(np.asarray, (a, b, c, d))
+    lo = E(c * c) / (1 - E(a * a))
+    f = lambda P: (E(b * b) * P + E(d * d)     # noqa: E731
+                   + (E(a * b) * P + E(c * d)) ** 2 / (P * (1 - E(a * a))
+                                                       - E(c * c)))
+    res = minimize_scalar(f, bounds=(lo * (1 + 1e-12) + 1e-12, 1e6 * (lo + 1)),
+                          method="bounded", options=dict(xatol=1e-12))
+    return math.sqrt(res.fun)
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.lists(st.floats(-0.9, 0.9), min_size=2, max_size=2),
+       st.lists(st.floats(0.2, 1.5), min_size=2, max_size=2),
+       st.floats(0.2, 0.8), st.floats(-0.5, 0.5))
+def test_certified_l2_gain_is_the_scalar_bounded_real_lemma(a, c, q, d):
+    p = [q, 1 - q]
+    sys = ncs.jss([[[x]] for x in a], [[1.0]], [[[x]] for x in c], [[d]], p)
+    res = ncs.l2_gain(sys)
+    true = _scalar_gain(a, [1.0, 1.0], c, [d, d], p)
+    assert res.gamma >= true * (1 - 1e-9)         # certified: never below
+    assert res.gamma <= true * (1 + 1e-4)
+    assert res.lower <= true * (1 + 1e-9)
+    assert ncs.norm(sys, "inf") == res.gamma
+
+
+def test_l2_gain_certificate_passes_the_exact_check_again():
+    from control_ncs.verify import gain_certificate_check
+    A = np.array([[[[0.6, 0.3], [0.0, 0.5]], [[1.1, 0.0], [0.2, 0.3]]]])
+    sys = ncs.jss(A, [[1.0], [0.5]], [[1.0, -1.0]], [[0.2]],
+                  transition=[[0.8, 0.2], [0.4, 0.6]])
+    res = ncs.l2_gain(sys)
+    ok, theta, Pmin = gain_certificate_check(sys, res.P, res.gamma)
+    assert ok and theta.max() < 0 and Pmin.min() > 0
+    assert not gain_certificate_check(sys, res.P, 0.99 * res.lower)[0]
+    assert res.lower <= res.gamma
+
+
 def test_norm_refuses_what_it_does_not_compute():
     sys = scalar_iid([0.5, 0.9], [0.3, 0.7])
-    with pytest.raises(NotImplementedError, match="l2-gain"):
-        ncs.norm(sys, "inf")
     with pytest.raises(ControlArgument, match="^p:"):
         ncs.norm(sys, 1)
     with pytest.raises(TypeError, match="unknown_kw"):

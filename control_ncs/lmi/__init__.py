@@ -17,8 +17,8 @@ from ._core import (balancing_scale, cache_clear, cache_info, CACHE_SIZE,
                     COO_BACKEND, COO_FROM, data_scale, DEFAULT_MARGIN,
                     FALLBACK_SOLVER, fallback_solver, installed_solvers, solve,
                     SolveReport)
-from .analysis import (AnalysisModel, SupplyModel, analysis_model,
-                       supply_model)
+from .analysis import (AnalysisModel, GainModel, SupplyModel,
+                       analysis_model, gain_model, supply_model)
 from .estimator import (EstimatorModel, estimator_model,
                         markov_estimator_model)
 from .synthesis import (GAINS, SynthesisModel, gain_kinds, read_gains,
@@ -34,6 +34,7 @@ __all__ = [
     "COO_FROM",
     "DEFAULT_MARGIN",
     "EstimatorModel",
+    "GainModel",
     "FALLBACK_SOLVER",
     "GAINS",
     "SolveReport",
@@ -47,6 +48,7 @@ __all__ = [
     "check_solver",
     "data_scale",
     "estimator_model",
+    "gain_model",
     "fallback_solver",
     "gain_kinds",
     "installed_solvers",

@@ -213,3 +213,58 @@ def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
                  cp.Maximize(e) if eta is None else
                  cp.Maximize(r) if rho is None else cp.Minimize(0))
     return SupplyModel(cp.Problem(objective, cons), P, e, r, t, markov)
+
+
+# -- the bounded real lemma: theory: performance --------------------------------
+class GainModel:
+    """The LMI of the bounded real lemma for a jump system: minimise ``γ²``.
+
+    Attributes
+    ----------
+    problem : cvxpy.Problem
+    gamma2 : cvxpy.Variable
+        ``γ²``.
+    P : list of list of cvxpy.Variable
+        ``P[k][ℓ]``: the storage per phase and previous mode (one ``ℓ`` for
+        i.i.d. modes).
+    """
+
+    def __init__(self, problem: cp.Problem, gamma2: Any, P: list):
+        self.problem, self.gamma2, self.P = problem, gamma2, P
+
+    def certificate(self) -> np.ndarray:
+        """The solver's ``P`` as an (N, L, n, n) array."""
+        return np.array([[np.asarray(X.value, float) for X in row]
+                         for row in self.P])
+
+
+def gain_model(sys: JumpStateSpace, margin: float) -> GainModel:
+    """Build ``min γ²`` subject to ``Θ_{k,ℓ}(P, γ²) ≼ -ε I``, ``P ≽ ε I``
+    (:func:`control_ncs.verify.gain_blocks`; ``ε = margin`` times the
+    data's scale)."""
+    m, N = sys.modes, sys.period
+    n, nw = m.A.shape[-1], m.B.shape[-1]
+    rows = supply_rows(m)
+    L = rows.shape[1]
+    eps = margin * data_scale(m.A, m.B, m.C, m.D)
+    P = [[cp.Variable((n, n), symmetric=True) for _ in range(L)]
+         for _ in range(N)]
+    gamma2 = cp.Variable(nonneg=True)
+    cons = []
+    for k in range(N):
+        nxt = P[(k + 1) % N]
+        for ell in range(L):
+            t = rows[k, ell]
+            terms = []
+            for i in np.flatnonzero(t > 0):
+                F = np.concatenate([m.A[k, i], m.B[k, i]], axis=1)
+                H = np.concatenate([m.C[k, i], m.D[k, i]], axis=1)
+                Pn = nxt[0] if m.is_iid else nxt[i]
+                terms.append(t[i] * (F.T @ Pn @ F + H.T @ H))
+            theta = cp.sum(terms) if len(terms) > 1 else terms[0]
+            corner = cp.bmat([[P[k][ell], np.zeros((n, nw))],
+                              [np.zeros((nw, n)), gamma2 * np.eye(nw)]])
+            T = theta - corner
+            cons.append(0.5 * (T + T.T) << -eps * np.eye(n + nw))
+            cons.append(P[k][ell] >> eps * np.eye(n))
+    return GainModel(cp.Problem(cp.Minimize(gamma2), cons), gamma2, P)
