@@ -191,8 +191,11 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
     # positive_int without allow_none never returns None
     steps = positive_int(steps, "steps")
     if ax is None:
-        _, ax = plt.subplots(figsize=(min(12, 2 + 0.35 * steps),
-                                      0.6 + 0.35 * (P.nmeas + P.ncon)))
+        # constrained layout: the signal names on the left stay inside the
+        # figure with a plain savefig (no bbox_inches needed)
+        _, ax = plt.subplots(figsize=(min(12, 3 + 0.35 * steps),
+                                      1.0 + 0.35 * (P.nmeas + P.ncon)),
+                             layout="constrained")
     else:
         _check_axes(ax)
     ys = P.output_labels[-P.nmeas:]

@@ -388,7 +388,10 @@ class EnsembleResponse:
         One axes per output with ``2 + len(quantiles)`` lines: exact mean
         (solid), sample mean (dashed), quantiles (dotted). Keywords are
         passed on (e.g. ``plot_inputs=True``, ``overlay_traces=False``).
-        For a band with sample paths use :func:`ensemble_plot`.
+        For a band with sample paths use :func:`ensemble_plot`. As with
+        python-control's responses, a second call draws into the current
+        figure (to compare two responses); call ``plt.figure()`` first, or
+        pass ``ax=``, for a figure of its own.
 
         Parameters
         ----------
