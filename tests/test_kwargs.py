@@ -54,6 +54,10 @@ CALLS = {
     "JumpStateSpace.ispassive": lambda **kw: _loop().ispassive(**kw),
     "norm": lambda **kw: ncs.norm(_loop(), **kw),
     "l2_gain": lambda **kw: ncs.l2_gain(_loop(), **kw),
+    "h2syn": lambda **kw: ncs.h2syn(ncs.nss(
+        [[1.2]], [[1.0, 1.0]], [[1.0], [0.0], [1.0]],
+        [[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]], True, nmeas=1, ncon=1,
+        actuator_loss=0.5), **kw),
     "lyapunov_exponent": lambda **kw: ncs.lyapunov_exponent(
         _loop(), steps=20, trials=2, seed=1, **kw),
     "dlqr": lambda **kw: ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]],

@@ -249,3 +249,51 @@ def test_dlqr_refuses_what_it_does_not_solve():
         ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[0.0]])
     with pytest.raises(ValueError, match="^arrival:"):
         ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]], arrival=1.5)
+
+
+# -- H2 synthesis -----------------------------------------------------------------
+def _lq_plant(loss=0.5, **network):
+    """x⁺ = 1.2 x + θ u + w, z = [x; θu], y = x."""
+    return ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [0.0], [1.0]],
+                   [[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]], True, nmeas=1,
+                   ncon=1, actuator_loss=loss, **network)
+
+
+def test_h2syn_reaches_the_modified_riccati_cost():
+    K, CL, h2 = ncs.h2syn(_lq_plant())
+    S = 5.762615414813
+    assert h2 ** 2 >= S * (1 - 1e-12)        # no gain does better than S
+    assert h2 ** 2 == pytest.approx(S, rel=1e-7)
+    assert h2 == ncs.norm(CL) == K.result.h2
+    Klq = ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]], arrival=0.5)[0]
+    assert K.gains[0, 0, 0] == pytest.approx(-Klq[0, 0], rel=1e-3)
+
+
+def test_h2syn_beats_every_other_gain_on_a_periodic_plant():
+    """Two states, two inputs on a period-2 actuator schedule: the exact
+    H2 norm of the designed loop is at most that of passivesyn's gain and
+    of nearby perturbations of the designed gain."""
+    P = ncs.nss([[1.1, 0.3], [0.0, 0.9]],
+                [[1.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0]],
+                [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0], [0.0, 0.0], [1.0, 0.0],
+                 [0.0, 1.0]],
+                [[0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0],
+                 [0, 0, 0, 0], [0, 0, 0, 0]], True, nmeas=2, ncon=2,
+                actuator_schedule=[1, 2], actuator_loss=0.2)
+    K, CL, h2 = ncs.h2syn(P)
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        G = K.gains + 0.05 * rng.standard_normal(K.gains.shape)
+        other = ncs.feedback(P, G)
+        if ncs.is_mss(other):
+            assert ncs.norm(other) >= h2 * (1 - 1e-9)
+
+
+def test_h2syn_refuses_what_its_exact_program_does_not_cover():
+    with pytest.raises(ControlArgument, match="^actuator:"):
+        ncs.h2syn(_lq_plant(), actuator="hold")
+    bursty = _lq_plant(loss=ncs.gilbert_elliott(fail=0.2, recover=0.5))
+    with pytest.raises(ControlArgument, match="bursty"):
+        ncs.h2syn(bursty)
+    with pytest.raises(ControlArgument, match="^P:"):
+        ncs.h2syn(ct.ss([[1.0]], [[1.0]], [[1.0]], [[0.0]], True))

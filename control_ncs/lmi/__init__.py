@@ -21,8 +21,8 @@ from .analysis import (AnalysisModel, GainModel, SupplyModel,
                        analysis_model, gain_model, supply_model)
 from .estimator import (EstimatorModel, estimator_model,
                         markov_estimator_model)
-from .synthesis import (GAINS, SynthesisModel, gain_kinds, read_gains,
-                        synthesis_model)
+from .synthesis import (GAINS, H2Model, SynthesisModel, gain_kinds,
+                        h2_model, read_gains, synthesis_model)
 
 #: The LMI layer's interface (the package's flat namespace exports none of
 #: it: ``control_ncs.lmi.solve`` and so on).
@@ -35,6 +35,7 @@ __all__ = [
     "DEFAULT_MARGIN",
     "EstimatorModel",
     "GainModel",
+    "H2Model",
     "FALLBACK_SOLVER",
     "GAINS",
     "SolveReport",
@@ -49,6 +50,7 @@ __all__ = [
     "data_scale",
     "estimator_model",
     "gain_model",
+    "h2_model",
     "fallback_solver",
     "gain_kinds",
     "installed_solvers",

@@ -373,3 +373,67 @@ def read_gains(model: SynthesisModel, plant: JumpPlant
     gains = np.array([[per_class_K[k][c] for c in labels[k]]
                       for k in range(N)])
     return gains, P
+
+
+# -- H2: theory: performance -------------------------------------------------------
+class H2Model:
+    """Costa–do Val–Geromel's convex H2 program over one period.
+
+    Attributes
+    ----------
+    problem : cvxpy.Problem
+    Q, Y : list of cvxpy.Variable
+        Per phase: the covariance bound ``Q_k`` and ``Y_k = K_k Q_k``.
+    """
+
+    def __init__(self, problem: cp.Problem, Q: list, Y: list):
+        self.problem, self.Q, self.Y = problem, Q, Y
+
+    def gains(self) -> np.ndarray:
+        """``K_k = Y_k Q_k⁻¹`` per phase, shape (N, nu, nx)."""
+        return np.array([np.linalg.solve(np.asarray(Q.value, float).T,
+                                         np.asarray(Y.value, float).T).T
+                         for Q, Y in zip(self.Q, self.Y)])
+
+
+def h2_model(plant: JumpPlant, margin: float) -> H2Model:
+    """``min (1/N) Σ_k tr W_k`` over ``Q_k ≻ 0``, ``Y_k``, ``W_k`` with
+
+    ``Q_{k+1} ⪰ Σ_i p_ki (A_ki Q_k + Bu_ki Y_k) Q_k⁻¹ (·)ᵀ + Σ_i p_ki Bw Bwᵀ``
+    and ``W_k ⪰ Σ_i p_ki (Cz Q_k + Du Y_k) Q_k⁻¹ (·)ᵀ + Σ_i p_ki Dw Dwᵀ``
+    (Schur complements), for a plant whose controller sees the whole state
+    (``E_k = I``) and i.i.d. modes: any feasible point bounds the periodic
+    stationary covariance of the loop ``u = K_k x`` with ``K_k = Y_k
+    Q_k⁻¹``, and the loop's own covariances are feasible, so the optimum is
+    the optimal H2 cost (:ref:`theory-performance`)."""
+    N, M = plant.probabilities.shape
+    nx, nu = plant.A.shape[-1], plant.Bu.shape[-1]
+    nz = plant.Cz.shape[-2]
+    eps = margin * data_scale(plant.A, plant.Bu, plant.Bw, plant.Cz)
+    Q = [cp.Variable((nx, nx), symmetric=True) for _ in range(N)]
+    Y = [cp.Variable((nu, nx)) for _ in range(N)]
+    W = [cp.Variable((nz, nz), symmetric=True) for _ in range(N)]
+    cons = []
+    for k in range(N):
+        live = np.flatnonzero(plant.probabilities[k] > 0)
+        p = plant.probabilities[k]
+        BB = sum(p[i] * plant.Bw[k, i] @ plant.Bw[k, i].T for i in live)
+        DD = sum(p[i] * plant.Dw[k, i] @ plant.Dw[k, i].T for i in live)
+        for lhs, rows in (
+                (Q[(k + 1) % N] - BB,
+                 [np.sqrt(p[i]) * (plant.A[k, i] @ Q[k] + plant.Bu[k, i] @ Y[k])
+                  for i in live]),
+                (W[k] - DD,
+                 [np.sqrt(p[i]) * (plant.Cz[k, i] @ Q[k]
+                                   + plant.Du[k, i] @ Y[k]) for i in live])):
+            L = len(rows)
+            block = [[lhs] + rows]
+            for j in range(L):
+                row = [rows[j].T] + [Q[k] if jj == j else np.zeros((nx, nx))
+                                     for jj in range(L)]
+                block.append(row)
+            Mx = cp.bmat(block)
+            cons.append(0.5 * (Mx + Mx.T) >> 0)
+        cons.append(Q[k] >> eps * np.eye(nx))
+    objective = cp.Minimize(sum(cp.trace(Wk) for Wk in W) / N)
+    return H2Model(cp.Problem(objective, cons), Q, Y)
