@@ -539,6 +539,17 @@ def link_model(value: Any, name: str) -> float | GilbertElliott:
         raise ValueError(f"{name}: transition {T.tolist()}: {err}") from None
 
 
+def delay_model(value: Any, name: str) -> "RandomDelay | None":
+    """A link's delay model: None, a :class:`RandomDelay`, or a delay pmf
+    (``[P(δ = 0), P(δ = 1), …]``, buffer = the largest delay)."""
+    if value is None or isinstance(value, RandomDelay):
+        return value
+    try:
+        return random_delay(value)
+    except (ValueError, TypeError) as err:
+        raise type(err)(f"{name}: {err}") from None
+
+
 _TOL = 1e-9
 
 

@@ -13,7 +13,7 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, flag, matrix, no_extra_kwargs
 from .exceptions import ScheduleWarning
-from .network import (GilbertElliott, common_period, link_model,
+from .network import (GilbertElliott, common_period, delay_model, link_model,
                       mode_probabilities, mode_transition, schedule,
                       warn_silent_nodes)
 
@@ -62,6 +62,13 @@ class NetworkedStateSpace(ct.StateSpace):
     shared_channel : bool
         If True, at most one message crosses the network per step: no phase
         may schedule a sensor and an actuator together (paper §2).
+    sensor_delay, actuator_delay : RandomDelay or array_like, optional
+        Random integer delays on the link, the freshest packet winning
+        (:func:`control_ncs.random_delay`, or its pmf
+        ``[P(δ = 0), P(δ = 1), …]``; :ref:`theory-delays`). The link's loss
+        is then ``1 - Σ pmf`` (``sensor_loss``/``actuator_loss`` must be 0
+        or that value). Links on which every node sends at every step;
+        close the loop with :func:`control_ncs.feedback`.
     name, inputs, outputs, states : optional
         As for :class:`control.StateSpace`.
     **kwargs
@@ -80,6 +87,8 @@ class NetworkedStateSpace(ct.StateSpace):
         The loss models as given (a matrix becomes a GilbertElliott).
     shared_channel : bool
         Whether at most one message crosses the network per step.
+    sensor_delay, actuator_delay : RandomDelay or None
+        The delay models (None: no delay).
     period : int
         Least common multiple of the two schedules' periods.
 
@@ -102,6 +111,7 @@ class NetworkedStateSpace(ct.StateSpace):
                  sensor_schedule: Any = None,
                  actuator_schedule: Any = None, sensor_loss: float = 0.0,
                  actuator_loss: float = 0.0, shared_channel: bool = False,
+                 sensor_delay: Any = None, actuator_delay: Any = None,
                  name: str | None = None, inputs: Any = None,
                  outputs: Any = None, states: Any = None, **kwargs: Any):
         no_extra_kwargs("NetworkedStateSpace", kwargs)
@@ -155,6 +165,33 @@ class NetworkedStateSpace(ct.StateSpace):
             x.loss if isinstance(x, GilbertElliott) else x
             for x in (self.sensor_link, self.actuator_link))
         self.shared_channel = flag(shared_channel, "shared_channel")
+        self.sensor_delay = delay_model(sensor_delay, "sensor_delay")
+        self.actuator_delay = delay_model(actuator_delay, "actuator_delay")
+        for side, delay in (("sensor", self.sensor_delay),
+                            ("actuator", self.actuator_delay)):
+            if delay is None:
+                continue
+            link = getattr(self, f"{side}_link")
+            if isinstance(link, GilbertElliott) or not (
+                    link == 0.0 or abs(link - delay.loss) < 1e-12):
+                raise ValueError(
+                    f"{side}_loss: a delayed link carries its loss in its pmf "
+                    f"(1 - Σ pmf = {delay.loss:g}); give {side}_loss=0 (or "
+                    f"the same value), got {link!r}")
+            if getattr(self, f"{side}_schedule").period != 1 or not np.all(
+                    getattr(self, f"{side}_schedule").pattern):
+                raise ValueError(
+                    f"{side}_delay: delays are modelled for links on which "
+                    f"every {side} sends at every step (no {side}_schedule); "
+                    f"scheduled delayed links are not supported yet")
+            if self.shared_channel:
+                raise ValueError("shared_channel: not supported with delayed "
+                                 "links")
+            # the loss of a delayed link is the packet never arriving
+            if side == "sensor":
+                self.sensor_link = self.sensor_loss = delay.loss
+            else:
+                self.actuator_link = self.actuator_loss = delay.loss
         if self.shared_channel:
             both = (self.sensor_schedule.pattern.any(axis=1)
                     & self.actuator_schedule.pattern.any(axis=1))
@@ -310,7 +347,9 @@ class NetworkedStateSpace(ct.StateSpace):
                     actuator_schedule=self.actuator_schedule.pattern.astype(int),
                     sensor_loss=self.sensor_link,
                     actuator_loss=self.actuator_link,
-                    shared_channel=self.shared_channel, name=self.name,
+                    shared_channel=self.shared_channel,
+                    sensor_delay=self.sensor_delay,
+                    actuator_delay=self.actuator_delay, name=self.name,
                     inputs=list(self.input_labels),
                     outputs=list(self.output_labels),
                     states=list(self.state_labels))

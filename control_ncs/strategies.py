@@ -27,6 +27,7 @@ from .exceptions import ScheduleWarning
 from .gain import PeriodicGain
 from ._lifting import check_lifted_size
 from .jump import JumpStateSpace
+from .delays import delayed_loop
 from .openloop import JumpPlant
 from ._lti import lti_operand
 from .plant import NetworkedStateSpace
@@ -112,6 +113,11 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
+    if P.sensor_delay is not None or P.actuator_delay is not None:
+        raise ControlArgument(
+            "P: a plant with delayed links has no open-loop builder yet: "
+            "close its loop with feedback(P, K) and analyse the result; "
+            "synthesis over delayed links is not available")
     strategy = _strategy(controller, actuator)
     opts = _options(P, controller, sensor, controller_order, estimator_gain)
     N = positive_int(period, "period", allow_none=True) or P.period
@@ -663,6 +669,16 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
+    if P.sensor_delay is not None or P.actuator_delay is not None:
+        if isinstance(K, (ct.StateSpace, ct.TransferFunction)) or \
+                estimator_gain is not None or sensor is not None:
+            raise ControlArgument(
+                "K: over delayed links the loop is closed with a static gain "
+                "(one, or one per age) or controller='predictor'; LTI and "
+                "estimator controllers are not supported there yet")
+        return delayed_loop(
+            P, K, str(controller or getattr(K, "controller", "static")),
+            str(actuator or getattr(K, "actuator", "zero")))
     if isinstance(K, (ct.StateSpace, ct.TransferFunction)):
         return _feedback_lti(P, K, controller, actuator, sensor,
                              estimator_gain)

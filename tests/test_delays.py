@@ -5,8 +5,10 @@ against a packet-level simulation of the rule it models: every packet is
 delayed independently, the receiver keeps the newest one it holds.
 """
 
+import control as ct
 import numpy as np
 import pytest
+from control.exception import ControlArgument
 from hypothesis import given, settings, strategies as st
 
 import control_ncs as ncs
@@ -202,3 +204,110 @@ def test_continuous_plant_without_a_sampling_period_is_refused():
     with pytest.raises(ValueError, match="^dt: the plant is discrete-time"):
         ncs.nss(Gd, nmeas=1, ncon=1, dt=0.2)
     assert ncs.nss(Gd, nmeas=1, ncon=1, dt=0.1).dt == 0.1
+
+
+# -- closed loops over delayed links ---------------------------------------------
+def _scalar(a, **network):
+    return ncs.nss([[a]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0],
+                                                          [0.0, 0.0]],
+                   True, nmeas=1, ncon=1, **network)
+
+
+@pytest.mark.parametrize("pmf", [[0.5, 0.3, 0.1], [0.2, 0.2, 0.2, 0.3],
+                                 [0.9]])
+def test_predictor_turns_delays_into_losses(pmf):
+    """Scalar x⁺ = a x + u, deadbeat predictor, delays on the sensor link:
+    the second-moment radius is exactly ℓ a², whatever the delay pmf."""
+    a = 1.5
+    CL = ncs.feedback(_scalar(a, sensor_delay=pmf), [[-a]],
+                      controller="predictor")
+    loss = 1.0 - sum(pmf)
+    assert ncs.ms_radius(CL) == pytest.approx(loss * a * a, rel=1e-9,
+                                              abs=1e-12)
+
+
+@pytest.mark.parametrize("side", ["sensor", "actuator"])
+@pytest.mark.parametrize("actuator", ["zero", "hold"])
+def test_a_link_that_only_loses_is_the_bernoulli_link(side, actuator):
+    delayed = ncs.feedback(_scalar(1.1, **{f"{side}_delay": [0.8]}),
+                           [[-1.0]], actuator=actuator)
+    lossy = ncs.feedback(_scalar(1.1, **{f"{side}_loss": 0.2}), [[-1.0]],
+                         actuator=actuator)
+    assert ncs.ms_radius(delayed) == pytest.approx(ncs.ms_radius(lossy),
+                                                   rel=1e-12)
+
+
+def _packet_loop(P, K, sens, act, actuator, steps, rng):
+    """The protocol itself, from packets (independent of the jump model):
+    ages of the freshest measurement and command from packet-level
+    delays, v_t = K_a y_{t-a}, u_t = v_{t-b}; the time average of z²."""
+    A, B1, B2 = P.A, P.B1, P.B2
+    C1, C2 = P.C1, P.C2
+    n = A.shape[0]
+    a_t = packet_level_ages(sens.pmf, sens.buffer, [True], steps, rng)
+    b_t = packet_level_ages(act.pmf, act.buffer, [True], steps, rng)
+    w = rng.standard_normal((steps, B1.shape[1]))
+    xs = np.zeros((steps + 1, n))
+    vs = np.zeros((steps, B2.shape[1]))
+    us = np.zeros((steps, B2.shape[1]))
+    zz = np.zeros(steps)
+    for t in range(steps):
+        a = a_t[t]
+        vs[t] = K[min(a, len(K) - 1)] @ (C2 @ xs[t - a]) \
+            if a <= sens.buffer and t - a >= 0 else 0.0
+        b = b_t[t]
+        if b <= act.buffer and t - b >= 0:
+            us[t] = vs[t - b]
+        elif actuator == "hold" and t > 0:
+            us[t] = us[t - 1]
+        z = C1 @ xs[t]
+        zz[t] = z @ z
+        xs[t + 1] = A @ xs[t] + B1 @ w[t] + B2 @ us[t]
+    return zz
+
+
+@pytest.mark.parametrize("actuator", ["zero", "hold"])
+def test_delayed_loop_power_equals_a_packet_level_simulation(actuator):
+    """Stationary output power under unit noise: exact (the jump model's
+    stationary covariances) against the protocol run from packets."""
+    P = ncs.nss([[0.9, 0.4], [-0.3, 0.8]],
+                [[1.0, 1.0], [0.5, 0.3]],
+                [[1.0, -1.0], [1.0, 0.0], [0.0, 1.0]],
+                [[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]], True, nmeas=2, ncon=1,
+                sensor_delay=ncs.random_delay([0.6, 0.25, 0.1], buffer=2),
+                actuator_delay=ncs.random_delay([0.7, 0.2], buffer=1))
+    K = np.array([[[-0.4, -0.3]], [[-0.3, -0.2]], [[-0.2, -0.1]]])
+    CL = ncs.feedback(P, K, actuator=actuator)
+    exact = ncs.norm(CL) ** 2
+    zz = _packet_loop(P, K, P.sensor_delay, P.actuator_delay, actuator,
+                      200_000, np.random.default_rng(3))[1000:]
+    batches = zz[: zz.size // 100 * 100].reshape(100, -1).mean(axis=1)
+    se = batches.std(ddof=1) / 10
+    assert abs(zz.mean() - exact) < 4 * se
+
+
+def test_delayed_plants_refuse_what_has_no_model_yet():
+    P = _scalar(1.1, sensor_delay=[0.5, 0.4])
+    with pytest.raises(ControlArgument, match="synthesis over delayed"):
+        ncs.build(P)
+    with pytest.raises(ControlArgument, match="synthesis over delayed"):
+        ncs.passivesyn(P)
+    with pytest.raises(ControlArgument, match="LTI and estimator"):
+        ncs.feedback(P, ct.ss([], [], [], [[1.0]], True))
+    with pytest.raises(ValueError, match="^sensor_loss:"):
+        _scalar(1.1, sensor_delay=[0.5, 0.4], sensor_loss=0.3)
+    with pytest.raises(ValueError, match="^sensor_delay:.*schedule"):
+        ncs.nss([[1.1, 0], [0, 1]], [[1.0, 1.0], [1.0, 0.0]],
+                [[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+                [[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]], True, nmeas=2, ncon=1,
+                sensor_schedule=[1, 2], sensor_delay=[0.5, 0.4])
+
+
+def test_a_delayed_plant_survives_pickling_and_with_network():
+    import pickle
+    P = _scalar(1.1, sensor_delay=[0.5, 0.4], actuator_delay=[0.9])
+    Q = pickle.loads(pickle.dumps(P))
+    assert Q.equals(P) and Q.sensor_delay == P.sensor_delay
+    assert Q.sensor_loss == pytest.approx(0.1)
+    R = P.with_network(actuator_delay=None)
+    assert R.actuator_delay is None and R.sensor_delay == P.sensor_delay

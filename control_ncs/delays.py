@@ -1,0 +1,186 @@
+"""Closed loops over links with random delays (:ref:`theory-delays`).
+
+A delayed link keeps the freshest packet; the age of what it holds is a
+Markov chain (:func:`control_ncs.modes.age_chain`). The loop is a Markov jump
+system on a state that remembers what the buffers may still deliver::
+
+    X_k = [x_k; x_{k-1}; …; x_{k-Ds};  v_{k-1}; …; v_{k-Da};  u_{k-1}; …]
+
+(``Ds``, ``Da``: the sensor and actuator buffers; ``v`` the controller's
+commands; the applied inputs ``u`` kept as far as the predictor or a hold
+actuator needs them), with the mode ``(a_k, b_k)`` of the two ages,
+independent chains (``T = T_a ⊗ T_b``). In mode ``(a, b)``:
+
+* the controller uses the freshest measurement, of age ``a``: the static
+  gain sends ``v_k = K_a y_{k-a}`` (one gain, or one per age read from the
+  time stamp); the predictor sends ``v_k = K x̂_k`` with
+  ``x̂_k = A^a x_{k-a} + Σ_{i=1}^{a} A^{i-1} B2 u_{k-i}`` (it knows the applied
+  inputs from acknowledgements); nothing when the measurement is stale;
+* the actuator applies the freshest command, ``u_k = v_{k-b}``; zero, or the
+  last applied input (``'hold'``), when the command is stale.
+
+Every analysis of the package applies to the result: it is a
+:class:`~control_ncs.jump.JumpStateSpace` with Markov modes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from control.exception import ControlArgument, ControlDimension
+
+from ._checks import real_array
+from .jump import JumpStateSpace
+from .modes import age_chain
+from .network import RandomDelay
+from .plant import NetworkedStateSpace
+
+__all__: list[str] = []
+
+CONTROLLERS = ("static", "predictor")
+ACTUATORS = ("zero", "hold")
+
+
+def _chain(delay: RandomDelay | None) -> tuple[int, np.ndarray]:
+    """``(buffer, T)`` of a link; no delay: one age, ``a ≡ 0``."""
+    if delay is None:
+        return 0, np.ones((1, 1))
+    return delay.buffer, age_chain(delay.pmf, delay.buffer)[0]
+
+
+def _gains(K: Any, count: int, shape: tuple[int, int]) -> np.ndarray:
+    """One gain per age (``count`` of them): ``K`` of shape ``shape`` for
+    every age, or a stack ``(count,) + shape``."""
+    if hasattr(K, "gains"):           # a PeriodicGain of one phase
+        K = K.gains
+    G = real_array(K, "K", ndim=(2, 3))
+    if G.ndim == 2:
+        G = np.repeat(G[None], count, axis=0)
+    if G.shape == (1,) + shape:
+        G = np.repeat(G, count, axis=0)
+    if G.shape != (count,) + shape:
+        raise ControlDimension(
+            f"K: expected a gain of shape {shape}, or one per age of the "
+            f"sensor link ({count}, {shape[0]}, {shape[1]}), got {G.shape}")
+    return G
+
+
+def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
+                 actuator: str) -> JumpStateSpace:
+    """The closed loop of ``P`` over its delayed links (module docstring).
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+        With ``sensor_delay`` and/or ``actuator_delay``.
+    K : array_like
+        The gain ``(ncon, nmeas)`` (predictor: ``(ncon, n)``), or one per
+        sensor age, ``(Ds + 1, …)``.
+    controller : {'static', 'predictor'}
+    actuator : {'zero', 'hold'}
+
+    Returns
+    -------
+    JumpStateSpace
+        Markov modes ``(a, b)``, ``a`` the sensor age (``0..Ds``, then
+        stale), ``b`` the actuator age; ``info`` names them.
+    """
+    if controller not in CONTROLLERS:
+        raise ControlArgument(f"controller: over delayed links expected one "
+                              f"of {CONTROLLERS}, got {controller!r}")
+    if actuator not in ACTUATORS:
+        raise ControlArgument(f"actuator: over delayed links expected one "
+                              f"of {ACTUATORS}, got {actuator!r}")
+    n, m1, m2 = P.nstates, P.B1.shape[1], P.B2.shape[1]
+    p1, p2 = P.C1.shape[0], P.C2.shape[0]
+    if controller == "predictor" and not (
+            P.C2.shape == (n, n) and np.array_equal(P.C2, np.eye(n))):
+        raise ControlArgument(
+            f"controller='predictor' needs the full state measured: y = x "
+            f"(C2 = I), got C2 of shape {P.C2.shape}")
+    Ds, Ts = _chain(P.sensor_delay)
+    Da, Ta = _chain(P.actuator_delay)
+    sensor_ages = Ds + 2 if P.sensor_delay is not None else 1
+    actuator_ages = Da + 2 if P.actuator_delay is not None else 1
+    width = n if controller == "predictor" else p2
+    G = _gains(K, Ds + 1, (m2, width))
+    # how many applied inputs are kept: the predictor's window and the hold
+    Lu = max(Ds if controller == "predictor" else 0,
+             1 if actuator == "hold" else 0)
+    # blocks of X: x (Ds + 1 copies), v (Da), u (Lu)
+    nX = n * (Ds + 1) + m2 * Da + m2 * Lu
+    ox, ov, ou = 0, n * (Ds + 1), n * (Ds + 1) + m2 * Da
+
+    def xb(j: int) -> slice:        # x_{k-j}
+        return slice(ox + n * j, ox + n * (j + 1))
+
+    def vb(j: int) -> slice:        # v_{k-j}, j >= 1
+        return slice(ov + m2 * (j - 1), ov + m2 * j)
+
+    def ub(j: int) -> slice:        # u_{k-j}, j >= 1
+        return slice(ou + m2 * (j - 1), ou + m2 * j)
+
+    A, B1, B2 = (np.asarray(M, float) for M in (P.A, P.B1, P.B2))
+    C1, D11, D12 = (np.asarray(M, float) for M in (P.C1, P.D11, P.D12))
+    C2 = np.asarray(P.C2, float)
+    powers = [np.linalg.matrix_power(A, i) for i in range(Ds + 1)]
+    modes_A, modes_B, modes_C, modes_D, names = [], [], [], [], []
+    for a in range(sensor_ages):
+        # the command v_k as a row block acting on X
+        V = np.zeros((m2, nX))
+        if a <= Ds:
+            if controller == "static":
+                V[:, xb(a)] = G[a] @ C2
+            else:
+                xhat = np.zeros((n, nX))
+                xhat[:, xb(a)] = powers[a]
+                for i in range(1, a + 1):
+                    xhat[:, ub(i)] += powers[i - 1] @ B2
+                V = G[a] @ xhat
+        for b in range(actuator_ages):
+            U = np.zeros((m2, nX))          # the applied input u_k
+            if b == 0:
+                U = V.copy()
+            elif b <= Da:
+                U[:, vb(b)] = np.eye(m2)
+            elif actuator == "hold":
+                U[:, ub(1)] = np.eye(m2)
+            Am = np.zeros((nX, nX))
+            Bm = np.zeros((nX, m1))
+            Am[xb(0), xb(0)] = A
+            Am[xb(0)] += B2 @ U
+            Bm[xb(0)] = B1
+            for j in range(1, Ds + 1):       # shift the measurements
+                Am[xb(j), xb(j - 1)] = np.eye(n)
+            if Da:
+                Am[vb(1)] = V                # v_k joins the command buffer
+                for j in range(2, Da + 1):
+                    Am[vb(j), vb(j - 1)] = np.eye(m2)
+            if Lu:
+                Am[ub(1)] = U                # u_k joins the input history
+                for j in range(2, Lu + 1):
+                    Am[ub(j), ub(j - 1)] = np.eye(m2)
+            Cm = np.zeros((p1, nX))
+            Cm[:, xb(0)] = C1
+            Cm += D12 @ U
+            modes_A.append(Am)
+            modes_B.append(Bm)
+            modes_C.append(Cm)
+            modes_D.append(D11)
+            names.append((a, b))
+    T = np.kron(Ts, Ta)              # (a, b) → (a⁺, b⁺), a-major
+    states = ([f"{s}[k-{j}]" if j else s for j in range(Ds + 1)
+               for s in P.state_labels]
+              + [f"v{i}[k-{j}]" for j in range(1, Da + 1) for i in range(m2)]
+              + [f"u{i}[k-{j}]" for j in range(1, Lu + 1) for i in range(m2)])
+    return JumpStateSpace(
+        np.array([modes_A]), np.array([modes_B]), np.array([modes_C]),
+        np.array([modes_D]), None, P.dt, transition=T[None],
+        inputs=P.disturbance_labels, outputs=P.performance_labels,
+        states=states,
+        name=None if P.name is None else f"{P.name} (closed loop)",
+        info=dict(controller=controller, actuator=actuator, plant=P.name,
+                  gains=G, delay_modes=names,
+                  sensor_delay=P.sensor_delay,
+                  actuator_delay=P.actuator_delay))
