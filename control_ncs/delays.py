@@ -73,7 +73,7 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
     Parameters
     ----------
     P : NetworkedStateSpace
-        With ``sensor_delay`` and/or ``actuator_delay``.
+        With ``sensor_delay``, ``actuator_delay`` and/or ``input_delay``.
     K : array_like
         The gain ``(ncon, nmeas)`` (predictor: ``(ncon, n)``), or one per
         sensor age, ``(Ds + 1, …)``.
@@ -84,7 +84,8 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
     -------
     JumpStateSpace
         Markov modes ``(a, b)``, ``a`` the sensor age (``0..Ds``, then
-        stale), ``b`` the actuator age; ``info`` names them.
+        stale), ``b`` the actuator age, and ``τ`` the input delay when the
+        plant has one (``(a, b, τ)``); ``info['delay_modes']`` names them.
     """
     if controller not in CONTROLLERS:
         raise ControlArgument(f"controller: over delayed links expected one "
@@ -106,8 +107,14 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
     width = n if controller == "predictor" else p2
     G = _gains(K, Ds + 1, (m2, width))
     # how many applied inputs are kept: the predictor's window and the hold
+    delay = P.input_delay
     Lu = max(Ds if controller == "predictor" else 0,
-             1 if actuator == "hold" else 0)
+             1 if actuator == "hold" or delay is not None else 0)
+    if delay is not None and np.any(np.asarray(P.D12) != 0):
+        raise ControlArgument(
+            "P: with sub-sample input delays z must not depend on u "
+            "(D12 = 0): the input of step k is applied after the sample")
+    taus = 1 if delay is None else delay.taus.size
     # blocks of X: x (Ds + 1 copies), v (Da), u (Lu)
     nX = n * (Ds + 1) + m2 * Da + m2 * Lu
     ox, ov, ou = 0, n * (Ds + 1), n * (Ds + 1) + m2 * Da
@@ -146,30 +153,39 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
                 U[:, vb(b)] = np.eye(m2)
             elif actuator == "hold":
                 U[:, ub(1)] = np.eye(m2)
-            Am = np.zeros((nX, nX))
-            Bm = np.zeros((nX, m1))
-            Am[xb(0), xb(0)] = A
-            Am[xb(0)] += B2 @ U
-            Bm[xb(0)] = B1
-            for j in range(1, Ds + 1):       # shift the measurements
-                Am[xb(j), xb(j - 1)] = np.eye(n)
-            if Da:
-                Am[vb(1)] = V                # v_k joins the command buffer
-                for j in range(2, Da + 1):
-                    Am[vb(j), vb(j - 1)] = np.eye(m2)
-            if Lu:
-                Am[ub(1)] = U                # u_k joins the input history
-                for j in range(2, Lu + 1):
-                    Am[ub(j), ub(j - 1)] = np.eye(m2)
-            Cm = np.zeros((p1, nX))
-            Cm[:, xb(0)] = C1
-            Cm += D12 @ U
-            modes_A.append(Am)
-            modes_B.append(Bm)
-            modes_C.append(Cm)
-            modes_D.append(D11)
-            names.append((a, b))
+            for c in range(taus):
+                Am = np.zeros((nX, nX))
+                Bm = np.zeros((nX, m1))
+                Am[xb(0), xb(0)] = A
+                if delay is None:
+                    Am[xb(0)] += B2 @ U
+                else:
+                    # the previous input acts first, then u_k (after τ)
+                    Am[xb(0)] += delay.gamma0[c] @ U
+                    Am[xb(0), ub(1)] += delay.gamma1[c]
+                Bm[xb(0)] = B1
+                for j in range(1, Ds + 1):       # shift the measurements
+                    Am[xb(j), xb(j - 1)] = np.eye(n)
+                if Da:
+                    Am[vb(1)] = V                # v_k joins the commands
+                    for j in range(2, Da + 1):
+                        Am[vb(j), vb(j - 1)] = np.eye(m2)
+                if Lu:
+                    Am[ub(1)] = U                # u_k joins the history
+                    for j in range(2, Lu + 1):
+                        Am[ub(j), ub(j - 1)] = np.eye(m2)
+                Cm = np.zeros((p1, nX))
+                Cm[:, xb(0)] = C1
+                Cm += D12 @ U
+                modes_A.append(Am)
+                modes_B.append(Bm)
+                modes_C.append(Cm)
+                modes_D.append(D11)
+                names.append((a, b) if delay is None
+                             else (a, b, float(delay.taus[c])))
     T = np.kron(Ts, Ta)              # (a, b) → (a⁺, b⁺), a-major
+    if delay is not None:            # τ i.i.d., innermost
+        T = np.kron(T, np.tile(delay.probabilities, (taus, 1)))
     states = ([f"{s}[k-{j}]" if j else s for j in range(Ds + 1)
                for s in P.state_labels]
               + [f"v{i}[k-{j}]" for j in range(1, Da + 1) for i in range(m2)]
@@ -183,4 +199,5 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
         info=dict(controller=controller, actuator=actuator, plant=P.name,
                   gains=G, delay_modes=names,
                   sensor_delay=P.sensor_delay,
-                  actuator_delay=P.actuator_delay))
+                  actuator_delay=P.actuator_delay,
+                  input_delay=None if delay is None else delay.taus))

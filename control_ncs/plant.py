@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -11,13 +12,53 @@ import scipy.linalg
 import control as ct
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import discrete_dt, flag, matrix, no_extra_kwargs
+from ._checks import discrete_dt, flag, matrix, no_extra_kwargs, real_array
 from .exceptions import ScheduleWarning
 from .network import (GilbertElliott, common_period, delay_model, link_model,
                       mode_probabilities, mode_transition, schedule,
                       warn_silent_nodes)
 
-__all__ = ["NetworkedStateSpace", "nss"]
+__all__ = ["NetworkedStateSpace", "nss", "InputDelay"]
+
+
+@dataclass(frozen=True, eq=False)
+class InputDelay:
+    """Sub-sample input delays of a sampled continuous plant.
+
+    The input computed at sample ``k`` is applied ``τ`` after it, ``τ``
+    drawn i.i.d. from ``taus`` with ``probabilities``; then
+    ``x[k+1] = Φ x[k] + B1 w[k] + Γ0(τ) u[k] + Γ1(τ) u[k-1]``
+    (:ref:`theory-delays`; :func:`input_delay_sampling`). Made by
+    :func:`nss` with ``input_delay=(taus, probabilities)``.
+
+    Attributes
+    ----------
+    taus, probabilities : ndarray, shape (M,)
+    gamma0, gamma1 : ndarray, shape (M, n, ncon)
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> import control_ncs as ncs
+    >>> G = ct.ss([[-1.0]], [[0.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0],
+    ...           [0.0, 0.0]])
+    >>> P = ncs.nss(G, nmeas=1, ncon=1, dt=0.5,
+    ...             input_delay=([0.0, 0.25], [0.5, 0.5]))
+    >>> P.input_delay.gamma1[:, 0, 0].round(4).tolist()
+    [0.0, 0.1723]
+    """
+
+    taus: np.ndarray
+    probabilities: np.ndarray
+    gamma0: np.ndarray
+    gamma1: np.ndarray
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, InputDelay) and all(
+            np.array_equal(getattr(self, f), getattr(other, f))
+            for f in ("taus", "probabilities", "gamma0", "gamma1"))
+
+    __hash__ = None  # type: ignore[assignment]
 
 
 class NetworkedStateSpace(ct.StateSpace):
@@ -69,6 +110,10 @@ class NetworkedStateSpace(ct.StateSpace):
         is then ``1 - Σ pmf`` (``sensor_loss``/``actuator_loss`` must be 0
         or that value). Links on which every node sends at every step;
         close the loop with :func:`control_ncs.feedback`.
+    input_delay : InputDelay, optional
+        Sub-sample delays of the control input; give
+        ``input_delay=(taus, probabilities)`` to :func:`nss` with a
+        continuous-time plant, which computes this object.
     name, inputs, outputs, states : optional
         As for :class:`control.StateSpace`.
     **kwargs
@@ -89,6 +134,8 @@ class NetworkedStateSpace(ct.StateSpace):
         Whether at most one message crosses the network per step.
     sensor_delay, actuator_delay : RandomDelay or None
         The delay models (None: no delay).
+    input_delay : InputDelay or None
+        Sub-sample delays of the control input (made by :func:`nss`).
     period : int
         Least common multiple of the two schedules' periods.
 
@@ -112,6 +159,7 @@ class NetworkedStateSpace(ct.StateSpace):
                  actuator_schedule: Any = None, sensor_loss: float = 0.0,
                  actuator_loss: float = 0.0, shared_channel: bool = False,
                  sensor_delay: Any = None, actuator_delay: Any = None,
+                 input_delay: InputDelay | None = None,
                  name: str | None = None, inputs: Any = None,
                  outputs: Any = None, states: Any = None, **kwargs: Any):
         no_extra_kwargs("NetworkedStateSpace", kwargs)
@@ -165,6 +213,19 @@ class NetworkedStateSpace(ct.StateSpace):
             x.loss if isinstance(x, GilbertElliott) else x
             for x in (self.sensor_link, self.actuator_link))
         self.shared_channel = flag(shared_channel, "shared_channel")
+        if input_delay is not None and not isinstance(input_delay,
+                                                      InputDelay):
+            raise ControlArgument(
+                "input_delay: give (taus, probabilities) to nss() with a "
+                "continuous-time plant and dt=h; it computes the sampled "
+                "model")
+        if input_delay is not None and (
+                input_delay.gamma0.shape[1:] != (n, self.ncon)):
+            raise ControlDimension(
+                f"input_delay: its matrices are for {input_delay.gamma0.shape[1]} "
+                f"states and {input_delay.gamma0.shape[2]} controls, the plant "
+                f"has {n} and {self.ncon}")
+        self.input_delay = input_delay
         self.sensor_delay = delay_model(sensor_delay, "sensor_delay")
         self.actuator_delay = delay_model(actuator_delay, "actuator_delay")
         for side, delay in (("sensor", self.sensor_delay),
@@ -349,7 +410,8 @@ class NetworkedStateSpace(ct.StateSpace):
                     actuator_loss=self.actuator_link,
                     shared_channel=self.shared_channel,
                     sensor_delay=self.sensor_delay,
-                    actuator_delay=self.actuator_delay, name=self.name,
+                    actuator_delay=self.actuator_delay,
+                    input_delay=self.input_delay, name=self.name,
                     inputs=list(self.input_labels),
                     outputs=list(self.output_labels),
                     states=list(self.state_labels))
@@ -454,8 +516,11 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         ``actuator_schedule``, ``sensor_loss``, ``actuator_loss`` and
         ``shared_channel``; and ``name``, ``inputs``, ``outputs``,
         ``states``. With a continuous-time ``sys``, ``dt=h`` samples it
-        with a zero-order hold (:func:`control.sample_system`). Anything
-        else raises ``TypeError``.
+        with a zero-order hold (:func:`control.sample_system`), and
+        ``input_delay=(taus, probabilities)`` adds sub-sample delays of the
+        control input: applied ``τ`` after the sample, ``τ`` i.i.d. from
+        ``taus`` in ``[0, h)`` (:class:`InputDelay`,
+        :ref:`theory-delays`). Anything else raises ``TypeError``.
 
     Returns
     -------
@@ -500,7 +565,13 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
             else:
                 raise ControlArgument(f"sys: expected a control.StateSpace, got "
                                       f"{type(sys).__name__}")
+        delays = kwargs.pop("input_delay", None)
+        continuous = sys.isctime(strict=True)
+        cont = sys
         sys = _sampled(sys, kwargs.pop("dt", None))
+        if delays is not None:
+            kwargs["input_delay"] = _input_delay(cont, continuous, sys.dt,
+                                                 delays, kwargs.get("ncon"))
         kwargs.setdefault("inputs", list(sys.input_labels))
         kwargs.setdefault("outputs", list(sys.output_labels))
         kwargs.setdefault("states", list(sys.state_labels))
@@ -510,6 +581,36 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         return NetworkedStateSpace(*args, **kwargs)
     raise ControlArgument(f"nss: expected (sys) or (A, B, C, D[, dt]), got "
                           f"{len(args)} positional arguments")
+
+
+def _input_delay(sys: ct.StateSpace, continuous: bool, h: Any, value: Any,
+                 ncon: Any) -> InputDelay:
+    """``input_delay=(taus, probabilities)`` of ``nss`` as an InputDelay."""
+    if not continuous:
+        raise ValueError("input_delay: sub-sample delays need the "
+                         "continuous-time plant and dt=h (nss samples it)")
+    if not isinstance(value, (tuple, list)) or len(value) != 2:
+        raise ValueError(f"input_delay: expected (taus, probabilities), got "
+                         f"{value!r}")
+    taus = real_array(value[0], "input_delay taus", ndim=(0, 1)).ravel()
+    probs = real_array(value[1], "input_delay probabilities",
+                       ndim=(0, 1)).ravel()
+    if taus.size != probs.size or taus.size == 0:
+        raise ControlDimension(f"input_delay: {taus.size} delays and "
+                               f"{probs.size} probabilities")
+    if np.any(probs < 0) or abs(probs.sum() - 1.0) > 1e-9:
+        raise ValueError(f"input_delay: the probabilities must be >= 0 and "
+                         f"sum to 1, got {probs.tolist()}")
+    if not isinstance(ncon, (int, np.integer)) or isinstance(ncon, bool) \
+            or not 0 < ncon <= sys.ninputs:
+        raise ControlArgument("ncon: input_delay needs the number of "
+                              "controls ncon")
+    B2 = np.asarray(sys.B, float)[:, sys.ninputs - ncon:]
+    try:
+        _, G0, G1 = input_delay_sampling(sys.A, B2, float(h), taus)
+    except ValueError as err:
+        raise ValueError(f"input_delay: {err}") from None
+    return InputDelay(taus, probs, G0, G1)
 
 
 def _sampled(sys: ct.StateSpace, dt: Any) -> ct.StateSpace:

@@ -113,7 +113,8 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
-    if P.sensor_delay is not None or P.actuator_delay is not None:
+    if P.sensor_delay is not None or P.actuator_delay is not None or \
+            P.input_delay is not None:
         raise ControlArgument(
             "P: a plant with delayed links has no open-loop builder yet: "
             "close its loop with feedback(P, K) and analyse the result; "
@@ -669,7 +670,8 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
-    if P.sensor_delay is not None or P.actuator_delay is not None:
+    if P.sensor_delay is not None or P.actuator_delay is not None or \
+            P.input_delay is not None:
         if isinstance(K, (ct.StateSpace, ct.TransferFunction)) or \
                 estimator_gain is not None or sensor is not None:
             raise ControlArgument(

@@ -311,3 +311,35 @@ def test_a_delayed_plant_survives_pickling_and_with_network():
     assert Q.sensor_loss == pytest.approx(0.1)
     R = P.with_network(actuator_delay=None)
     assert R.actuator_delay is None and R.sensor_delay == P.sensor_delay
+
+
+def _kushner_tobias_plant(jitter_steps):
+    """The generalized plant of P(s) = 6/((s+1)(s+2)) (w enters nowhere,
+    z = y), sampled at h = 1.42 with τ uniform on {0, δ, …, jδ}."""
+    G = ct.ss(ct.tf([6.0], [1.0, 3.0, 2.0]))
+    plant = ct.ss(G.A, np.hstack([np.zeros_like(G.B), G.B]),
+                  np.vstack([G.C, G.C]), np.zeros((2, 2)))
+    taus = np.arange(jitter_steps + 1) * 1.42 / 50
+    return ncs.nss(plant, nmeas=1, ncon=1, dt=1.42,
+                   input_delay=(taus, np.full(taus.size, 1 / taus.size)))
+
+
+@pytest.mark.parametrize("jitter, radius", [
+    (0, 0.978055), (23, 0.981160), (24, 1.006315)])
+def test_kushner_tobias_loop_built_as_users_do(jitter, radius):
+    CL = ncs.feedback(_kushner_tobias_plant(jitter), [[-1.0]])
+    assert ncs.ms_radius(CL) == pytest.approx(radius, abs=5e-7)
+    assert ncs.ms_radius(CL) == pytest.approx(kushner_tobias_radius(jitter),
+                                              rel=1e-12)
+
+
+def test_input_delay_needs_a_continuous_plant_and_a_probability_law():
+    G = ct.ss([[-1.0]], [[0.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0],
+                                                       [0.0, 0.0]])
+    with pytest.raises(ValueError, match="^input_delay:.*continuous"):
+        ncs.nss(G.sample(0.5), nmeas=1, ncon=1, input_delay=([0.0], [1.0]))
+    with pytest.raises(ValueError, match="^input_delay:.*sum to 1"):
+        ncs.nss(G, nmeas=1, ncon=1, dt=0.5, input_delay=([0.0, 0.1],
+                                                         [0.5, 0.4]))
+    with pytest.raises(ValueError, match="^input_delay:.*\\[0, h\\)"):
+        ncs.nss(G, nmeas=1, ncon=1, dt=0.5, input_delay=([0.6], [1.0]))
