@@ -34,6 +34,7 @@ SECTIONS = [
     ("bench_estimator", "estimator_section"),
     ("bench_refine", "refine_section"),
     ("bench_performance", "performance_section"),
+    ("bench_delays", "delays_section"),
 ]
 
 
