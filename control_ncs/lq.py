@@ -34,15 +34,18 @@ __all__ = ["dlqr"]
 MAX_ITERATIONS = 100_000
 CONVERGED = 1e-14
 DIVERGED = 1e12
+#: Value-iteration steps per trial of the critical probability's bisection.
+BISECTION_ITERATIONS = 5000
 
 
 def _iterate(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
-             nu: float) -> np.ndarray | None:
+             nu: float, iterations: int = MAX_ITERATIONS,
+             converged: float = CONVERGED) -> np.ndarray | None:
     """The stabilising solution by value iteration from ``S = Q``, or None
-    if the iteration diverges."""
+    if the iteration diverges (or has not converged in ``iterations``)."""
     S = Q.copy()
     scale = max(1.0, float(np.linalg.norm(Q)), float(np.linalg.norm(R)))
-    for _ in range(MAX_ITERATIONS):
+    for _ in range(iterations):
         BS = B.T @ S
         G = np.linalg.solve(BS @ B + R, BS @ A)
         new = A.T @ S @ A + Q - nu * (A.T @ S @ B) @ G
@@ -50,7 +53,7 @@ def _iterate(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
         if not np.all(np.isfinite(new)) or np.linalg.norm(new) > \
                 DIVERGED * scale:
             return None
-        if np.linalg.norm(new - S) <= CONVERGED * max(
+        if np.linalg.norm(new - S) <= converged * max(
                 1.0, float(np.linalg.norm(new))):
             return new
         S = new
@@ -61,17 +64,18 @@ def _critical(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray
               ) -> tuple[float, bool]:
     """The arrival probability below which no solution exists, and whether
     it is exact: ``1 - 1/ρ(A)²`` when ``B`` is square and invertible
-    (Schenato et al. 2007), else by bisection on convergence (about 1e-4:
-    the iteration slows down near it)."""
+    (Schenato et al. 2007), else by bisection on convergence to 1e-4
+    (the iteration slows down near the critical value; each trial is cut
+    at ``BISECTION_ITERATIONS``, so the value is approximate)."""
     if B.shape[0] == B.shape[1] and np.linalg.cond(B) < 1e12:
         radius = float(np.abs(np.linalg.eigvals(A)).max())
         return (max(0.0, 1.0 - 1.0 / radius ** 2) if radius > 0 else 0.0,
                 True)
     lo, hi = 0.0, 1.0
-    while hi - lo > 1e-7:
+    while hi - lo > 1e-4:
         mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if _iterate(A, B, Q, R, mid) is not None \
-            else (mid, hi)
+        found = _iterate(A, B, Q, R, mid, BISECTION_ITERATIONS, 1e-8)
+        lo, hi = (lo, mid) if found is not None else (mid, hi)
     return hi, False
 
 

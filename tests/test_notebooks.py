@@ -21,6 +21,8 @@ EXPECTED = [
     "06_choosing_a_schedule.ipynb",
     "07_output_feedback.ipynb",
     "08_bursts_matter.ipynb",
+    "09_delays_or_losses.ipynb",
+    "10_performance_beyond_passivity.ipynb",
 ]
 
 

@@ -297,3 +297,16 @@ def test_h2syn_refuses_what_its_exact_program_does_not_cover():
         ncs.h2syn(bursty)
     with pytest.raises(ControlArgument, match="^P:"):
         ncs.h2syn(ct.ss([[1.0]], [[1.0]], [[1.0]], [[0.0]], True))
+
+
+def test_dlqr_states_an_approximate_critical_probability_that_brackets():
+    """One input, two states: no closed form is used; the bisection's value
+    must separate arrivals that work from arrivals that do not."""
+    A = np.array([[1.1, 0.2], [0.0, 0.9]])
+    B = np.array([[0.0], [1.0]])
+    with pytest.raises(ValueError, match="about") as info:
+        ncs.dlqr(A, B, np.eye(2), np.eye(1), arrival=0.1)
+    critical = float(str(info.value).split("about ")[1].split()[0])
+    ncs.dlqr(A, B, np.eye(2), np.eye(1), arrival=critical + 0.01)
+    with pytest.raises(ValueError):
+        ncs.dlqr(A, B, np.eye(2), np.eye(1), arrival=critical - 0.01)
