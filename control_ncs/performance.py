@@ -35,10 +35,11 @@ from ._lti import is_jump
 from .jump import as_jump
 from .montecarlo import root_entropy
 from .stability import ms_radius, output_power
+from .strategies import feedback
 from .verify import gain_certificate_check
 
 __all__ = ["norm", "l2_gain", "GainResult", "lyapunov_exponent",
-           "LyapunovResult"]
+           "LyapunovResult", "critical_loss"]
 
 
 def norm(sys: Any, p: Any = 2, *, tol: float = 1e-10, method: str = "auto",
@@ -441,3 +442,78 @@ def lyapunov_exponent(sys: Any, *, steps: int = 5000, trials: int = 20,
         np.isfinite(per)) else 0.0
     return LyapunovResult(lam, (lam - 1.96 * se, lam + 1.96 * se), se, bound,
                           False, periods * N, trials)
+
+
+def critical_loss(P: Any, K: Any, *, link: str = "actuator",
+                  tol: float = 1e-6, **kwargs: Any) -> float:
+    """The loss probability at which a gain stops stabilising the loop.
+
+    The loop ``feedback(P, K)`` with the loss of one Bernoulli ``link``
+    varied: the loss ``α*`` at which ``ms_radius`` reaches 1, found by
+    bisection on ``[0, 1)`` and checked at both ends of the final bracket
+    (the loop is mean-square stable at the returned ``α*`` minus ``tol``
+    and not at ``α*``). For the loss beyond which *no* gain stabilises a
+    state-feedback loop over its actuator link, see the critical arrival
+    probability :func:`control_ncs.dlqr` states.
+
+    Parameters
+    ----------
+    P : NetworkedStateSpace
+        The plant; its other network settings are kept.
+    K : array_like or PeriodicGain
+        The gain, as for :func:`control_ncs.feedback`.
+    link : {'actuator', 'sensor'}, optional
+        Which link's loss varies.
+    tol : float, optional
+        Width of the final bracket.
+    **kwargs
+        Passed to :func:`control_ncs.feedback` (``controller``,
+        ``actuator``).
+
+    Returns
+    -------
+    float
+        ``α*`` in ``(0, 1]``; 1.0 if the loop is mean-square stable for every
+        loss below 1; 0.0 if it is not even without loss.
+
+    Raises
+    ------
+    ValueError
+        If the loop is stable at some loss above one at which it is not
+        (``ms_radius`` is not monotone in the loss here: no single critical
+        value exists), naming both.
+
+    Examples
+    --------
+    ``x⁺ = 2x + θu``, ``u = -2x``: ``E x² = 4α x²`` per step, so the gain
+    stops stabilising at ``α = 1/4``.
+
+    >>> import control_ncs as ncs
+    >>> P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]],
+    ...             [[0.0, 0.0], [0.0, 0.0]], True, nmeas=1, ncon=1)
+    >>> round(ncs.critical_loss(P, [[-2.0]]), 5)
+    0.25
+    """
+    choice(link, "link", ("actuator", "sensor"))
+    tol = positive_real(tol, "tol")
+
+    def stable(alpha: float) -> bool:
+        Pa = P.with_network(**{f"{link}_loss": alpha})
+        return ms_radius(feedback(Pa, K, **kwargs)) < 1.0
+
+    if not stable(0.0):
+        return 0.0
+    top = 1.0 - 1e-12
+    if stable(top):
+        return 1.0
+    lo, hi = 0.0, top
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
+    # the bisection assumes one crossing; check a coarse grid above it
+    for alpha in np.linspace(hi, top, 9)[1:]:
+        if stable(float(alpha)):
+            raise ValueError(
+                f"K: the loop is not mean-square stable at loss {hi:.6g} but "
+                f"is again at {alpha:.6g}; no single critical loss exists")
+    return float(hi)

@@ -60,6 +60,9 @@ CALLS = {
         actuator_loss=0.5), **kw),
     "lyapunov_exponent": lambda **kw: ncs.lyapunov_exponent(
         _loop(), steps=20, trials=2, seed=1, **kw),
+    "critical_loss": lambda **kw: ncs.critical_loss(ncs.nss(
+        [[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]], True,
+        nmeas=1, ncon=1), [[-2.0]], tol=1e-2, **kw),
     "dlqr": lambda **kw: ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]],
                                   arrival=0.5, **kw),
     "JumpStateSpace.step_response": lambda **kw: _loop().step_response(

@@ -310,3 +310,20 @@ def test_dlqr_states_an_approximate_critical_probability_that_brackets():
     ncs.dlqr(A, B, np.eye(2), np.eye(1), arrival=critical + 0.01)
     with pytest.raises(ValueError):
         ncs.dlqr(A, B, np.eye(2), np.eye(1), arrival=critical - 0.01)
+
+
+def test_critical_loss_of_a_gain_matches_the_closed_form():
+    """x⁺ = 2x + θu (+ w), u = -Kx: E x² per step 4α + (2 - K)²(1 - α)."""
+    P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0],
+                                                         [0.0, 0.0]],
+                True, nmeas=1, ncon=1)
+    assert ncs.critical_loss(P, [[-2.0]]) == pytest.approx(0.25, abs=2e-6)
+    # K = 1.5: 4α + 0.25(1 - α) = 1 at α = 0.2
+    assert ncs.critical_loss(P, [[-1.5]]) == pytest.approx(0.2, abs=2e-6)
+    assert ncs.critical_loss(P, [[-2.0]], link="sensor") == \
+        pytest.approx(0.25, abs=2e-6)
+    assert ncs.critical_loss(P, [[0.0]]) == 0.0
+    stable = ncs.nss([[0.5]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0],
+                                                              [0.0, 0.0]],
+                     True, nmeas=1, ncon=1)
+    assert ncs.critical_loss(stable, [[-0.1]]) == 1.0
