@@ -25,21 +25,25 @@ from typing import Any, ClassVar
 
 import control as ct
 import numpy as np
-from control.exception import ControlArgument
+from control.exception import ControlArgument, ControlDimension
 
-from ._checks import choice, no_extra_kwargs, positive_int, positive_real
-from .exceptions import NOT_MSS, NOT_VERIFIED, SOLVER_FAILED, CertificationError
-from .lmi import DEFAULT_MARGIN, check_options, check_solver, gain_model, solve
+from ._checks import (choice, decay_bound, no_extra_kwargs, positive_int,
+                      positive_real, real_array)
+from .exceptions import (CERTIFIED, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
+                         CertificationError)
+from .lmi import (DEFAULT_MARGIN, check_options, check_solver,
+                  quadratic_supply_model, solve)
 from ._results import Result
 from ._lti import is_jump
 from .jump import as_jump
 from .montecarlo import root_entropy
 from .stability import ms_radius, output_power
 from .strategies import feedback
-from .verify import gain_certificate_check
+from .verify import gain_certificate_check, supply_certificate_check
 
 __all__ = ["norm", "l2_gain", "GainResult", "lyapunov_exponent",
-           "LyapunovResult", "critical_loss"]
+           "LyapunovResult", "critical_loss", "dissipativity",
+           "SupplyResult"]
 
 
 def norm(sys: Any, p: Any = 2, *, tol: float = 1e-10, method: str = "auto",
@@ -266,14 +270,14 @@ def l2_gain(sys: Any, *, solver: str | None = None,
         raise CertificationError(
             "l2_gain: sys is not mean-square stable (ms_radius >= 1): its "
             "l2 gain is infinite", NOT_MSS, dict(ms_radius=rho))
-    model = gain_model(J, margin)
+    model = quadratic_supply_model(J, -1.0, 0.0, None, margin)
     report = solve(model.problem, name, **solver_options)
     if report.status not in ("optimal", "optimal_inaccurate") or \
-            model.gamma2.value is None:
+            model.level.value is None:
         raise CertificationError(
             f"l2_gain: the solver gave no certificate (status "
             f"{report.status!r})", SOLVER_FAILED, dict(status=report.status))
-    g2 = float(model.gamma2.value)
+    g2 = float(model.level.value)
     P = model.certificate()
     if J.modes.is_iid:
         P = P[:, 0]                                 # one storage per phase
@@ -517,3 +521,170 @@ def critical_loss(P: Any, K: Any, *, link: str = "actuator",
                 f"K: the loop is not mean-square stable at loss {hi:.6g} but "
                 f"is again at {alpha:.6g}; no single critical loss exists")
     return float(hi)
+
+
+@dataclass(repr=False)
+class SupplyResult(Result):
+    """A certificate of dissipativity for a quadratic supply, checked.
+
+    Attributes
+    ----------
+    dissipative : bool
+        True only when the storage passed the exact check: then
+        ``E Σ s(w, z) > 0`` from rest for every input adapted to the past
+        (strictly, with a margin), and the loop is mean-square stable.
+    P : ndarray or None
+        The storage, (N, n, n) or (N, M, n, n) (Markov modes).
+    theta_max, P_min : ndarray or None
+        As checked.
+    reason : str
+        ``'certified'``, or why not: the solver's status
+        (``'solver_failed'``) or ``'not_verified'`` (a candidate that
+        failed the exact check). Never a proof that the supply fails.
+    report : SolveReport or None
+
+    Examples
+    --------
+    >>> import control_ncs as ncs
+    >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[1.0]], [0.5, 0.5])
+    >>> res = ncs.dissipativity(sys, 0.0, 1.0, -0.4)
+    >>> res.status, bool(res.theta_max.max() < 0)
+    ('certified', True)
+    """
+
+    dissipative: bool
+    P: np.ndarray | None
+    theta_max: np.ndarray | None
+    P_min: np.ndarray | None
+    reason: str
+    report: Any
+
+    _repr_fields: ClassVar[tuple[str, ...]] = ("dissipative", "reason")
+
+    @property
+    def success(self) -> bool:
+        """True when certified."""
+        return self.dissipative
+
+    @property
+    def status(self) -> str:
+        """``reason``."""
+        return self.reason
+
+    @property
+    def message(self) -> str:
+        """One sentence."""
+        if self.dissipative:
+            return "dissipative for this supply (storage checked exactly)"
+        status = getattr(self.report, "status", None)
+        return ("no certificate: not a proof that the supply fails "
+                f"({self.reason}, solver status {status!r})")
+
+    def _details(self) -> list[str]:
+        if self.theta_max is None or self.P_min is None:
+            return []
+        return [f"max λmax(Θ) = {self.theta_max.max():.3e}, "
+                f"min λmin(P) = {self.P_min.min():.3e}"]
+
+
+def _supply_weights(Q: Any, S: Any, R: Any, nz: int, nw: int
+                    ) -> tuple[Any, Any, Any]:
+    out: list[Any] = []
+    for name, X, shape in (("Q", Q, (nz, nz)), ("S", S, (nz, nw)),
+                           ("R", R, (nw, nw))):
+        arr = real_array(X, name, ndim=(0, 2))
+        if arr.ndim == 0:
+            if shape[0] != shape[1]:
+                raise ControlDimension(
+                    f"{name}: a number stands for a multiple of I, but the "
+                    f"loop has {nz} outputs and {nw} inputs; give a "
+                    f"{shape[0]}x{shape[1]} matrix")
+            out.append(float(arr))
+        elif arr.shape != shape:
+            raise ControlDimension(f"{name}: expected shape {shape}, got "
+                                   f"{arr.shape}")
+        else:
+            out.append(arr)
+    Qm: np.ndarray = (out[0] * np.eye(nz) if np.ndim(out[0]) == 0
+                      else out[0])
+    if not np.allclose(Qm, Qm.T) or np.linalg.eigvalsh(
+            0.5 * (Qm + Qm.T)).max() > 1e-12 * max(1.0, np.abs(Qm).max()):
+        raise ValueError("Q: expected a symmetric negative semidefinite "
+                         "weight (Q ⪯ 0)")
+    return out[0], out[1], out[2]
+
+
+def dissipativity(sys: Any, Q: Any, S: Any, R: Any, *, decay: float = 1.0,
+                  solver: str | None = None, margin: float = DEFAULT_MARGIN,
+                  **solver_options: Any) -> SupplyResult:
+    """Certify a jump system dissipative for a quadratic supply.
+
+    The supply ``s(w, z) = zᵀQz + 2 zᵀSw + wᵀRw`` with ``Q ⪯ 0``
+    (:ref:`theory-performance`): passivity (``Q = 0, S = I, R = -2ηI``),
+    the passivity indices, the ℓ2 gain (``Q = -I, S = 0, R = γ²I``), sector
+    bounds and mixed specifications are its cases. A storage ``P_k``
+    (Markov modes: ``P_{k,ℓ}``) is found by the LMI (cvxpy) and then
+    checked exactly (:func:`control_ncs.verify.supply_certificate_check`);
+    only a storage that passes makes the result ``dissipative``.
+
+    Parameters
+    ----------
+    sys : JumpStateSpace or discrete-time StateSpace
+    Q, S, R : float or array_like
+        The supply's weights, shapes (p, p), (p, m), (m, m); a number stands
+        for that multiple of ``I``.
+    decay : float, optional
+        Also certify ``E V`` decaying like ``r^(2t)`` (``r`` in (0, 1]).
+    solver : str, optional
+        Any installed cvxpy solver (default Clarabel).
+    margin : float, optional
+        Relative strictness margin of the LMI.
+    **solver_options
+        Passed to the solver.
+
+    Returns
+    -------
+    SupplyResult
+
+    Raises
+    ------
+    ValueError
+        ``Q`` is not negative semidefinite, or ``decay`` not in (0, 1].
+    ControlDimension
+        A weight of the wrong shape.
+
+    Examples
+    --------
+    ``x⁺ = a x + w``, ``z = x + w``, ``a = 0.5`` or ``0.9``: passive with
+    dissipation 0.2 (``Q = 0, S = 1, R = -0.4``), and a sector bound
+    ``(z - 0.5w)(2w - z) ≥ 0`` (``Q = -1, S = 1.25, R = -1``) has no
+    certificate.
+
+    >>> import control_ncs as ncs
+    >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[1.0]], [0.5, 0.5])
+    >>> ncs.dissipativity(sys, 0.0, 1.0, -0.4).dissipative
+    True
+    >>> ncs.dissipativity(sys, -1.0, 1.25, -1.0).dissipative
+    False
+    """
+    J = as_jump(sys)
+    nz, nw = J.modes.C.shape[-2], J.modes.B.shape[-1]
+    Q, S, R = _supply_weights(Q, S, R, nz, nw)
+    decay = decay_bound(decay)
+    name = check_solver(solver)
+    check_options(name, solver_options)
+    margin = positive_real(margin, "margin")
+    model = quadratic_supply_model(J, Q, S, R, margin, decay=decay)
+    report = solve(model.problem, name, **solver_options)
+    if report.status not in ("optimal", "optimal_inaccurate"):
+        return SupplyResult(False, None, None, None, SOLVER_FAILED, report)
+    try:
+        P = model.certificate()
+    except (TypeError, ValueError):
+        return SupplyResult(False, None, None, None, SOLVER_FAILED, report)
+    if J.modes.is_iid:
+        P = P[:, 0]
+    ok, theta_max, P_min = supply_certificate_check(J, P, Q, S, R,
+                                                    decay=decay)
+    return SupplyResult(ok, P, theta_max, P_min,
+                        CERTIFIED if ok else NOT_VERIFIED, report)

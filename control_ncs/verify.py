@@ -52,6 +52,78 @@ def _float_margin(M: np.ndarray) -> float:
 
 
 # -- the one algebra kernel (raw arrays, no checks) ---------------------------
+def supply_blocks(probabilities: np.ndarray, A: np.ndarray, B: np.ndarray,
+                  C: np.ndarray, D: np.ndarray, P: np.ndarray,
+                  P_next: np.ndarray, Q: Any, S: Any, R: Any, *,
+                  decay: float = 1.0) -> np.ndarray:
+    """``Θ_k`` of one phase for any quadratic supply: the one kernel.
+
+    (:ref:`theory-performance`.) The supply
+    ``s(w, z) = zᵀQz + 2 zᵀSw + wᵀRw`` and the storage ``V = ξᵀPξ``:
+    ``E V(ξ⁺) - r² V(ξ) < E s(w, z)`` reads ``[ξ; w]ᵀ Θ [ξ; w] < 0`` with::
+
+        Θ = Σ_i p_i ([A_i B_i]ᵀ P⁺ [A_i B_i] - [C_i D_i]ᵀ Q [C_i D_i])
+            - [[r² P, C̄ᵀ S], [Sᵀ C̄, D̄ᵀ S + Sᵀ D̄ + R]]
+
+    ``C̄ = Σ p_i C_i``, ``D̄ = Σ p_i D_i``: the cross term is linear in
+    ``z``, so its expectation takes the mean output matrices; the
+    quadratic one takes every mode's own. Passivity with dissipation
+    ``η`` and output-feedback level ``ρ`` is ``Q = -2ρI, S = I,
+    R = -2ηI`` (:func:`dissipation_blocks`); the ℓ2 gain ``γ`` is
+    ``Q = -I, S = 0, R = γ²I`` (:func:`gain_blocks`). Internal callers
+    only (no argument checked).
+
+    Parameters
+    ----------
+    probabilities : ndarray, shape (M,)
+        The mode law of the phase (or of the supply row).
+    A, B, C, D : ndarray
+        Per-mode matrices, shapes (M, n, n), (M, n, m), (M, p, n), (M, p, m).
+    P, P_next : ndarray
+        ``P_k`` (n, n) and ``P_{k+1}`` ((n, n), or (M, n, n) per next mode).
+    Q, S, R : float or ndarray
+        The supply's weights; a number stands for that multiple of ``I``.
+    decay : float, optional
+        Decay bound ``r`` (1: none).
+
+    Returns
+    -------
+    ndarray, shape (n + m, n + m)
+        Symmetric.
+
+    Examples
+    --------
+    ``x⁺ = 0.5x + w``, ``z = x``, ``P = 2``, the ℓ2-gain supply with
+    ``γ² = 5``:
+
+    >>> from control_ncs.verify import supply_blocks
+    >>> A, B, C, D = (np.array([[[x]]]) for x in (0.5, 1.0, 1.0, 0.0))
+    >>> supply_blocks([1.0], A, B, C, D, 2 * np.eye(1), 2 * np.eye(1),
+    ...               -1.0, 0.0, 5.0).tolist()
+    [[-0.5, 1.0], [1.0, -3.0]]
+    """
+    p = np.asarray(probabilities, float)
+    n, m = A.shape[-1], B.shape[-1]
+    F = np.concatenate([A, B], axis=2)               # (M, n, n + m)
+    # Σ_i p_i F_iᵀ P F_i as batched matrix products (BLAS): a plain
+    # 4-operand einsum loops in C without BLAS (0.7 s at n = 64).
+    T = np.tensordot(p, F.transpose(0, 2, 1) @ (P_next @ F), axes=1)
+    T[:n, :n] -= decay ** 2 * P
+    if np.ndim(Q) or Q != 0.0:
+        H = np.concatenate([C, D], axis=2)           # (M, p, n + m)
+        QH = Q * H if np.ndim(Q) == 0 else np.asarray(Q) @ H
+        T -= np.tensordot(p, H.transpose(0, 2, 1) @ QH, axes=1)
+    if np.ndim(S) or S != 0.0:
+        Cbar, Dbar = np.tensordot(p, C, axes=1), np.tensordot(p, D, axes=1)
+        CS = S * Cbar.T if np.ndim(S) == 0 else Cbar.T @ np.asarray(S)
+        DS = S * Dbar if np.ndim(S) == 0 else Dbar.T @ np.asarray(S)
+        T[:n, n:] -= CS
+        T[n:, :n] -= CS.T
+        T[n:, n:] -= DS + DS.T
+    T[n:, n:] -= R * np.eye(m) if np.ndim(R) == 0 else np.asarray(R)
+    return 0.5 * (T + T.T)
+
+
 def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
                        B: np.ndarray, C: np.ndarray, D: np.ndarray,
                        P: np.ndarray, P_next: np.ndarray, eta: float, *,
@@ -103,22 +175,8 @@ def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
     >>> ncs.dissipation_blocks([1.0], A, B, C, D, np.eye(1), np.eye(1), 0.0).tolist()
     [[-0.75, -0.5], [-0.5, -1.0]]
     """
-    p = np.asarray(probabilities, float)
-    n, m = A.shape[-1], B.shape[-1]
-    F = np.concatenate([A, B], axis=2)               # (M, n, n + m)
-    # Σ_i p_i F_iᵀ P F_i as batched matrix products (BLAS): a plain
-    # 4-operand einsum loops in C without BLAS (0.7 s at n = 64).
-    T = np.tensordot(p, F.transpose(0, 2, 1) @ (P_next @ F), axes=1)
-    Cbar, Dbar = np.tensordot(p, C, axes=1), np.tensordot(p, D, axes=1)
-    T[:n, :n] -= decay ** 2 * P
-    T[n:, :n] -= Cbar
-    T[:n, n:] -= Cbar.T
-    T[n:, n:] += 2 * eta * np.eye(m) - Dbar - Dbar.T
-    if ofp_index != 0.0:
-        H = np.concatenate([C, D], axis=2)           # (M, m, n + m)
-        T += 2 * ofp_index * np.tensordot(p, H.transpose(0, 2, 1) @ H,
-                                          axes=1)
-    return 0.5 * (T + T.T)
+    return supply_blocks(probabilities, A, B, C, D, P, P_next,
+                         -2.0 * ofp_index, 1.0, -2.0 * eta, decay=decay)
 
 
 def gain_blocks(probabilities: np.ndarray, A: np.ndarray, B: np.ndarray,
@@ -158,25 +216,18 @@ def gain_blocks(probabilities: np.ndarray, A: np.ndarray, B: np.ndarray,
     >>> gain_blocks([1.0], A, B, C, D, 2 * np.eye(1), 2 * np.eye(1), 5.0).tolist()
     [[-0.5, 1.0], [1.0, -3.0]]
     """
-    p = np.asarray(probabilities, float)
-    n = A.shape[-1]
-    F = np.concatenate([A, B], axis=2)
-    H = np.concatenate([C, D], axis=2)
-    T = np.tensordot(p, F.transpose(0, 2, 1) @ (P_next @ F)
-                     + H.transpose(0, 2, 1) @ H, axes=1)
-    T[:n, :n] -= P
-    T[n:, n:] -= gamma2 * np.eye(T.shape[0] - n)
-    return 0.5 * (T + T.T)
+    return supply_blocks(probabilities, A, B, C, D, P, P_next, -1.0, 0.0,
+                         gamma2)
 
 
-def gain_certificate_check(sys: Any, P: Any, gamma: float
-                           ) -> tuple[bool, np.ndarray, np.ndarray]:
-    """Exact check of an ℓ2-gain certificate ``P_k`` (``P_{k,ℓ}``).
+def supply_certificate_check(sys: Any, P: Any, Q: Any, S: Any, R: Any, *,
+                             decay: float = 1.0
+                             ) -> tuple[bool, np.ndarray, np.ndarray]:
+    """Exact check of a storage ``P_k`` (``P_{k,ℓ}``) for a quadratic supply.
 
     Returns ``(verified, λmax(Θ) per phase and row, λmin(P))``: verified
-    when every ``Θ ≺ 0`` and ``P ≻ 0`` beyond rounding, which proves the
-    loop's ℓ2 gain (inputs adapted to the past, from rest) is below
-    ``gamma`` and the loop mean-square stable.
+    when every ``Θ`` of :func:`supply_blocks` is ``≺ 0`` and every ``P ≻ 0``
+    beyond rounding.
     """
     sys = as_jump(sys)
     P = _certificate_array(P, sys)
@@ -186,8 +237,8 @@ def gain_certificate_check(sys: Any, P: Any, gamma: float
     for k in range(N):
         Pn = P[(k + 1) % N]
         P_next = Pn[0] if m.is_iid else Pn
-        thetas += [gain_blocks(t, m.A[k], m.B[k], m.C[k], m.D[k], P[k, l],
-                               P_next, float(gamma) ** 2)
+        thetas += [supply_blocks(t, m.A[k], m.B[k], m.C[k], m.D[k], P[k, l],
+                                 P_next, Q, S, R, decay=decay)
                    for l, t in enumerate(rows[k])]
     theta_max = np.array([np.linalg.eigvalsh(T).max() for T in thetas])
     flat = P.reshape((-1,) + P.shape[2:])
@@ -195,6 +246,15 @@ def gain_certificate_check(sys: Any, P: Any, gamma: float
     ok = all(t < -_float_margin(T) for t, T in zip(theta_max, thetas)) and \
         all(v > _float_margin(Pk) for v, Pk in zip(P_min, flat))
     return bool(ok), theta_max, P_min
+
+
+def gain_certificate_check(sys: Any, P: Any, gamma: float
+                           ) -> tuple[bool, np.ndarray, np.ndarray]:
+    """Exact check of an ℓ2-gain certificate (:func:`supply_certificate_check`
+    with ``Q = -I, S = 0, R = γ² I``): verified, it proves the loop's ℓ2
+    gain (inputs adapted to the past, from rest) below ``gamma`` and the
+    loop mean-square stable."""
+    return supply_certificate_check(sys, P, -1.0, 0.0, float(gamma) ** 2)
 
 
 def ifp_supremum(theta0: np.ndarray, n: int) -> float:

@@ -54,6 +54,8 @@ CALLS = {
     "JumpStateSpace.ispassive": lambda **kw: _loop().ispassive(**kw),
     "norm": lambda **kw: ncs.norm(_loop(), **kw),
     "l2_gain": lambda **kw: ncs.l2_gain(_loop(), **kw),
+    "dissipativity": lambda **kw: ncs.dissipativity(_loop(), 0.0, 1.0, 0.0,
+                                                   **kw),
     "h2syn": lambda **kw: ncs.h2syn(ncs.nss(
         [[1.2]], [[1.0, 1.0]], [[1.0], [0.0], [1.0]],
         [[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]], True, nmeas=1, ncon=1,

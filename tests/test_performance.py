@@ -8,7 +8,7 @@ import math
 import control as ct
 import numpy as np
 import pytest
-from control.exception import ControlArgument
+from control.exception import ControlArgument, ControlDimension
 from hypothesis import given, settings, strategies as st
 
 import control_ncs as ncs
@@ -327,3 +327,42 @@ def test_critical_loss_of_a_gain_matches_the_closed_form():
                                                               [0.0, 0.0]],
                      True, nmeas=1, ncon=1)
     assert ncs.critical_loss(stable, [[-0.1]]) == 1.0
+
+
+# -- any quadratic supply -----------------------------------------------------------
+def test_the_supply_kernel_gives_passivity_and_the_gain_as_cases():
+    from control_ncs.verify import (dissipation_blocks, gain_blocks,
+                                    supply_blocks)
+    rng = np.random.default_rng(9)
+    A, B = rng.standard_normal((3, 2, 2)), rng.standard_normal((3, 2, 1))
+    C, D = rng.standard_normal((3, 1, 2)), rng.standard_normal((3, 1, 1))
+    p = np.array([0.2, 0.3, 0.5])
+    P, Pn = np.eye(2) * 2, np.eye(2) * 3
+    np.testing.assert_allclose(
+        dissipation_blocks(p, A, B, C, D, P, Pn, 0.3, ofp_index=0.1,
+                           decay=0.9),
+        supply_blocks(p, A, B, C, D, P, Pn, -0.2, 1.0, -0.6, decay=0.9))
+    np.testing.assert_allclose(
+        gain_blocks(p, A, B, C, D, P, Pn, 4.0),
+        supply_blocks(p, A, B, C, D, P, Pn, -np.eye(1), np.zeros((1, 1)),
+                      4.0 * np.eye(1)))
+
+
+def test_dissipativity_certifies_passivity_up_to_the_index_and_the_gain():
+    sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[1.0]], [0.5, 0.5])
+    nu = ncs.get_input_ff_index(sys)
+    assert ncs.dissipativity(sys, 0.0, 1.0, -2 * 0.99 * nu).dissipative
+    assert not ncs.dissipativity(sys, 0.0, 1.0, -2 * 1.01 * nu).dissipative
+    gamma = ncs.l2_gain(sys).gamma
+    assert ncs.dissipativity(sys, -1.0, 0.0, (1.001 * gamma) ** 2).dissipative
+    res = ncs.dissipativity(sys, -1.0, 0.0, (0.99 * gamma) ** 2)
+    assert not res.dissipative and "not a proof" in res.message
+
+
+def test_dissipativity_refuses_a_supply_outside_its_theory():
+    sys = ncs.jss([[[0.5]]], [[1.0]], [[1.0], [0.0]], [[1.0], [0.0]], [1.0])
+    with pytest.raises(ValueError, match="^Q:"):
+        ncs.dissipativity(ncs.jss([[[0.5]]], [[1.0]], [[1.0]], [[1.0]],
+                                  [1.0]), 1.0, 0.0, 1.0)
+    with pytest.raises(ControlDimension, match="^S:"):
+        ncs.dissipativity(sys, 0.0, 1.0, 0.0)

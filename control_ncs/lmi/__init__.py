@@ -17,8 +17,8 @@ from ._core import (balancing_scale, cache_clear, cache_info, CACHE_SIZE,
                     COO_BACKEND, COO_FROM, data_scale, DEFAULT_MARGIN,
                     FALLBACK_SOLVER, fallback_solver, installed_solvers, solve,
                     SolveReport)
-from .analysis import (AnalysisModel, GainModel, SupplyModel,
-                       analysis_model, gain_model, supply_model)
+from .analysis import (AnalysisModel, QuadraticSupplyModel, SupplyModel,
+                       analysis_model, quadratic_supply_model, supply_model)
 from .estimator import (EstimatorModel, estimator_model,
                         markov_estimator_model)
 from .synthesis import (GAINS, H2Model, SynthesisModel, gain_kinds,
@@ -34,7 +34,7 @@ __all__ = [
     "COO_FROM",
     "DEFAULT_MARGIN",
     "EstimatorModel",
-    "GainModel",
+    "QuadraticSupplyModel",
     "H2Model",
     "FALLBACK_SOLVER",
     "GAINS",
@@ -49,7 +49,7 @@ __all__ = [
     "check_solver",
     "data_scale",
     "estimator_model",
-    "gain_model",
+    "quadratic_supply_model",
     "h2_model",
     "fallback_solver",
     "gain_kinds",

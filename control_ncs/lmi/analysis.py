@@ -7,7 +7,7 @@ system, with one storage per phase and previous mode.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import cvxpy as cp
@@ -215,22 +215,23 @@ def supply_model(sys: JumpStateSpace, eta: float | None, rho: float | None,
     return SupplyModel(cp.Problem(objective, cons), P, e, r, t, markov)
 
 
-# -- the bounded real lemma: theory: performance --------------------------------
-class GainModel:
-    """The LMI of the bounded real lemma for a jump system: minimise ``γ²``.
+# -- any quadratic supply: theory: performance -----------------------------------
+class QuadraticSupplyModel:
+    """The LMI ``Θ_{k,ℓ}(P) ≼ -ε I``, ``P ≽ ε I`` of a quadratic supply.
 
     Attributes
     ----------
     problem : cvxpy.Problem
-    gamma2 : cvxpy.Variable
-        ``γ²``.
+    level : cvxpy.Variable or None
+        ``t`` with ``R = t I``, minimised, when the supply's ``R`` was left
+        free (the ℓ2 gain: ``t = γ²``); None for a fixed supply.
     P : list of list of cvxpy.Variable
         ``P[k][ℓ]``: the storage per phase and previous mode (one ``ℓ`` for
         i.i.d. modes).
     """
 
-    def __init__(self, problem: cp.Problem, gamma2: Any, P: list):
-        self.problem, self.gamma2, self.P = problem, gamma2, P
+    def __init__(self, problem: cp.Problem, level: Any, P: list):
+        self.problem, self.level, self.P = problem, level, P
 
     def certificate(self) -> np.ndarray:
         """The solver's ``P`` as an (N, L, n, n) array."""
@@ -238,33 +239,54 @@ class GainModel:
                          for row in self.P])
 
 
-def gain_model(sys: JumpStateSpace, margin: float) -> GainModel:
-    """Build ``min γ²`` subject to ``Θ_{k,ℓ}(P, γ²) ≼ -ε I``, ``P ≽ ε I``
-    (:func:`control_ncs.verify.gain_blocks`; ``ε = margin`` times the
-    data's scale)."""
+def _weight(X: Any, size_out: int, size_in: int) -> np.ndarray:
+    """A supply weight as a matrix (a number is that multiple of ``I``)."""
+    if np.ndim(X) == 0:
+        return float(X) * np.eye(size_out, size_in)
+    return np.asarray(X, float)
+
+
+def quadratic_supply_model(sys: JumpStateSpace, Q: Any, S: Any, R: Any,
+                           margin: float, decay: float = 1.0
+                           ) -> QuadraticSupplyModel:
+    """The LMI of :func:`control_ncs.verify.supply_blocks` in ``P``
+    (``ε = margin`` times the data's scale); ``R=None``: ``R = t I`` with
+    ``t`` minimised. The supply's ``Q``, ``S``, ``R`` enter as data."""
     m, N = sys.modes, sys.period
-    n, nw = m.A.shape[-1], m.B.shape[-1]
+    n, nw, nz = m.A.shape[-1], m.B.shape[-1], m.C.shape[-2]
     rows = supply_rows(m)
     L = rows.shape[1]
     eps = margin * data_scale(m.A, m.B, m.C, m.D)
+    Qm, Sm = _weight(Q, nz, nz), _weight(S, nz, nw)
     P = [[cp.Variable((n, n), symmetric=True) for _ in range(L)]
          for _ in range(N)]
-    gamma2 = cp.Variable(nonneg=True)
+    level = cp.Variable(nonneg=True) if R is None else None
+    Rm = None if R is None else _weight(R, nw, nw)
     cons = []
     for k in range(N):
         nxt = P[(k + 1) % N]
         for ell in range(L):
             t = rows[k, ell]
+            live = np.flatnonzero(t > 0)
+            Cbar = sum(t[i] * m.C[k, i] for i in live)
+            Dbar = sum(t[i] * m.D[k, i] for i in live)
             terms = []
-            for i in np.flatnonzero(t > 0):
+            for i in live:
                 F = np.concatenate([m.A[k, i], m.B[k, i]], axis=1)
                 H = np.concatenate([m.C[k, i], m.D[k, i]], axis=1)
                 Pn = nxt[0] if m.is_iid else nxt[i]
-                terms.append(t[i] * (F.T @ Pn @ F + H.T @ H))
+                terms.append(t[i] * (F.T @ Pn @ F - H.T @ Qm @ H))
             theta = cp.sum(terms) if len(terms) > 1 else terms[0]
-            corner = cp.bmat([[P[k][ell], np.zeros((n, nw))],
-                              [np.zeros((nw, n)), gamma2 * np.eye(nw)]])
-            T = theta - corner
+            cross = np.block([[np.zeros((n, n)), Cbar.T @ Sm],
+                              [Sm.T @ Cbar, Dbar.T @ Sm + Sm.T @ Dbar]])
+            r_block: Any = Rm
+            if r_block is None:
+                r_block = cast(Any, level) * np.eye(nw)
+            corner = cp.bmat([[decay ** 2 * P[k][ell], np.zeros((n, nw))],
+                              [np.zeros((nw, n)), r_block]])
+            T = theta - cross - corner
             cons.append(0.5 * (T + T.T) << -eps * np.eye(n + nw))
             cons.append(P[k][ell] >> eps * np.eye(n))
-    return GainModel(cp.Problem(cp.Minimize(gamma2), cons), gamma2, P)
+    objective = cp.Minimize(level) if level is not None else \
+        cp.Minimize(0)
+    return QuadraticSupplyModel(cp.Problem(objective, cons), level, P)
