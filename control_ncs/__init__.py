@@ -15,16 +15,16 @@ reference simulator (``protocol``) export nothing here.
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from . import (connect, estimator, exceptions, gain, h2design, jump, lq,
+from . import (connect, estimator, exceptions, gain, jump, lq,
                meancov, modes, network, openloop, passivity, performance,
-               plant, plots, refine, responses, stability, strategies, sweeps,
-               synthesis, verify)
+               performance_synthesis, plant, plots, refine, responses,
+               stability, strategies, sweeps, synthesis, verify)
 from ._lifting import lift
 from .connect import *  # noqa: F403
 from .estimator import *  # noqa: F403
 from .exceptions import *  # noqa: F403
 from .gain import *  # noqa: F403
-from .h2design import *  # noqa: F403
+from .performance_synthesis import *  # noqa: F403
 from .jump import *  # noqa: F403
 from .lq import *  # noqa: F403
 from .meancov import *  # noqa: F403
@@ -45,8 +45,9 @@ from .verify import *  # noqa: F403
 
 __all__ = [name for module in (
     network, modes, jump, openloop, plant, gain, strategies, stability,
-    meancov, exceptions, verify, passivity, performance, lq, h2design,
-    synthesis, refine, estimator, responses, plots, connect, sweeps)
+    meancov, exceptions, verify, passivity, performance, lq,
+    performance_synthesis, synthesis, refine, estimator, responses, plots,
+    connect, sweeps)
     for name in module.__all__] + ["lift"]
 
 try:

@@ -56,6 +56,10 @@ CALLS = {
     "l2_gain": lambda **kw: ncs.l2_gain(_loop(), **kw),
     "dissipativity": lambda **kw: ncs.dissipativity(_loop(), 0.0, 1.0, 0.0,
                                                    **kw),
+    "hinfsyn": lambda **kw: ncs.hinfsyn(ncs.nss(
+        [[1.2]], [[1.0, 1.0]], [[1.0], [0.0], [1.0]],
+        [[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]], True, nmeas=1, ncon=1,
+        actuator_loss=0.5), **kw),
     "h2syn": lambda **kw: ncs.h2syn(ncs.nss(
         [[1.2]], [[1.0, 1.0]], [[1.0], [0.0], [1.0]],
         [[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]], True, nmeas=1, ncon=1,

@@ -366,3 +366,40 @@ def test_dissipativity_refuses_a_supply_outside_its_theory():
                                   [1.0]), 1.0, 0.0, 1.0)
     with pytest.raises(ControlDimension, match="^S:"):
         ncs.dissipativity(sys, 0.0, 1.0, 0.0)
+
+
+# -- H∞ synthesis -------------------------------------------------------------------
+def test_hinfsyn_beats_the_h2_design_and_nearby_gains_on_the_l2_gain():
+    P = _lq_plant()
+    K, CL, gamma = ncs.hinfsyn(P)
+    assert gamma == K.result.gamma == ncs.l2_gain(CL).gamma
+    assert K.result.lower <= gamma
+    h2_loop = ncs.feedback(P, ncs.h2syn(P)[0].gains)
+    assert gamma <= ncs.l2_gain(h2_loop).gamma
+    for delta in (-0.05, 0.05):
+        other = ncs.feedback(P, K.gains + delta)
+        assert ncs.l2_gain(other).gamma >= gamma * (1 - 1e-4)
+
+
+def test_hinfsyn_of_a_scalar_loop_matches_the_bounded_real_lemma():
+    """x⁺ = 1.2x + w + θu, z = [x; θu]: for the designed gain k the loop's
+    gain is the scalar lemma's, over modes a ∈ {1.2 - k, 1.2} (probability
+    1/2 each), c = [1; -k] or [1; 0]."""
+    P = _lq_plant()
+    K, CL, gamma = ncs.hinfsyn(P)
+    k = -K.gains[0, 0, 0]
+    from scipy.optimize import minimize_scalar
+    Ea2 = 0.5 * ((1.2 - k) ** 2 + 1.44)
+    Ec2 = 0.5 * (1 + k * k) + 0.5
+    Eab = 0.5 * ((1.2 - k) + 1.2)
+    f = lambda p: p + (Eab * p) ** 2 / (p * (1 - Ea2) - Ec2)   # noqa: E731
+    lo = Ec2 / (1 - Ea2)
+    true = math.sqrt(minimize_scalar(f, bounds=(lo * (1 + 1e-12), 1e6),
+                                     method="bounded",
+                                     options=dict(xatol=1e-12)).fun)
+    assert true <= gamma <= true * (1 + 1e-4)
+
+
+def test_hinfsyn_refuses_what_its_exact_program_does_not_cover():
+    with pytest.raises(ControlArgument, match="^actuator:"):
+        ncs.hinfsyn(_lq_plant(), actuator="hold")

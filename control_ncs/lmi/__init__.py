@@ -21,8 +21,9 @@ from .analysis import (AnalysisModel, QuadraticSupplyModel, SupplyModel,
                        analysis_model, quadratic_supply_model, supply_model)
 from .estimator import (EstimatorModel, estimator_model,
                         markov_estimator_model)
-from .synthesis import (GAINS, H2Model, SynthesisModel, gain_kinds,
-                        h2_model, read_gains, synthesis_model)
+from .synthesis import (GAINS, H2Model, HinfModel, SynthesisModel,
+                        gain_kinds, h2_model, hinf_model, read_gains,
+                        synthesis_model)
 
 #: The LMI layer's interface (the package's flat namespace exports none of
 #: it: ``control_ncs.lmi.solve`` and so on).
@@ -36,6 +37,7 @@ __all__ = [
     "EstimatorModel",
     "QuadraticSupplyModel",
     "H2Model",
+    "HinfModel",
     "FALLBACK_SOLVER",
     "GAINS",
     "SolveReport",
@@ -51,6 +53,7 @@ __all__ = [
     "estimator_model",
     "quadratic_supply_model",
     "h2_model",
+    "hinf_model",
     "fallback_solver",
     "gain_kinds",
     "installed_solvers",

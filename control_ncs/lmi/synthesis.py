@@ -437,3 +437,76 @@ def h2_model(plant: JumpPlant, margin: float) -> H2Model:
         cons.append(Q[k] >> eps * np.eye(nx))
     objective = cp.Minimize(sum(cp.trace(Wk) for Wk in W) / N)
     return H2Model(cp.Problem(objective, cons), Q, Y)
+
+
+# -- H∞: theory: performance -------------------------------------------------------
+class HinfModel:
+    """The bounded real lemma in the synthesis variables ``X_k = P_k⁻¹``,
+    ``Y_k = K_k X_k``: minimise ``γ²``.
+
+    Attributes
+    ----------
+    problem : cvxpy.Problem
+    gamma2 : cvxpy.Variable
+    X, Y : list of cvxpy.Variable
+    """
+
+    def __init__(self, problem: cp.Problem, gamma2: Any, X: list, Y: list):
+        self.problem, self.gamma2, self.X, self.Y = problem, gamma2, X, Y
+
+    def gains(self) -> np.ndarray:
+        """``K_k = Y_k X_k⁻¹`` per phase, shape (N, nu, nx)."""
+        return np.array([np.linalg.solve(np.asarray(X.value, float).T,
+                                         np.asarray(Y.value, float).T).T
+                         for X, Y in zip(self.X, self.Y)])
+
+
+def hinf_model(plant: JumpPlant, margin: float) -> HinfModel:
+    """``min γ²`` over ``X_k ≻ 0``, ``Y_k`` with, per phase ``k``, the
+    Schur form of the bounded real lemma of the loop ``u = K_k x``
+    (congruence by ``diag(X_k, I)``)::
+
+        [ -X_k    0       √p_i (A_i X_k + Bu_i Y_k)ᵀ   √p_i (Cz_i X_k + Du_i Y_k)ᵀ ]
+        [  0    -γ² I     √p_i Bw_iᵀ                   √p_i Dw_iᵀ                 ]  ≺ 0
+        [  ·      ·       -X_{k+1} (per mode i)         0                          ]
+        [  ·      ·        0                            -I (per mode i)            ]
+
+    exact for a controller that sees the whole state and i.i.d. modes
+    (the storage ``P_k`` cannot depend on a mode not yet drawn)."""
+    N, M = plant.probabilities.shape
+    nx, nu = plant.A.shape[-1], plant.Bu.shape[-1]
+    nw, nz = plant.Bw.shape[-1], plant.Cz.shape[-2]
+    eps = margin * data_scale(plant.A, plant.Bu, plant.Bw, plant.Cz)
+    X = [cp.Variable((nx, nx), symmetric=True) for _ in range(N)]
+    Y = [cp.Variable((nu, nx)) for _ in range(N)]
+    gamma2 = cp.Variable(nonneg=True)
+    cons = []
+    for k in range(N):
+        p = plant.probabilities[k]
+        live = np.flatnonzero(p > 0)
+        Xn = X[(k + 1) % N]
+        left = [[-X[k], np.zeros((nx, nw))],
+                [np.zeros((nw, nx)), -gamma2 * np.eye(nw)]]
+        cols = []       # the off-diagonal blocks, one pair per live mode
+        for i in live:
+            r = np.sqrt(p[i])
+            cols.append((r * (plant.A[k, i] @ X[k] + plant.Bu[k, i] @ Y[k]),
+                         r * plant.Bw[k, i], Xn, nx))
+            cols.append((r * (plant.Cz[k, i] @ X[k] + plant.Du[k, i] @ Y[k]),
+                         r * plant.Dw[k, i], np.eye(nz), nz))
+        size = len(cols)
+        rows = [[left[0][0], left[0][1]] + [c[0].T for c in cols],
+                [left[1][0], left[1][1]] + [c[1].T for c in cols]]
+        for a, (Fx, Fw, W, dim) in enumerate(cols):
+            row = [Fx, Fw]
+            for b in range(size):
+                if a == b:
+                    row.append(-W)
+                else:
+                    row.append(np.zeros((dim, cols[b][3])))
+            rows.append(row)
+        Mx = cp.bmat(rows)
+        total = nx + nw + sum(c[3] for c in cols)
+        cons.append(0.5 * (Mx + Mx.T) << -eps * np.eye(total))
+        cons.append(X[k] >> eps * np.eye(nx))
+    return HinfModel(cp.Problem(cp.Minimize(gamma2), cons), gamma2, X, Y)
