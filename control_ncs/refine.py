@@ -85,6 +85,7 @@ from .gain import PeriodicGain, actuators, controllers
 from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
 from .stability import ms_radius as exact_ms_radius
+from .stability import phase_adjoint, phase_map, phase_matrix
 from .verify import Certificate
 
 __all__ = ["refine_gain", "RefineResult"]
@@ -241,13 +242,13 @@ class _Loop:
         F = np.einsum("kuj,kjx->kux", self.gains(x), self.E)
         return self.A + self.Bu @ F[:, None]
 
-    # one phase of the second-moment map and its adjoint
+    # one phase of the second-moment map and its adjoint: stability's kernel
+    def _law(self, k: int) -> np.ndarray:
+        """The mode law of phase ``k``: ``p_k``, or ``T_k`` (Markov)."""
+        return self.p[k] if self.T is None else self.T[k]
+
     def _step(self, Acl: np.ndarray, k: int, Q: np.ndarray) -> np.ndarray:
-        if self.T is None:
-            Y = Acl[k] @ Q @ Acl[k].transpose(0, 2, 1)
-            return np.tensordot(self.p[k], Y, axes=1)
-        Y = Acl[k] @ Q @ Acl[k].transpose(0, 2, 1)
-        return np.tensordot(self.T[k].T, Y, axes=1)
+        return phase_map(Acl[k], self._law(k), Q, self.T is not None)
 
     def _weights(self, k: int, V: np.ndarray) -> np.ndarray:
         """``W_ki`` with ``𝒯_k*(V)_i = Acl_kiᵀ W_ki Acl_ki``."""
@@ -256,9 +257,7 @@ class _Loop:
         return np.tensordot(self.T[k], V, axes=1)
 
     def _adjoint(self, Acl: np.ndarray, k: int, V: np.ndarray) -> np.ndarray:
-        W = self._weights(k, V)
-        Y = Acl[k].transpose(0, 2, 1) @ W @ Acl[k]
-        return Y.sum(axis=0) if self.T is None else Y
+        return phase_adjoint(Acl[k], self._law(k), V, self.T is not None)
 
     def _shape(self) -> tuple:
         return (self.n, self.n) if self.T is None else (self.M, self.n,
@@ -272,14 +271,8 @@ class _Loop:
         if size <= DENSE_MAX_SIZE:
             Mono = np.eye(size)
             for k in range(self.N):
-                # row-major vec: vec(A Q Aᵀ)[a n + c] = Σ A[a,b] Q[b,d] A[c,d]
-                if self.T is None:
-                    Tk = np.einsum("m,mab,mcd->acbd", self.p[k], Acl[k],
-                                   Acl[k])
-                else:
-                    Tk = np.einsum("ij,iab,icd->jacibd", self.T[k], Acl[k],
-                                   Acl[k])
-                Mono = Tk.reshape(size, size) @ Mono
+                Mono = phase_matrix(Acl[k], self._law(k),
+                                    self.T is not None) @ Mono
             w, vl, vr = scipy.linalg.eig(Mono, left=True, right=True)
             # the Perron root ρ is an eigenvalue and no other has a larger
             # real part; others of modulus ρ (a cyclic period structure)

@@ -39,6 +39,52 @@ __all__ = ["ms_radius", "is_mss", "second_moment_operator",
 DENSE_MAX_STATES = 24
 
 
+# -- the one second-moment kernel, on arrays ---------------------------------
+def phase_map(A: np.ndarray, weights: np.ndarray, Q: np.ndarray,
+              markov: bool) -> np.ndarray:
+    """One phase of the second-moment map on per-mode arrays.
+
+    i.i.d. modes (``weights = p_k``, ``Q`` of shape (n, n)):
+    ``Q⁺ = Σ_i p_i A_i Q A_iᵀ``. Markov modes (``weights = T_k``, ``Q`` of
+    shape (M, n, n), ``Q_i = E[ξξᵀ 1{σ = i}]``):
+    ``Q⁺_j = Σ_i T_k[i, j] A_i Q_i A_iᵀ``. Every route of this module and
+    the refinement's gradient (:mod:`control_ncs.refine`) apply it.
+    """
+    if markov:
+        Y = A @ Q @ A.transpose(0, 2, 1)                 # (M, n, n)
+        return np.tensordot(weights.T, Y, axes=1)        # Σ_i T[i, j] Y_i
+    live = weights > 0
+    Al = A[live]
+    return np.einsum("m,mab,bc,mdc->ad", weights[live], Al, Q, Al,
+                     optimize=True)
+
+
+def phase_adjoint(A: np.ndarray, weights: np.ndarray, V: np.ndarray,
+                  markov: bool) -> np.ndarray:
+    """The adjoint of :func:`phase_map` (trace inner product):
+    ``Σ_i p_i A_iᵀ V A_i``, or per mode ``A_iᵀ (Σ_j T_k[i, j] V_j) A_i``."""
+    if markov:
+        W = np.tensordot(weights, V, axes=1)             # Σ_j T[i, j] V_j
+        return A.transpose(0, 2, 1) @ W @ A
+    Y = A.transpose(0, 2, 1) @ V @ A
+    return np.tensordot(weights, Y, axes=1)
+
+
+def phase_matrix(A: np.ndarray, weights: np.ndarray,
+                 markov: bool) -> np.ndarray:
+    """:func:`phase_map` as a dense matrix on the row-major ``vec``
+    (``Σ p_i A_i ⊗ A_i``; Markov: block ``(j, i) = T[i, j] A_i ⊗ A_i``)."""
+    M, n = A.shape[0], A.shape[-1]
+    if markov:
+        blocks = np.array([np.kron(A[i], A[i]) for i in range(M)])
+        return np.einsum("ij,iab->jaib", weights, blocks).reshape(M * n * n,
+                                                                  -1)
+    out = np.zeros((n * n, n * n))
+    for i in np.flatnonzero(weights > 0):
+        out += weights[i] * np.kron(A[i], A[i])          # vec(AQAᵀ)
+    return out
+
+
 def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
     """The second-moment map as a scipy LinearOperator.
 
@@ -99,10 +145,7 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
     def apply(v: np.ndarray) -> np.ndarray:
         Q = np.asarray(v).reshape(n, n)
         for j in phases:
-            live = p[j] > 0
-            Aj = A[j, live]
-            Q = np.einsum("m,mab,bc,mdc->ad", p[j, live], Aj, Q, Aj,
-                          optimize=True)
+            Q = phase_map(A[j], p[j], Q, False)
         return Q.reshape(-1)
 
     return LinearOperator((n * n, n * n), matvec=apply, rmatvec=None,
@@ -117,8 +160,7 @@ def _markov_operator(sys: JumpStateSpace, phases: Any, dtype: Any
     def apply(v: np.ndarray) -> np.ndarray:
         Q = np.asarray(v).reshape(M, n, n)
         for k in phases:
-            Y = A[k] @ Q @ A[k].transpose(0, 2, 1)       # (M, n, n)
-            Q = np.tensordot(T[k].T, Y, axes=1)          # Σ_i T[i, j] Y_i
+            Q = phase_map(A[k], T[k], Q, True)
         return Q.reshape(-1)
 
     size = M * n * n
@@ -126,30 +168,16 @@ def _markov_operator(sys: JumpStateSpace, phases: Any, dtype: Any
                           dtype=dtype)
 
 
-def _dense_markov_monodromy(sys: JumpStateSpace) -> np.ndarray:
-    A, T = sys.modes.A, sys.modes.transitions()
-    N, M, n, _ = A.shape
-    out = np.eye(M * n * n)
-    for k in range(N):
-        blocks = np.array([np.kron(A[k, i], A[k, i]) for i in range(M)])
-        # block (j, i) = T[k][i, j] (A_i ⊗ A_i), row-major vec
-        Tk = np.einsum("ij,iab->jaib", T[k], blocks).reshape(M * n * n, -1)
-        out = Tk @ out
-    return out
-
-
-def _dense_monodromy(sys) -> np.ndarray:
-    if not sys.modes.is_iid:
-        return _dense_markov_monodromy(sys)
-    A, p = sys.modes.A, sys.modes.probabilities
+def _dense_monodromy(sys: JumpStateSpace) -> np.ndarray:
+    """The monodromy ``𝒯`` as a dense matrix (row-major ``vec``)."""
+    markov = not sys.modes.is_iid
+    A = sys.modes.A
+    W = sys.modes.transitions() if markov else sys.modes.probabilities
     n = A.shape[-1]
-    T = np.eye(n * n)
+    out = np.eye(n * n * (A.shape[1] if markov else 1))
     for k in range(sys.period):
-        Tk = np.zeros((n * n, n * n))
-        for i in np.flatnonzero(p[k] > 0):
-            Tk += p[k, i] * np.kron(A[k, i], A[k, i])  # vec(AQAᵀ), row-major
-        T = Tk @ T
-    return T
+        out = phase_matrix(A[k], W[k], markov) @ out
+    return out
 
 
 def _deterministic_monodromy(sys: JumpStateSpace) -> np.ndarray | None:
