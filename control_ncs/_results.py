@@ -75,3 +75,18 @@ class Result:
             f"{name} = {_short(getattr(self, name))}"
             for name in self._repr_fields]
         return f"<{type(self).__name__}: {', '.join(parts)}>"
+
+
+class CertifiedResult(Result):
+    """A result that exists only with its figure verified: ``success`` is
+    True and ``status`` ``'certified'`` (a failure raises instead)."""
+
+    @property
+    def success(self) -> bool:
+        """True: the result exists only with a verified figure."""
+        return True
+
+    @property
+    def status(self) -> str:
+        """``'certified'``."""
+        return "certified"

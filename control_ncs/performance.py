@@ -33,7 +33,7 @@ from .exceptions import (CERTIFIED, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
                          CertificationError)
 from .lmi import (DEFAULT_MARGIN, check_options, check_solver,
                   quadratic_supply_model, solve)
-from ._results import Result
+from ._results import CertifiedResult, Result
 from ._lti import is_jump
 from .jump import as_jump
 from .montecarlo import root_entropy
@@ -136,7 +136,7 @@ GAIN_BACKOFFS = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
 
 
 @dataclass(repr=False)
-class GainResult(Result):
+class GainResult(CertifiedResult):
     """A certified ℓ2-gain bracket of a jump system.
 
     Attributes
@@ -174,16 +174,6 @@ class GainResult(Result):
     report: Any
 
     _repr_fields: ClassVar[tuple[str, ...]] = ("gamma", "lower")
-
-    @property
-    def success(self) -> bool:
-        """True: a result exists only with a verified certificate."""
-        return True
-
-    @property
-    def status(self) -> str:
-        """``'certified'``."""
-        return "certified"
 
     @property
     def message(self) -> str:

@@ -21,7 +21,7 @@ import numpy as np
 from control.exception import ControlArgument
 
 from ._checks import choice, positive_real
-from ._results import Result
+from ._results import CertifiedResult
 from .exceptions import NOT_MSS, SOLVER_FAILED, SynthesisError
 from .gain import PeriodicGain, actuators
 from .jump import JumpStateSpace
@@ -36,7 +36,7 @@ __all__ = ["h2syn", "H2Result", "hinfsyn"]
 
 
 @dataclass(repr=False)
-class H2Result(Result):
+class H2Result(CertifiedResult):
     """What :func:`h2syn` designed and measured.
 
     Attributes
@@ -68,16 +68,6 @@ class H2Result(Result):
     report: Any
 
     _repr_fields: ClassVar[tuple[str, ...]] = ("h2", "ms_radius")
-
-    @property
-    def success(self) -> bool:
-        """True: a result exists only for a mean-square stable loop."""
-        return True
-
-    @property
-    def status(self) -> str:
-        """``'certified'``: the H2 norm is the loop's exact one."""
-        return "certified"
 
     @property
     def message(self) -> str:
@@ -121,6 +111,26 @@ def _full_information(P: Any, actuator: str, solver: str | None,
             f"(a sensor schedule); {who}'s exact program needs y = x at "
             f"every step")
     return plant, name, margin
+
+
+def _designed_loop(plant: Any, model: Any, name: str, solver_options: dict,
+                   who: str) -> tuple[np.ndarray, JumpStateSpace, float, Any]:
+    """Solve ``model``, read its gains, close the loop and require it
+    mean-square stable: ``(gains, CL, ms_radius, report)``."""
+    report = solve(model.problem, name, **solver_options)
+    if report.status not in ("optimal", "optimal_inaccurate") or \
+            model.problem.value is None:
+        raise SynthesisError(f"{who}: the solver gave no gain (status "
+                             f"{report.status!r})", SOLVER_FAILED,
+                             dict(status=report.status))
+    gains = model.gains()
+    CL = plant.close(gains)
+    rate = ms_radius(CL)
+    if not rate < 1.0:
+        raise SynthesisError(
+            f"{who}: the solver's gain does not make the loop mean-square "
+            f"stable (ms_radius {rate:.6g})", NOT_MSS, dict(ms_radius=rate))
+    return gains, CL, rate, report
 
 
 def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
@@ -193,19 +203,8 @@ def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
     plant, name, margin = _full_information(P, actuator, solver, margin,
                                             solver_options, "h2syn")
     model = h2_model(plant, margin)
-    report = solve(model.problem, name, **solver_options)
-    if report.status not in ("optimal", "optimal_inaccurate") or \
-            model.problem.value is None:
-        raise SynthesisError(f"h2syn: the solver gave no gain (status "
-                             f"{report.status!r})", SOLVER_FAILED,
-                             dict(status=report.status))
-    gains = model.gains()
-    CL = plant.close(gains)
-    rate = ms_radius(CL)
-    if not rate < 1.0:
-        raise SynthesisError(
-            f"h2syn: the solver's gain does not make the loop mean-square "
-            f"stable (ms_radius {rate:.6g})", NOT_MSS, dict(ms_radius=rate))
+    gains, CL, rate, report = _designed_loop(plant, model, name,
+                                             solver_options, "h2syn")
     h2 = norm(CL, 2)
     K = PeriodicGain(gains, "static", actuator)
     K.result = H2Result(h2, float(np.sqrt(max(model.problem.value, 0.0))),
@@ -276,19 +275,8 @@ def hinfsyn(P: NetworkedStateSpace, *, actuator: str = "zero",
     plant, name, margin = _full_information(P, actuator, solver, margin,
                                             solver_options, "hinfsyn")
     model = hinf_model(plant, margin)
-    report = solve(model.problem, name, **solver_options)
-    if report.status not in ("optimal", "optimal_inaccurate") or \
-            model.gamma2.value is None:
-        raise SynthesisError(f"hinfsyn: the solver gave no gain (status "
-                             f"{report.status!r})", SOLVER_FAILED,
-                             dict(status=report.status))
-    gains = model.gains()
-    CL = plant.close(gains)
-    rate = ms_radius(CL)
-    if not rate < 1.0:
-        raise SynthesisError(
-            f"hinfsyn: the solver's gain does not make the loop mean-square "
-            f"stable (ms_radius {rate:.6g})", NOT_MSS, dict(ms_radius=rate))
+    gains, CL, rate, report = _designed_loop(plant, model, name,
+                                             solver_options, "hinfsyn")
     result: GainResult = l2_gain(CL, solver=solver)
     K = PeriodicGain(gains, "static", actuator)
     K.result = result
