@@ -42,11 +42,14 @@ CONTROLLERS = ("static", "predictor")
 ACTUATORS = ("zero", "hold")
 
 
-def _chain(delay: RandomDelay | None) -> tuple[int, np.ndarray]:
-    """``(buffer, T)`` of a link; no delay: one age, ``a ≡ 0``."""
+def _chain(delay: RandomDelay | None, sent: np.ndarray, N: int
+           ) -> tuple[int, np.ndarray]:
+    """``(buffer, T)`` of a link over the period: ``T`` of shape
+    (N, D + 2, D + 2), periodic under the link's schedule (``sent`` per
+    phase); no delay: one age, ``a ≡ 0``."""
     if delay is None:
-        return 0, np.ones((1, 1))
-    return delay.buffer, age_chain(delay.pmf, delay.buffer)[0]
+        return 0, np.ones((N, 1, 1))
+    return delay.buffer, age_chain(delay.pmf, delay.buffer, sent)
 
 
 def _gains(K: Any, count: int, shape: tuple[int, int]) -> np.ndarray:
@@ -100,8 +103,11 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
         raise ControlArgument(
             f"controller='predictor' needs the full state measured: y = x "
             f"(C2 = I), got C2 of shape {P.C2.shape}")
-    Ds, Ts = _chain(P.sensor_delay)
-    Da, Ta = _chain(P.actuator_delay)
+    N = P.period
+    Ds, Ts = _chain(P.sensor_delay,
+                    P.sensor_schedule.pattern.any(axis=1), N)
+    Da, Ta = _chain(P.actuator_delay,
+                    P.actuator_schedule.pattern.any(axis=1), N)
     sensor_ages = Ds + 2 if P.sensor_delay is not None else 1
     actuator_ages = Da + 2 if P.actuator_delay is not None else 1
     width = n if controller == "predictor" else p2
@@ -183,16 +189,20 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
                 modes_D.append(D11)
                 names.append((a, b) if delay is None
                              else (a, b, float(delay.taus[c])))
-    T = np.kron(Ts, Ta)              # (a, b) → (a⁺, b⁺), a-major
-    if delay is not None:            # τ i.i.d., innermost
-        T = np.kron(T, np.tile(delay.probabilities, (taus, 1)))
+    # (a, b) → (a⁺, b⁺), a-major, per phase; τ i.i.d., innermost
+    T = np.array([np.kron(Ts[k], Ta[k]) for k in range(N)])
+    if delay is not None:
+        T = np.array([np.kron(Tk, np.tile(delay.probabilities, (taus, 1)))
+                      for Tk in T])
     states = ([f"{s}[k-{j}]" if j else s for j in range(Ds + 1)
                for s in P.state_labels]
               + [f"v{i}[k-{j}]" for j in range(1, Da + 1) for i in range(m2)]
               + [f"u{i}[k-{j}]" for j in range(1, Lu + 1) for i in range(m2)])
+    # the same matrices at every phase; the schedule is in the chain
+    Ak, Bk, Ck, Dk = (np.repeat(np.array([X]), N, axis=0)
+                      for X in (modes_A, modes_B, modes_C, modes_D))
     return JumpStateSpace(
-        np.array([modes_A]), np.array([modes_B]), np.array([modes_C]),
-        np.array([modes_D]), None, P.dt, transition=T[None],
+        Ak, Bk, Ck, Dk, None, P.dt, transition=T,
         inputs=P.disturbance_labels, outputs=P.performance_labels,
         states=states,
         name=None if P.name is None else f"{P.name} (closed loop)",

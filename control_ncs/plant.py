@@ -108,8 +108,10 @@ class NetworkedStateSpace(ct.StateSpace):
         (:func:`control_ncs.random_delay`, or its pmf
         ``[P(δ = 0), P(δ = 1), …]``; :ref:`theory-delays`). The link's loss
         is then ``1 - Σ pmf`` (``sensor_loss``/``actuator_loss`` must be 0
-        or that value). Links on which every node sends at every step;
-        close the loop with :func:`control_ncs.feedback`.
+        or that value). One packet carries every node's value, so a
+        schedule may only let all nodes of the link send together or none
+        (the age chain is then periodic); close the loop with
+        :func:`control_ncs.feedback`.
     input_delay : InputDelay, optional
         Sub-sample delays of the control input; give
         ``input_delay=(taus, probabilities)`` to :func:`nss` with a
@@ -239,12 +241,12 @@ class NetworkedStateSpace(ct.StateSpace):
                     f"{side}_loss: a delayed link carries its loss in its pmf "
                     f"(1 - Σ pmf = {delay.loss:g}); give {side}_loss=0 (or "
                     f"the same value), got {link!r}")
-            if getattr(self, f"{side}_schedule").period != 1 or not np.all(
-                    getattr(self, f"{side}_schedule").pattern):
+            pattern = getattr(self, f"{side}_schedule").pattern
+            if not np.all(pattern.all(axis=1) | ~pattern.any(axis=1)):
                 raise ValueError(
-                    f"{side}_delay: delays are modelled for links on which "
-                    f"every {side} sends at every step (no {side}_schedule); "
-                    f"scheduled delayed links are not supported yet")
+                    f"{side}_delay: a delayed link carries one packet with "
+                    f"every {side}'s value; its schedule must let all "
+                    f"{side}s send together or none at each phase")
             if self.shared_channel:
                 raise ValueError("shared_channel: not supported with delayed "
                                  "links")

@@ -237,14 +237,14 @@ def test_a_link_that_only_loses_is_the_bernoulli_link(side, actuator):
                                                    rel=1e-12)
 
 
-def _packet_loop(P, K, sens, act, actuator, steps, rng):
+def _packet_loop(P, K, sens, act, actuator, steps, rng, sent=(True,)):
     """The protocol itself, from packets (independent of the jump model):
     ages of the freshest measurement and command from packet-level
     delays, v_t = K_a y_{t-a}, u_t = v_{t-b}; the time average of z²."""
     A, B1, B2 = P.A, P.B1, P.B2
     C1, C2 = P.C1, P.C2
     n = A.shape[0]
-    a_t = packet_level_ages(sens.pmf, sens.buffer, [True], steps, rng)
+    a_t = packet_level_ages(sens.pmf, sens.buffer, list(sent), steps, rng)
     b_t = packet_level_ages(act.pmf, act.buffer, [True], steps, rng)
     w = rng.standard_normal((steps, B1.shape[1]))
     xs = np.zeros((steps + 1, n))
@@ -296,7 +296,7 @@ def test_delayed_plants_refuse_what_has_no_model_yet():
         ncs.feedback(P, ct.ss([], [], [], [[1.0]], True))
     with pytest.raises(ValueError, match="^sensor_loss:"):
         _scalar(1.1, sensor_delay=[0.5, 0.4], sensor_loss=0.3)
-    with pytest.raises(ValueError, match="^sensor_delay:.*schedule"):
+    with pytest.raises(ValueError, match="^sensor_delay:.*together"):
         ncs.nss([[1.1, 0], [0, 1]], [[1.0, 1.0], [1.0, 0.0]],
                 [[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
                 [[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]], True, nmeas=2, ncon=1,
@@ -343,3 +343,27 @@ def test_input_delay_needs_a_continuous_plant_and_a_probability_law():
                                                          [0.5, 0.4]))
     with pytest.raises(ValueError, match="^input_delay:.*\\[0, h\\)"):
         ncs.nss(G, nmeas=1, ncon=1, dt=0.5, input_delay=([0.6], [1.0]))
+
+
+def test_scheduled_delayed_link_power_equals_a_packet_level_simulation():
+    """The sensor packet is sent at even steps only: the age chain is
+    periodic (period 2) and the loop a period-2 Markov jump system; its
+    stationary output power equals the protocol run from packets."""
+    P = ncs.nss([[0.9, 0.4], [-0.3, 0.8]],
+                [[1.0, 1.0], [0.5, 0.3]],
+                [[1.0, -1.0], [1.0, 0.0], [0.0, 1.0]],
+                [[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]], True, nmeas=2, ncon=1,
+                sensor_schedule=[[1, 1], [0, 0]],
+                sensor_delay=ncs.random_delay([0.6, 0.3], buffer=3),
+                actuator_delay=ncs.random_delay([0.8], buffer=0))
+    K = np.array([[[-0.4, -0.3]], [[-0.3, -0.2]], [[-0.2, -0.15]],
+                  [[-0.1, -0.1]]])
+    CL = ncs.feedback(P, K)
+    assert CL.period == 2
+    exact = ncs.norm(CL) ** 2
+    zz = _packet_loop(P, K, P.sensor_delay, P.actuator_delay, "zero",
+                      200_000, np.random.default_rng(8),
+                      sent=(True, False))[1000:]
+    batches = zz[: zz.size // 100 * 100].reshape(100, -1).mean(axis=1)
+    se = batches.std(ddof=1) / 10
+    assert abs(zz.mean() - exact) < 4 * se
