@@ -33,7 +33,7 @@ from control.exception import ControlArgument, ControlDimension
 from ._checks import real_array
 from .jump import JumpStateSpace
 from .modes import age_chain
-from .network import RandomDelay
+from .network import BurstyDelay, RandomDelay
 from .plant import NetworkedStateSpace
 
 __all__: list[str] = []
@@ -42,14 +42,18 @@ CONTROLLERS = ("static", "predictor")
 ACTUATORS = ("zero", "hold")
 
 
-def _chain(delay: RandomDelay | None, sent: np.ndarray, N: int
-           ) -> tuple[int, np.ndarray]:
-    """``(buffer, T)`` of a link over the period: ``T`` of shape
-    (N, D + 2, D + 2), periodic under the link's schedule (``sent`` per
-    phase); no delay: one age, ``a ≡ 0``."""
+def _chain(delay: RandomDelay | BurstyDelay | None, sent: np.ndarray,
+           N: int) -> tuple[int, np.ndarray, np.ndarray]:
+    """``(buffer, T, ages)`` of a link over the period: the chain ``T``
+    (N, S, S), periodic under the link's schedule (``sent`` per phase), and
+    the age of each of its S states (``buffer + 1``: stale). A bursty link's
+    states are (link state, age); no delay: one state, age 0."""
     if delay is None:
-        return 0, np.ones((N, 1, 1))
-    return delay.buffer, age_chain(delay.pmf, delay.buffer, sent)
+        return 0, np.ones((N, 1, 1)), np.zeros(1, int)
+    D = delay.buffer
+    if isinstance(delay, BurstyDelay):
+        return D, delay.transition(sent), np.tile(np.arange(D + 2), 2)
+    return D, age_chain(delay.pmf, D, sent), np.arange(D + 2)
 
 
 def _gains(K: Any, count: int, shape: tuple[int, int]) -> np.ndarray:
@@ -104,12 +108,10 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
             f"controller='predictor' needs the full state measured: y = x "
             f"(C2 = I), got C2 of shape {P.C2.shape}")
     N = P.period
-    Ds, Ts = _chain(P.sensor_delay,
-                    P.sensor_schedule.pattern.any(axis=1), N)
-    Da, Ta = _chain(P.actuator_delay,
-                    P.actuator_schedule.pattern.any(axis=1), N)
-    sensor_ages = Ds + 2 if P.sensor_delay is not None else 1
-    actuator_ages = Da + 2 if P.actuator_delay is not None else 1
+    Ds, Ts, sensor_ages = _chain(P.sensor_delay,
+                                 P.sensor_schedule.pattern.any(axis=1), N)
+    Da, Ta, actuator_ages = _chain(P.actuator_delay,
+                                   P.actuator_schedule.pattern.any(axis=1), N)
     width = n if controller == "predictor" else p2
     G = _gains(K, Ds + 1, (m2, width))
     # how many applied inputs are kept: the predictor's window and the hold
@@ -139,7 +141,7 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
     C2 = np.asarray(P.C2, float)
     powers = [np.linalg.matrix_power(A, i) for i in range(Ds + 1)]
     modes_A, modes_B, modes_C, modes_D, names = [], [], [], [], []
-    for a in range(sensor_ages):
+    for a in sensor_ages:
         # the command v_k as a row block acting on X
         V = np.zeros((m2, nX))
         if a <= Ds:
@@ -151,7 +153,7 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
                 for i in range(1, a + 1):
                     xhat[:, ub(i)] += powers[i - 1] @ B2
                 V = G[a] @ xhat
-        for b in range(actuator_ages):
+        for b in actuator_ages:
             U = np.zeros((m2, nX))          # the applied input u_k
             if b == 0:
                 U = V.copy()
@@ -187,8 +189,8 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
                 modes_B.append(Bm)
                 modes_C.append(Cm)
                 modes_D.append(D11)
-                names.append((a, b) if delay is None
-                             else (a, b, float(delay.taus[c])))
+                names.append((int(a), int(b)) if delay is None
+                             else (int(a), int(b), float(delay.taus[c])))
     # (a, b) → (a⁺, b⁺), a-major, per phase; τ i.i.d., innermost
     T = np.array([np.kron(Ts[k], Ta[k]) for k in range(N)])
     if delay is not None:

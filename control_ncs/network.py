@@ -23,7 +23,7 @@ from .modes import age_chain, transition_matrix
 
 __all__ = ["Schedule", "schedule", "mode_probabilities", "GilbertElliott",
            "gilbert_elliott", "mode_transition", "RandomDelay",
-           "random_delay"]
+           "random_delay", "BurstyDelay", "bursty_delay"]
 
 
 class Schedule:
@@ -539,10 +539,153 @@ def link_model(value: Any, name: str) -> float | GilbertElliott:
         raise ValueError(f"{name}: transition {T.tolist()}: {err}") from None
 
 
-def delay_model(value: Any, name: str) -> "RandomDelay | None":
-    """A link's delay model: None, a :class:`RandomDelay`, or a delay pmf
-    (``[P(δ = 0), P(δ = 1), …]``, buffer = the largest delay)."""
-    if value is None or isinstance(value, RandomDelay):
+class BurstyDelay:
+    """A link whose delays come in bursts: a delay law per link state.
+
+    A Gilbert–Elliott chain (:class:`GilbertElliott`) moves between a bad
+    and a good state at every step; while it is in state ``g``, a packet of
+    age ``c`` still in flight arrives with the hazard of ``pmfs[g]``
+    (:ref:`theory-delays`). The receiver keeps the freshest packet, so the
+    pair (link state, age) is a Markov chain. A bad state that delivers
+    nothing (``pmf = [0]``) and a good state that delivers at once
+    (``[1]``) give back the bursty-loss link. Build one with
+    :func:`bursty_delay`.
+
+    Parameters
+    ----------
+    link : GilbertElliott
+        The link-state chain (state 0 bad, 1 good).
+    pmf_bad, pmf_good : array_like
+        The delay laws of the two states (``[0]``: nothing arrives).
+    buffer : int, optional
+        The oldest usable age (default: the largest delay).
+
+    Attributes
+    ----------
+    link : GilbertElliott
+        The link-state chain (state 0 bad, 1 good).
+    pmfs : tuple of ndarray
+        The delay laws of the bad and the good state.
+    buffer : int
+        The oldest usable age.
+    loss : float
+        For reference: the stationary mix of the two pmfs' losses.
+
+    Examples
+    --------
+    >>> link = ncs.bursty_delay(ncs.gilbert_elliott(fail=0.1, recover=0.4),
+    ...                         [0.2], [0.7, 0.3])
+    >>> link.buffer, link.transition().shape
+    (1, (1, 6, 6))
+    """
+
+    def __init__(self, link: GilbertElliott, pmf_bad: Any, pmf_good: Any,
+                 buffer: int | None = None):
+        if not isinstance(link, GilbertElliott):
+            raise ValueError(f"link: expected a gilbert_elliott link, got "
+                             f"{type(link).__name__}")
+        pmfs = []
+        for name, value in (("pmf_bad", pmf_bad), ("pmf_good", pmf_good)):
+            q = np.asarray(value, dtype=float) if not isinstance(
+                value, str) else np.array([np.nan])
+            if q.ndim != 1 or q.size == 0 or not np.all(np.isfinite(q)) \
+                    or np.any(q < 0) or q.sum() > 1.0 + _TOL:
+                raise ValueError(f"{name}: expected non-negative delay "
+                                 f"probabilities summing to at most 1, got "
+                                 f"{value!r}")
+            pmfs.append(q / max(1.0, q.sum()))
+        if not any(np.any(q > 0) for q in pmfs):
+            raise ValueError("pmf_bad, pmf_good: no packet ever arrives")
+        d = max(int(np.flatnonzero(q)[-1]) if np.any(q > 0) else 0
+                for q in pmfs)
+        if buffer is None:
+            buffer = d
+        if isinstance(buffer, (bool, np.bool_)) or not isinstance(
+                buffer, (int, np.integer)) or buffer < d:
+            raise ValueError(f"buffer: expected an int >= the largest delay "
+                             f"{d}, got {buffer!r}")
+        self.link, self.pmfs, self.buffer = link, tuple(pmfs), int(buffer)
+
+    @property
+    def loss(self) -> float:
+        """The stationary mix of the two pmfs' losses (for reference)."""
+        pi = (self.link.loss, 1.0 - self.link.loss)     # P(bad), P(good)
+        return float(sum(p * (1.0 - q.sum()) for p, q in zip(pi, self.pmfs)))
+
+    def transition(self, sent: Any = None) -> np.ndarray:
+        """The chain of (link state, age), periodic under a schedule.
+
+        Parameters
+        ----------
+        sent : array_like of bool, shape (N,), optional
+            Whether a packet is sent at each phase (default: every step).
+
+        Returns
+        -------
+        ndarray, shape (N, 2 (D + 2), 2 (D + 2))
+            States ``(g, a)`` g-major: ``T[k][(g, a), (g', b)] =
+            T_link[g, g'] · T_{g'}[a, b]``, the arrivals of the step judged
+            by the state ``g'`` the link is in.
+        """
+        ages = [age_chain(q, self.buffer, sent) for q in self.pmfs]
+        G = self.link.transition
+        N, S = ages[0].shape[0], ages[0].shape[1]
+        T = np.zeros((N, 2 * S, 2 * S))
+        for g in range(2):
+            for h in range(2):
+                T[:, g * S:(g + 1) * S, h * S:(h + 1) * S] = \
+                    G[g, h] * ages[h]
+        return T
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, BurstyDelay) and self.buffer == other.buffer
+                and self.link == other.link
+                and all(np.array_equal(a, b)
+                        for a, b in zip(self.pmfs, other.pmfs)))
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return (f"BurstyDelay({self.link!r}, pmf_bad={self.pmfs[0].tolist()}, "
+                f"pmf_good={self.pmfs[1].tolist()}, buffer={self.buffer})")
+
+
+def bursty_delay(link: GilbertElliott, pmf_bad: Any, pmf_good: Any,
+                 buffer: int | None = None) -> BurstyDelay:
+    """A link with bursty delays: a delay law per link state.
+
+    Parameters
+    ----------
+    link : GilbertElliott
+        The link-state chain (:func:`gilbert_elliott`).
+    pmf_bad, pmf_good : array_like
+        ``P(δ = c)`` in the bad and the good state (``[0]``: nothing
+        arrives).
+    buffer : int, optional
+        The oldest usable age (default: the largest delay).
+
+    Returns
+    -------
+    BurstyDelay
+
+    Examples
+    --------
+    A link that delivers at once while good and a step late at best while
+    bad:
+
+    >>> link = ncs.bursty_delay(ncs.gilbert_elliott(fail=0.1, recover=0.4),
+    ...                         [0.0, 0.5], [1.0])
+    >>> round(link.loss, 6)
+    0.1
+    """
+    return BurstyDelay(link, pmf_bad, pmf_good, buffer)
+
+
+def delay_model(value: Any, name: str) -> "RandomDelay | BurstyDelay | None":
+    """A link's delay model: None, a :class:`RandomDelay` or
+    :class:`BurstyDelay`, or a delay pmf (``[P(δ = 0), P(δ = 1), …]``,
+    buffer = the largest delay)."""
+    if value is None or isinstance(value, (RandomDelay, BurstyDelay)):
         return value
     try:
         return random_delay(value)

@@ -367,3 +367,61 @@ def test_scheduled_delayed_link_power_equals_a_packet_level_simulation():
     batches = zz[: zz.size // 100 * 100].reshape(100, -1).mean(axis=1)
     se = batches.std(ddof=1) / 10
     assert abs(zz.mean() - exact) < 4 * se
+
+
+# -- bursty delays: a delay law per Gilbert-Elliott state ------------------------
+def test_bursty_delay_that_only_loses_is_the_gilbert_elliott_link():
+    ge = ncs.gilbert_elliott(fail=0.1, recover=0.4)
+    for side in ("sensor", "actuator"):
+        for actuator in ("zero", "hold"):
+            delayed = ncs.feedback(
+                _scalar(1.1, **{f"{side}_delay": ncs.bursty_delay(
+                    ge, [0.0], [1.0])}), [[-1.0]], actuator=actuator)
+            lossy = ncs.feedback(_scalar(1.1, **{f"{side}_loss": ge}),
+                                 [[-1.0]], actuator=actuator)
+            assert ncs.ms_radius(delayed) == pytest.approx(
+                ncs.ms_radius(lossy), rel=1e-12)
+
+
+def test_bursty_delay_chain_equals_a_packet_level_simulation():
+    """Link state from the Gilbert-Elliott chain; every packet in flight
+    arrives with the hazard of the state the link is in; the receiver
+    keeps the freshest. Empirical (state, age) transitions against the
+    chain."""
+    ge = ncs.gilbert_elliott(fail=0.2, recover=0.3)
+    link = ncs.bursty_delay(ge, [0.1, 0.3], [0.6, 0.3, 0.05], buffer=3)
+    D, steps = link.buffer, 150_000
+    rng = np.random.default_rng(12)
+    hazards = []
+    for q in link.pmfs:
+        tail = 1.0 - np.concatenate(([0.0], np.cumsum(q)))[:q.size]
+        h = np.zeros(D + 1)
+        h[:q.size] = np.where(tail > 0, q / np.where(tail > 0, tail, 1), 0)
+        hazards.append(h)
+    g, arrived_at = 1, np.full(steps, False)
+    latest, states = -10 ** 9, np.empty(steps, int)
+    T_ge = ge.transition
+    for t in range(steps):
+        g = int(rng.random() < T_ge[g, 1])          # P(next = good | g)
+        for c in range(D + 1):                     # packets of age c
+            s = t - c
+            if s >= 0 and not arrived_at[s] and rng.random() < hazards[g][c]:
+                arrived_at[s] = True
+                latest = max(latest, s)
+        age = t - latest
+        states[t] = g * (D + 2) + (age if age <= D else D + 1)
+    counts = np.zeros((2 * (D + 2), 2 * (D + 2)))
+    np.add.at(counts, (states[1000:-1], states[1001:]), 1.0)
+    rows = counts.sum(axis=1, keepdims=True)
+    empirical = counts / np.where(rows > 0, rows, 1)
+    T = link.transition()[0]
+    seen = rows[:, 0] > 2000
+    assert np.abs(empirical[seen] - T[seen]).max() < 0.02
+
+
+def test_bursty_delay_refuses_a_link_that_never_delivers():
+    ge = ncs.gilbert_elliott(fail=0.2, recover=0.3)
+    with pytest.raises(ValueError, match="no packet ever arrives"):
+        ncs.bursty_delay(ge, [0.0], [0.0])
+    with pytest.raises(ValueError, match="^pmf_good:"):
+        ncs.bursty_delay(ge, [0.5], [0.9, 0.3])
