@@ -18,6 +18,8 @@ from __future__ import annotations
 import math
 import time
 import warnings
+
+import numpy as np
 from dataclasses import replace
 from typing import Any
 
@@ -34,6 +36,7 @@ from .plant import NetworkedStateSpace
 from .strategies import build, require_state_measured
 from .exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
 from .verify import (level_floor)
+from ._delay_design import delayed_design, gain_shape, undelayed
 from ._lifting import unseen_modes
 from ._synthesis_result import _SHORTAGE_HELP, SynthesisResult
 from ._synthesis_routes import (_feedthrough, _open_loop_bound, _plant_arrays,
@@ -107,6 +110,46 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant,
     return eta, decay, structure
 
 
+def _over_delays(P: NetworkedStateSpace, eta: Any, decay: Any,
+                 controller: str, actuator: str, deadline: float | None,
+                 initial_gain: Any, options: dict
+                 ) -> tuple[PeriodicGain, JumpStateSpace, float]:
+    """passivesyn over delayed links: the local search of
+    :mod:`control_ncs._delay_design`, started from the design without the
+    delays (or ``initial_gain``)."""
+    defaults: dict[str, Any] = dict(form="merged", structure="auto",
+                                    gain="mode", solver=None, method="auto",
+                                    options={})
+    changed = sorted(k for k, v in options.items() if v != defaults[k])
+    if changed:
+        raise ControlArgument(
+            f"{', '.join(changed)}: over delayed links passivesyn searches "
+            f"the gains locally on exact figures; only eta, decay, "
+            f"controller, actuator, initial_gain and time_limit apply")
+    if controller not in ("static", "predictor"):
+        raise ControlArgument(f"controller: over delayed links expected "
+                              f"'static' or 'predictor', got {controller!r}")
+    eta = finite_real(eta, "eta", allow_none=True)
+    decay = decay_bound(decay)
+    shape = gain_shape(P, controller)
+    if initial_gain is not None:
+        start = np.asarray(initial_gain, float)
+        if start.shape not in (shape, (1,) + shape[1:]):
+            raise ControlDimension(f"initial_gain: expected shape {shape}, "
+                                   f"got {start.shape}")
+    else:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                start = passivesyn(undelayed(P), decay=decay,
+                                   controller=controller,
+                                   actuator=actuator)[0].gains[:1]
+        except (SynthesisError, ValueError):
+            start = np.zeros(shape)
+    return delayed_design(P, eta, decay, controller, actuator, deadline,
+                          start)
+
+
 def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                decay: float | None = None, controller: str = "static",
                actuator: str = "zero", form: str = "merged",
@@ -133,7 +176,13 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     gain that fails the check is never returned; when nothing can be
     certified, :class:`~control_ncs.SynthesisError` says why, and says
     "infeasible" only with a proof. Over bursty (Gilbert–Elliott) links the
-    design and the check are those of :ref:`theory-markov`.
+    design and the check are those of :ref:`theory-markov`. Over delayed
+    links (:ref:`theory-delays`) no convex program applies: one gain per
+    sensor age (or the predictor's gain) is searched locally on exact
+    figures, from the design without the delays, and the loop found is
+    certified by :func:`passivity_certificate` (``K.result``); a local
+    optimum, so a level it misses is ``'not_found'``. Give ``decay`` to
+    keep the loop away from the edge of stability.
 
     Parameters
     ----------
@@ -409,6 +458,14 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     if time_limit is not None:
         time_limit = positive_real(time_limit, "time_limit")
     deadline = None if time_limit is None else time.perf_counter() + time_limit
+    if isinstance(P, NetworkedStateSpace) and (
+            P.sensor_delay is not None or P.actuator_delay is not None
+            or P.input_delay is not None):
+        return _over_delays(P, eta, decay, controller, actuator, deadline,
+                            initial_gain, dict(form=form, structure=structure,
+                                               gain=gain, solver=solver,
+                                               method=method,
+                                               options=solver_options))
     if isinstance(P, JumpPlant):
         # the gain's labels: the strategy that built the plant, if named
         plant = replace(P, controller=P.controller or controller,

@@ -425,3 +425,35 @@ def test_bursty_delay_refuses_a_link_that_never_delivers():
         ncs.bursty_delay(ge, [0.0], [0.0])
     with pytest.raises(ValueError, match="^pmf_good:"):
         ncs.bursty_delay(ge, [0.5], [0.9, 0.3])
+
+
+# -- passive design over delayed links (a local search on exact figures) --------
+def _passive_scalar(**network):
+    """x⁺ = 1.2x + w + u, z = x + 0.5w, y = x."""
+    return ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+                   [[0.5, 0.0], [0.0, 0.0]], True, nmeas=1, ncon=1,
+                   **network)
+
+
+def test_passivesyn_over_a_delayed_link_certifies_a_gain_per_age():
+    P = _passive_scalar(sensor_delay=[0.5, 0.3, 0.1])
+    K, CL, eta = ncs.passivesyn(P)
+    assert K.gains.shape == (3, 1, 1)              # one gain per age
+    assert K.result.certificate.verified and eta == K.result.eta
+    # the certified level is the analysis' of the returned loop
+    again = ncs.passivity_certificate(ncs.feedback(P, K), None)
+    assert again.certificate.verified and again.eta == pytest.approx(
+        eta, abs=1e-5)
+    # not worse than its start, the design without delays at every age
+    K0 = ncs.passivesyn(P.with_network(sensor_delay=None))[0].gains[:1]
+    start = ncs.passivity_certificate(ncs.feedback(P, K0), None)
+    assert eta >= start.eta - 1e-9
+
+
+def test_passivesyn_over_a_delayed_link_says_when_a_level_is_not_reached():
+    P = _passive_scalar(sensor_delay=[0.5, 0.3, 0.1])
+    with pytest.raises(ncs.SynthesisError, match="local optimum") as info:
+        ncs.passivesyn(P, eta=0.4, time_limit=1.0)
+    assert info.value.reason == "not_found"
+    with pytest.raises(ControlArgument, match="^structure:"):
+        ncs.passivesyn(P, structure="full")
