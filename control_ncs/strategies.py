@@ -116,9 +116,10 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     if P.sensor_delay is not None or P.actuator_delay is not None or \
             P.input_delay is not None:
         raise ControlArgument(
-            "P: a plant with delayed links has no open-loop builder yet: "
-            "close its loop with feedback(P, K) and analyse the result; "
-            "synthesis over delayed links is not available")
+            "P: a plant with delayed links has no open-loop builder "
+            "(JumpPlant) for synthesis over delayed links: close its loop "
+            "with feedback(P, K), or design with passivesyn(P), which "
+            "searches the gains locally there")
     strategy = _strategy(controller, actuator)
     opts = _options(P, controller, sensor, controller_order, estimator_gain)
     N = positive_int(period, "period", allow_none=True) or P.period
