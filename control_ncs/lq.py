@@ -60,8 +60,8 @@ def _iterate(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
     return None
 
 
-def _critical(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray
-              ) -> tuple[float, bool]:
+def critical_arrival(A: np.ndarray, B: np.ndarray, Q: np.ndarray,
+                     R: np.ndarray) -> tuple[float, bool]:
     """The arrival probability below which no solution exists, and whether
     it is exact: ``1 - 1/ρ(A)²`` when ``B`` is square and invertible
     (Schenato et al. 2007), else by bisection on convergence to 1e-4
@@ -191,7 +191,7 @@ def dlqr(*args: Any, arrival: float | None = None, **kwargs: Any
         raise ValueError("R: expected a positive definite weight")
     S = _iterate(A, B, Q, R, nu)
     if S is None:
-        critical, exact = _critical(A, B, Q, R)
+        critical, exact = critical_arrival(A, B, Q, R)
         about = "" if exact else "about "
         raise ValueError(
             f"arrival: {nu:g} is at or below the critical arrival probability "

@@ -39,6 +39,7 @@ from .jump import as_jump
 from .montecarlo import root_entropy
 from .stability import ms_radius, output_power
 from .strategies import feedback
+from .lq import critical_arrival
 from .verify import gain_certificate_check, supply_certificate_check
 
 __all__ = ["norm", "l2_gain", "GainResult", "lyapunov_exponent",
@@ -438,7 +439,7 @@ def lyapunov_exponent(sys: Any, *, steps: int = 5000, trials: int = 20,
                           False, periods * N, trials)
 
 
-def critical_loss(P: Any, K: Any, *, link: str = "actuator",
+def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
                   tol: float = 1e-6, **kwargs: Any) -> float:
     """The loss probability at which a gain stops stabilising the loop.
 
@@ -448,14 +449,18 @@ def critical_loss(P: Any, K: Any, *, link: str = "actuator",
     (the loop is mean-square stable at the returned ``α*`` minus ``tol``
     and not at ``α*``). For the loss beyond which *no* gain stabilises a
     state-feedback loop over its actuator link, see the critical arrival
-    probability :func:`control_ncs.dlqr` states.
+    probability :func:`control_ncs.dlqr` states; ``K=None`` returns that
+    loss (``1 - ν_c``: exact when ``B2`` is square and invertible, from a
+    bisection otherwise).
 
     Parameters
     ----------
     P : NetworkedStateSpace
         The plant; its other network settings are kept.
-    K : array_like or PeriodicGain
-        The gain, as for :func:`control_ncs.feedback`.
+    K : array_like or PeriodicGain, optional
+        The gain, as for :func:`control_ncs.feedback`. None: the loss beyond
+        which no state feedback over the actuator link stabilises the loop
+        (period 1, ``y = x``).
     link : {'actuator', 'sensor'}, optional
         Which link's loss varies.
     tol : float, optional
@@ -487,9 +492,26 @@ def critical_loss(P: Any, K: Any, *, link: str = "actuator",
     ...             [[0.0, 0.0], [0.0, 0.0]], True, nmeas=1, ncon=1)
     >>> round(ncs.critical_loss(P, [[-2.0]]), 5)
     0.25
+
+    No gain stabilises it beyond the loss ``1/a² = 0.25`` either (the
+    deadbeat gain above is the best):
+
+    >>> round(ncs.critical_loss(P), 5)
+    0.25
     """
     choice(link, "link", ("actuator", "sensor"))
     tol = positive_real(tol, "tol")
+    if K is None:
+        if link != "actuator" or P.period != 1 or not np.array_equal(
+                P.C2, np.eye(P.nstates)):
+            raise ControlArgument(
+                "K: the best gain's critical loss is that of state feedback "
+                "over the actuator link (link='actuator', period 1, y = x); "
+                "give a gain K otherwise")
+        A, B2 = np.asarray(P.A, float), np.asarray(P.B2, float)
+        nu, _ = critical_arrival(A, B2, np.eye(A.shape[0]),
+                                 np.eye(B2.shape[1]))
+        return float(1.0 - nu)
 
     def stable(alpha: float) -> bool:
         Pa = P.with_network(**{f"{link}_loss": alpha})

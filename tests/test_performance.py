@@ -403,3 +403,14 @@ def test_hinfsyn_of_a_scalar_loop_matches_the_bounded_real_lemma():
 def test_hinfsyn_refuses_what_its_exact_program_does_not_cover():
     with pytest.raises(ControlArgument, match="^actuator:"):
         ncs.hinfsyn(_lq_plant(), actuator="hold")
+
+
+def test_critical_loss_of_the_best_gain_is_the_modified_riccati_limit():
+    P = _lq_plant(0.0)
+    assert ncs.critical_loss(P) == pytest.approx(1 / 1.44, rel=1e-12)
+    # no gain at a loss just above it stabilises: the dlqr refuses there
+    with pytest.raises(ValueError, match="critical"):
+        ncs.dlqr(P.with_network(actuator_loss=1 / 1.44 + 0.01),
+                 [[1.0]], [[1.0]])
+    with pytest.raises(ControlArgument, match="^K:"):
+        ncs.critical_loss(P, link="sensor")
