@@ -221,9 +221,10 @@ def schedule_plot(P: NetworkedStateSpace, steps: int | None = None, *,
     return _one_axes(ax, drawn)
 
 
-def design_map_plot(dmap: Any, quantity: str = "eta", *, ax: Any = None,
-                    title: str | None = None) -> ct.ControlPlot:
-    """Heat map of a design map's ``eta`` or ``ms_radius``.
+def design_map_plot(dmap: Any, quantity: str | None = None, *,
+                    ax: Any = None, title: str | None = None
+                    ) -> ct.ControlPlot:
+    """Heat map of a design map's figure or ``ms_radius``.
 
     The cells the map certified are coloured; the red line is the
     feasibility boundary (where the grid has two points or more on each
@@ -233,7 +234,9 @@ def design_map_plot(dmap: Any, quantity: str = "eta", *, ax: Any = None,
     ----------
     dmap : DesignMap
         The result of :func:`control_ncs.design_map`.
-    quantity : {'eta', 'ms_radius'}
+    quantity : {'eta', 'h2', 'hinf', 'ms_radius'}, optional
+        The map's own figure (its ``objective``, the default) or the
+        certified loops' mean-square rate.
     ax : matplotlib.axes.Axes, optional
     title : str, optional
 
@@ -252,17 +255,21 @@ def design_map_plot(dmap: Any, quantity: str = "eta", *, ax: Any = None,
     >>> cp.axes[0, 0].get_xlabel(), bool(min(cp.axes[0, 0].get_xlim()) >= 0)
     ('actuator_loss', True)
     """
-    choice(quantity, "quantity", ("eta", "ms_radius"))
+    objective = getattr(dmap, "objective", "eta")
+    quantity = objective if quantity is None else quantity
+    choice(quantity, "quantity", (objective, "ms_radius"))
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4.5), layout="constrained")
     else:
         _check_axes(ax)
-    data = np.ma.masked_invalid(getattr(dmap, quantity))
+    data = np.ma.masked_invalid(dmap.ms_radius if quantity == "ms_radius"
+                                else dmap.value)
     x, y = dmap.values[1], dmap.values[0]
     mesh = ax.pcolormesh(_edges(x, dmap.axes[1]), _edges(y, dmap.axes[0]), data, shading="flat",
                          cmap="viridis")
     drawn: list = [mesh]
-    ax.figure.colorbar(mesh, ax=ax, label=quantity)
+    label = {"h2": "H2 norm", "hinf": "ℓ2-gain bound"}.get(quantity, quantity)
+    ax.figure.colorbar(mesh, ax=ax, label=label)
     if min(dmap.shape) >= 2 and dmap.feasible.any() \
             and not dmap.feasible.all():
         drawn.append(ax.contour(x, y, dmap.feasible.astype(float),
@@ -270,7 +277,7 @@ def design_map_plot(dmap: Any, quantity: str = "eta", *, ax: Any = None,
                                 linewidths=1.5))
     ax.set_xlabel(dmap.axes[1])
     ax.set_ylabel(dmap.axes[0])
-    ax.set_title(title or (f"{quantity} of the certified design\n"
+    ax.set_title(title or (f"{label} of the certified design\n"
                            f"(blank: none; red: feasibility boundary)"),
                  fontsize="medium")
     return _one_axes(ax, drawn)

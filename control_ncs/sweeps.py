@@ -30,8 +30,8 @@ import numpy as np
 import control as ct
 from control.exception import ControlArgument, ControlDimension
 
-from .exceptions import (PROOFS, TIME_LIMIT, NotPassiveWarning,
-                         ScheduleWarning, SynthesisError)
+from .exceptions import (PROOFS, TIME_LIMIT, CertificationError,
+                         NotPassiveWarning, ScheduleWarning, SynthesisError)
 from .network import GilbertElliott, gilbert_elliott
 from .plant import NetworkedStateSpace
 from ._checks import (choice, decay_bound, finite_real, flag,
@@ -40,6 +40,8 @@ from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
                          _letter_maps, _loop_closes, _orbit_count, _prune,
                          _relabellings)
+from .performance_synthesis import h2syn, hinfsyn
+from .stability import ms_radius as _ms_radius
 from .synthesis import METHODS, passivesyn
 
 __all__ = ["design_map", "DesignMap", "schedule_search", "ScheduleSearch",
@@ -55,13 +57,20 @@ MAX_SCHEDULES = 10**7
 _CONTROLLERS = ("static", "predictor")
 _ACTUATORS = ("zero", "hold")
 _OBJECTIVES = ("eta", "rate")
+# what a design map optimises in each cell: passivesyn's certified η, or the
+# H2 norm / ℓ2-gain bound of h2syn / hinfsyn (the exact full-information
+# programs: static state feedback, zero actuator)
+_MAP_OBJECTIVES = {"eta": "certified η (passivesyn)",
+                   "h2": "exact H2 norm (h2syn)",
+                   "hinf": "certified ℓ2-gain bound (hinfsyn)"}
 
 
 # -- boundary checks ----------------------------------------------------------
 
-def _plant(P: Any) -> NetworkedStateSpace:
+def _plant(P: Any, passivity: bool = True) -> NetworkedStateSpace:
     """``P``, checked for what synthesis needs (as passivesyn does), so that
-    a sweep fails before its first task, not in a worker."""
+    a sweep fails before its first task, not in a worker; ``passivity``:
+    also ``dim w = dim z``."""
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
@@ -71,7 +80,7 @@ def _plant(P: Any) -> NetworkedStateSpace:
             f"P: synthesis needs the state measured, y = x (C2 = I, {n}x{n}), "
             f"got C2 of shape {P.C2.shape}")
     m1, p1 = P.B1.shape[1], P.C1.shape[0]
-    if m1 != p1 or m1 == 0:
+    if passivity and (m1 != p1 or m1 == 0):
         raise ControlDimension(
             f"P: passivity needs w and z of equal, nonzero size (m1 = p1), "
             f"got {m1} disturbance inputs and {p1} performance outputs")
@@ -123,27 +132,21 @@ def _loss_grid(values: Any, name: str) -> np.ndarray:
 
 # -- running tasks --------------------------------------------------------------
 
-def _synthesise(P: NetworkedStateSpace, eta: float | None,
-                decay: float | None, controller: str, actuator: str,
-                method: str = "lmi", initial_gain: Any = None) -> tuple:
-    """One cell: ``(eta, ms_radius, feasible, reason, gains, exact)`` from
-    passivesyn (``gains`` None where nothing is certified; ``exact``: the
-    certified level is the best of its kind).
+def _in_own_thread(func: Callable, *args: Any) -> Any:
+    """``func(*args)`` in a thread of its own, its exception re-raised here.
 
-    Module level, so that a process pool or a Dask worker can unpickle it.
-    It runs in a thread of its own: the compiled LMIs are cached per thread
-    (``lmi.py``), and a solve through a freshly compiled problem and one
-    through a cached compilation differ in the last bits (measured: 4e-11
-    relative in η). A new thread starts with an empty cache, so every cell
-    is computed the same way whichever worker runs it and whatever it ran
-    before: the results do not depend on the executor.
+    The compiled LMIs are cached per thread (``lmi/_core.py``), and a solve
+    through a freshly compiled problem and one through a cached compilation
+    differ in the last bits (measured: 4e-11 relative in η). A new thread
+    starts with an empty cache, so every cell is computed the same way
+    whichever worker runs it and whatever it ran before: the results do not
+    depend on the executor.
     """
     box: dict = {}
 
     def target() -> None:
         try:
-            box["value"] = _synthesise_here(P, eta, decay, controller,
-                                            actuator, method, initial_gain)
+            box["value"] = func(*args)
         except BaseException as err:  # re-raised in the caller's thread
             box["error"] = err
 
@@ -154,6 +157,38 @@ def _synthesise(P: NetworkedStateSpace, eta: float | None,
     if "error" in box:
         raise box["error"]
     return box["value"]
+
+
+def _synthesise(P: NetworkedStateSpace, eta: float | None,
+                decay: float | None, controller: str, actuator: str,
+                method: str = "lmi", initial_gain: Any = None) -> tuple:
+    """One cell: ``(eta, ms_radius, feasible, reason, gains, exact)`` from
+    passivesyn (``gains`` None where nothing is certified; ``exact``: the
+    certified level is the best of its kind).
+
+    Module level, so that a process pool or a Dask worker can unpickle it;
+    run in its own thread (:func:`_in_own_thread`).
+    """
+    return _in_own_thread(_synthesise_here, P, eta, decay, controller,
+                          actuator, method, initial_gain)
+
+
+def _perform(P: NetworkedStateSpace, objective: str) -> tuple:
+    """One cell of an H2 or H∞ map: ``(value, ms_radius, feasible, reason,
+    gains, exact)`` from h2syn or hinfsyn, the value the exact analysis of
+    the designed loop (never the solver's). Module level and in its own
+    thread, as :func:`_synthesise`."""
+    return _in_own_thread(_perform_here, P, objective)
+
+
+def _perform_here(P: NetworkedStateSpace, objective: str) -> tuple:
+    design = h2syn if objective == "h2" else hinfsyn
+    try:
+        K, CL, value = design(P)
+    except CertificationError as err:
+        return math.nan, math.nan, False, err.reason, None, False
+    return (float(value), float(_ms_radius(CL)), True, "certified", K.gains,
+            True)
 
 
 def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
@@ -218,13 +253,14 @@ def _cells(tasks: list, method: str, executor: Executor | None,
 
 @dataclass
 class DesignMap:
-    """Certified passive designs over a grid of network parameters.
+    """Certified designs over a grid of network parameters.
 
-    Cell ``[i, j]`` is :func:`control_ncs.passivesyn` for the plant with
-    ``axes[0]`` at ``values[0][i]`` and ``axes[1]`` at ``values[1][j]``.
-    The axes are stored by name and values (not as fixed attributes), so
-    that other axis kinds, such as the burst length of Markov losses (a
-    later issue), can be added without changing this class.
+    Cell ``[i, j]`` is :func:`control_ncs.passivesyn` (or, by
+    ``objective``, :func:`control_ncs.h2syn` or :func:`control_ncs.hinfsyn`)
+    for the plant with ``axes[0]`` at ``values[0][i]`` and ``axes[1]`` at
+    ``values[1][j]``. The axes are stored by name and values (not as fixed
+    attributes), so that other axis kinds, such as the burst length of
+    Markov losses, can be added without changing this class.
 
     Attributes
     ----------
@@ -233,7 +269,8 @@ class DesignMap:
     values : tuple of ndarray
         Grid values along each axis.
     eta : ndarray, shape (len(values[0]), len(values[1]))
-        Certified dissipation ``η`` (NaN where no gain is certified).
+        Certified dissipation ``η`` (NaN where no gain is certified, and
+        everywhere in an H2 or H∞ map).
     ms_radius : ndarray, same shape
         Exact per-step mean-square rate of the certified closed loop (NaN
         where none).
@@ -246,6 +283,12 @@ class DesignMap:
     controller, actuator : str
     elapsed : float
         Wall-clock time of the sweep in seconds.
+    objective : {'eta', 'h2', 'hinf'}
+        What each cell optimised.
+    value : ndarray, same shape
+        The certified figure of each cell: ``eta`` for ``'eta'``, the
+        designed loop's exact H2 norm for ``'h2'``, its certified ℓ2-gain
+        bound for ``'hinf'`` (NaN where none).
 
     Examples
     --------
@@ -267,6 +310,12 @@ class DesignMap:
     controller: str = "static"
     actuator: str = "zero"
     elapsed: float = 0.0
+    objective: str = "eta"
+    value: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.value is None:
+            self.value = self.eta
 
     @property
     def shape(self) -> tuple:
@@ -274,24 +323,31 @@ class DesignMap:
         return self.eta.shape
 
     def __repr__(self) -> str:
+        what = "" if self.objective == "eta" else f", objective={self.objective!r}"
         return (f"<DesignMap {self.axes[0]} × {self.axes[1]}: "
                 f"{self.shape[0]}×{self.shape[1]} cells, "
                 f"{int(self.feasible.sum())} certified, "
-                f"controller={self.controller!r}>")
+                f"controller={self.controller!r}{what}>")
 
     def summary(self) -> str:
         """A few lines for humans: the grid, the counts, the best cell."""
         lines = [repr(self),
                  f"  {self.axes[0]}: {np.round(self.values[0], 6).tolist()}",
                  f"  {self.axes[1]}: {np.round(self.values[1], 6).tolist()}",
-                 f"  eta={'max' if self.eta_requested is None else self.eta_requested}"
-                 f", decay={self.decay}, elapsed {self.elapsed:.3g} s"]
+                 (f"  eta={'max' if self.eta_requested is None else self.eta_requested}"
+                  f", decay={self.decay}, elapsed {self.elapsed:.3g} s"
+                  if self.objective == "eta" else
+                  f"  {_MAP_OBJECTIVES[self.objective]}, elapsed "
+                  f"{self.elapsed:.3g} s")]
         reasons, counts = np.unique(self.reason.astype(str), return_counts=True)
         lines.append("  verdicts: " + ", ".join(
             f"{r} {c}" for r, c in zip(reasons, counts)))
         if self.feasible.any():
-            i, j = np.unravel_index(np.nanargmax(self.eta), self.shape)
-            lines.append(f"  best eta = {self.eta[i, j]:.6g} at "
+            value = np.asarray(self.value)
+            best = np.nanargmax(value) if self.objective == "eta" \
+                else np.nanargmin(value)
+            i, j = np.unravel_index(best, self.shape)
+            lines.append(f"  best {self.objective} = {value[i, j]:.6g} at "
                          f"{self.axes[0]} = {self.values[0][i]:g}, "
                          f"{self.axes[1]} = {self.values[1][j]:g} "
                          f"(ms_radius {self.ms_radius[i, j]:.6g})")
@@ -299,6 +355,9 @@ class DesignMap:
 
     def to_pandas(self) -> Any:
         """One row per cell: the axes, eta, ms_radius, feasible, reason.
+
+        An H2 or H∞ map has its figure as one more column (``'h2'`` or
+        ``'hinf'``).
 
         Raises
         ------
@@ -308,18 +367,22 @@ class DesignMap:
         pd = _pandas()
         I, J = (g.ravel() for g in np.meshgrid(
             np.arange(self.shape[0]), np.arange(self.shape[1]), indexing="ij"))
-        return pd.DataFrame({
+        columns = {
             self.axes[0]: self.values[0][I], self.axes[1]: self.values[1][J],
             "eta": self.eta[I, J], "ms_radius": self.ms_radius[I, J],
-            "feasible": self.feasible[I, J], "reason": self.reason[I, J]})
+            "feasible": self.feasible[I, J], "reason": self.reason[I, J]}
+        if self.objective != "eta":
+            columns[self.objective] = np.asarray(self.value)[I, J]
+        return pd.DataFrame(columns)
 
-    def plot(self, quantity: str = "eta", *, ax: Any = None,
+    def plot(self, quantity: str | None = None, *, ax: Any = None,
              title: str | None = None) -> ct.ControlPlot:
-        """Heat map of ``eta`` or ``ms_radius``: :func:`design_map_plot`.
+        """Heat map of the map's figure: :func:`design_map_plot`.
 
         Parameters
         ----------
-        quantity : {'eta', 'ms_radius'}
+        quantity : {'eta', 'h2', 'hinf', 'ms_radius'}, optional
+            Default: the map's objective.
         ax : matplotlib.axes.Axes, optional
         title : str, optional
 
@@ -343,14 +406,18 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
                actuator_loss: Any = (0.0,), *, eta: float | None = None,
                decay: float | None = None, controller: str = "static",
                actuator: str = "zero", executor: Executor | None = None,
-               progress: bool | None = None, method: str = "auto"
-               ) -> DesignMap:
-    """Verified passive synthesis over a grid of loss probabilities.
+               progress: bool | None = None, method: str = "auto",
+               objective: str = "eta") -> DesignMap:
+    """Verified synthesis over a grid of loss probabilities.
 
     Cell ``[i, j]`` is ``passivesyn(P.with_network(sensor_loss=a1[i],
     actuator_loss=a2[j]), eta, decay=..., controller=..., actuator=...)``:
     the same synthesis and exact verification as a single call; a cell
     without a certified gain records the :class:`SynthesisError` reason.
+    With ``objective='h2'`` or ``'hinf'`` the cell is
+    :func:`control_ncs.h2syn` or :func:`control_ncs.hinfsyn` instead, and
+    its figure the designed loop's exact H2 norm or certified ℓ2-gain
+    bound: what each loss probability costs.
 
     Over a bursty (Gilbert–Elliott) link a grid value is the link's
     stationary loss at the link's own mean burst length: the cells keep
@@ -388,6 +455,12 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         end ``'sufficient_failed'``). ``'refine'``:
         :func:`control_ncs.passivesyn` with ``method='refine'`` for every
         cell, each from its own LMI start (slowest).
+    objective : {'eta', 'h2', 'hinf'}
+        What each cell designs for: passivity with the largest certified
+        ``η`` (default), the least H2 norm, or the least ℓ2 gain. The
+        H2 and H∞ programs are exact for static state feedback (``y = x``
+        at every step) over Bernoulli links with a zero actuator, and take
+        none of ``eta``, ``decay``, ``method`` or other controllers.
 
     Returns
     -------
@@ -418,8 +491,19 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     >>> dm = ncs.design_map(P, [0.0], [0.0, 0.3], decay=0.95, progress=False)
     >>> bool(dm.eta[0, 0] > dm.eta[0, 1])
     True
+
+    The least H2 norm over the same grid (``z = [x; u]``, ``w`` the
+    process noise): losing commands costs.
+
+    >>> P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [0.0], [1.0]],
+    ...             [[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]], nmeas=1, ncon=1)
+    >>> dm = ncs.design_map(P, [0.0], [0.0, 0.3], objective='h2',
+    ...                     progress=False)
+    >>> dm.value.round(4).tolist()          # √S of the (modified) Riccati
+    [[1.3972, 1.7614]]
     """
-    P = _plant(P)
+    objective = choice(objective, "objective", _MAP_OBJECTIVES)
+    P = _plant(P, passivity=objective == "eta")
     a1 = _loss_grid(sensor_loss, "sensor_loss")
     a2 = _loss_grid(actuator_loss, "actuator_loss")
     eta = finite_real(eta, "eta", allow_none=True)
@@ -436,11 +520,28 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
             "P: a memoryless (static) gain never closes this loop: no phase "
             "schedules a sensor and an actuator together (theory: static-gain loop). Use "
             "controller='predictor'.")
+    if objective != "eta":
+        _performance_options(P, objective, eta, decay, controller, actuator,
+                             method)
     start = time.perf_counter()
-    tasks = [(P.with_network(sensor_loss=_at_loss(P.sensor_link, x),
-                             actuator_loss=_at_loss(P.actuator_link, y)),
-              eta, decay, controller, actuator) for x in a1 for y in a2]
+    cells = [P.with_network(sensor_loss=_at_loss(P.sensor_link, x),
+                            actuator_loss=_at_loss(P.actuator_link, y))
+             for x in a1 for y in a2]
     shape = (a1.size, a2.size)
+    if objective != "eta":
+        out = run_tasks(_perform, [(c, objective) for c in cells], executor,
+                        progress, "design_map")
+        reason = np.empty(shape, dtype=object)
+        reason.ravel()[:] = [r[3] for r in out]
+        return DesignMap(
+            axes=("sensor_loss", "actuator_loss"), values=(a1, a2),
+            eta=np.full(shape, math.nan),
+            ms_radius=np.array([r[1] for r in out]).reshape(shape),
+            feasible=np.array([r[2] for r in out], dtype=bool).reshape(shape),
+            reason=reason, controller=controller, actuator=actuator,
+            elapsed=time.perf_counter() - start, objective=objective,
+            value=np.array([r[0] for r in out]).reshape(shape))
+    tasks = [(c, eta, decay, controller, actuator) for c in cells]
 
     def neighbours(index: int) -> list:
         i, j = divmod(index, shape[1])
@@ -459,6 +560,32 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         feasible=np.array([r[2] for r in out], dtype=bool).reshape(shape),
         reason=reason, eta_requested=eta, decay=decay, controller=controller,
         actuator=actuator, elapsed=time.perf_counter() - start)
+
+
+def _performance_options(P: NetworkedStateSpace, objective: str,
+                         eta: Any, decay: Any, controller: str,
+                         actuator: str, method: str) -> None:
+    """The options an H2 or H∞ map refuses, said before any cell runs."""
+    given = [name for name, value, default in (
+        ("eta", eta, None), ("decay", decay, None),
+        ("controller", controller, "static"), ("actuator", actuator, "zero"),
+        ("method", method, "auto")) if value != default]
+    if given:
+        raise ControlArgument(
+            f"{given[0]}: objective={objective!r} designs static state "
+            f"feedback with a zero actuator by its exact program (h2syn / "
+            f"hinfsyn); it takes no {', '.join(given)} (those are "
+            f"passivesyn's options, objective='eta')")
+    n = P.nstates
+    if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)) or \
+            not P.sensor_schedule.pattern.all():
+        raise ControlArgument(
+            f"P: objective={objective!r} needs the state measured at every "
+            f"step (y = x, C2 = I, every sensor scheduled at every phase)")
+    if not P.is_iid:
+        raise ControlArgument(
+            f"P: objective={objective!r} is for Bernoulli links; a bursty "
+            f"link (Markov modes) is not supported yet")
 
 
 @dataclass(frozen=True)

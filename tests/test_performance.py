@@ -414,3 +414,80 @@ def test_critical_loss_of_the_best_gain_is_the_modified_riccati_limit():
                  [[1.0]], [[1.0]])
     with pytest.raises(ControlArgument, match="^K:"):
         ncs.critical_loss(P, link="sensor")
+
+
+# -- design maps of the performance specs ----------------------------------------
+
+def _two_state_plant() -> ncs.NetworkedStateSpace:
+    """``x⁺ = A x + w + B2 θu``, ``z = [x; θu]``: the LQ problem with
+    ``Q = I``, ``R = 1`` and unit process noise."""
+    return ncs.nss([[1.1, 0.3], [0.0, 0.9]],
+                   [[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]],
+                   [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0], [1.0, 0.0],
+                    [0.0, 1.0]],
+                   [[0, 0, 0], [0, 0, 0], [0, 0, 1.0], [0, 0, 0], [0, 0, 0]],
+                   True, nmeas=2, ncon=1)
+
+
+def test_h2_design_map_is_the_modified_riccati_cost_of_each_cell():
+    """Each cell's H2 norm is √tr(S) of the modified Riccati equation at
+    the arrival probability (1 - α1)(1 - α2): a sensor and a command lost
+    are the same to a static gain (an independent route, lq.py)."""
+    P = _two_state_plant()
+    a1, a2 = [0.0, 0.1], [0.0, 0.2, 0.35]
+    dm = ncs.design_map(P, a1, a2, objective="h2", progress=False)
+    assert dm.feasible.all() and np.isnan(dm.eta).all()
+    for i, x in enumerate(a1):
+        for j, y in enumerate(a2):
+            S = ncs.dlqr(P.A, P.B2, np.eye(2), np.eye(1),
+                         arrival=(1 - x) * (1 - y))[1]
+            assert dm.value[i, j] == pytest.approx(math.sqrt(np.trace(S)),
+                                                   rel=1e-6)
+    assert (np.diff(dm.value, axis=1) > 0).all()   # every loss costs
+    assert "best h2" in dm.summary()
+    pytest.importorskip("pandas")
+    frame = dm.to_pandas()
+    assert frame["h2"].tolist() == dm.value.ravel().tolist()
+
+
+def test_hinf_design_map_cells_are_hinfsyn_and_run_anywhere_alike():
+    from concurrent.futures import ThreadPoolExecutor
+    P = _two_state_plant()
+    dm = ncs.design_map(P, [0.0], [0.0, 0.3], objective="hinf",
+                        progress=False)
+    for j, y in enumerate([0.0, 0.3]):
+        K, CL, gamma = ncs.hinfsyn(P.with_network(actuator_loss=y))
+        assert dm.value[0, j] == pytest.approx(gamma, rel=1e-6)
+        assert dm.ms_radius[0, j] == pytest.approx(ncs.ms_radius(CL),
+                                                   rel=1e-6)
+        assert K.result.lower <= dm.value[0, j]
+    with ThreadPoolExecutor(2) as pool:
+        again = ncs.design_map(P, [0.0], [0.0, 0.3], objective="hinf",
+                               progress=False, executor=pool)
+    assert np.array_equal(again.value, dm.value)
+    cp = dm.plot()
+    assert cp.axes[0, 0].images or cp.axes[0, 0].collections
+    assert "ℓ2-gain bound" in cp.axes[0, 0].get_title()
+    with pytest.raises(ControlArgument, match="^quantity:"):
+        dm.plot("eta")
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(eta=0.1), "^eta:"), (dict(decay=0.9), "^decay:"),
+    (dict(controller="predictor"), "^controller:"),
+    (dict(actuator="hold"), "^actuator:"), (dict(method="lmi"), "^method:"),
+    (dict(objective="h3"), "^objective:")])
+def test_performance_design_map_refuses_passivity_options(kwargs, match):
+    with pytest.raises(ControlArgument, match=match):
+        ncs.design_map(_two_state_plant(), [0.0], [0.1], progress=False,
+                       **{"objective": "h2", **kwargs})
+
+
+def test_performance_design_map_needs_the_state_at_every_step():
+    scheduled = _two_state_plant().with_network(sensor_schedule=[1, 2])
+    with pytest.raises(ControlArgument, match="^P: .*every step"):
+        ncs.design_map(scheduled, objective="h2", progress=False)
+    bursty = _two_state_plant().with_network(
+        actuator_loss=ncs.gilbert_elliott(fail=0.2, recover=0.5))
+    with pytest.raises(ControlArgument, match="bursty"):
+        ncs.design_map(bursty, objective="hinf", progress=False)
