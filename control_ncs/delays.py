@@ -102,6 +102,11 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
                               f"of {ACTUATORS}, got {actuator!r}")
     n, m1, m2 = P.nstates, P.B1.shape[1], P.B2.shape[1]
     p1, p2 = P.C1.shape[0], P.C2.shape[0]
+    if np.any(P.D21 != 0):
+        raise ControlArgument(
+            "P: over delayed links the measurement is buffered without "
+            "noise (D21 = 0); measurement noise over delayed links is not "
+            "modelled yet")
     if controller == "predictor" and not (
             P.C2.shape == (n, n) and np.array_equal(P.C2, np.eye(n))):
         raise ControlArgument(

@@ -13,6 +13,7 @@ from dataclasses import KW_ONLY, dataclass, field, replace
 from typing import Any, Mapping
 
 import numpy as np
+from control.exception import ControlArgument
 
 from .jump import JumpStateSpace
 from .modes import apply_groups, merge_groups
@@ -71,6 +72,16 @@ class JumpPlant:
         gains ``K_{k,ℓ}`` are equal within a class.
     estimator_gain : array_like, shape (N_L, n, nmeas), optional
         The estimator's ``L_k`` of a ``controller='estimator'`` plant.
+    Ew : array_like, shape (N, nk, nw), optional
+        Noise in what the controller sees (a measurement ``y = C2 x +
+        D21 w`` read at once): it sees ``E_k ξ + Ew_k w``.
+    Gw : array_like, shape (N, M, nx, nw), optional
+        Noise that reached the state with the last message (a measurement
+        stored when it arrived): step ``k`` acts on ``ξ + Gw[k, ℓ] w``,
+        ``ℓ`` the previous mode. The loop is then closed on pair modes
+        ``(ℓ, i)``, as for gains per previous mode. ``Ew`` and ``Gw``
+        (:ref:`theory-measurement-noise`) are for analysis: synthesis
+        refuses plants that have them.
     description : mapping, optional
         The network's description (losses, links), copied into the closed
         loop's ``info``.
@@ -126,6 +137,8 @@ class JumpPlant:
     actuator: str | None = None
     observed: np.ndarray | None = None
     estimator_gain: np.ndarray | None = None
+    Ew: np.ndarray | None = None
+    Gw: np.ndarray | None = None
     description: Mapping = field(default_factory=dict)
 
     _FIELDS = ("A", "Bu", "Bw", "Cz", "Du", "Dw")
@@ -142,8 +155,8 @@ class JumpPlant:
             object.__setattr__(self, f, frozen(getattr(self, f), float))
         object.__setattr__(self, "nominal", frozen(self.nominal, int))
         object.__setattr__(self, "observed", frozen(self.observed, int))
-        object.__setattr__(self, "estimator_gain",
-                           frozen(self.estimator_gain, float))
+        for f in ("estimator_gain", "Ew", "Gw"):
+            object.__setattr__(self, f, frozen(getattr(self, f), float))
         object.__setattr__(self, "description", dict(self.description))
 
     @property
@@ -159,6 +172,30 @@ class JumpPlant:
             if getattr(self, key) is not None:
                 out[key] = getattr(self, key)
         return out
+
+    def require_noise_free(self, who: str) -> None:
+        """Refuse a plant whose controller hears noise (``Ew``, ``Gw``).
+
+        Synthesis treats what the controller sees as part of the state
+        (``K E ξ``); a gain acting on measurement noise as well is a
+        different problem, not written yet.
+
+        Parameters
+        ----------
+        who : str
+            The function that refuses, for the message.
+
+        Raises
+        ------
+        ControlArgument
+            If the plant has ``Ew`` or ``Gw``.
+        """
+        if self.Ew is not None or self.Gw is not None:
+            raise ControlArgument(
+                f"P: {who} designs for measurements without noise "
+                f"(D21 = 0); with D21 ≠ 0 the gain also acts on w, which "
+                f"its programs do not cover yet. Design for D21 = 0 and "
+                f"analyse the loop with the noise: feedback(P, K)")
 
     @property
     def period(self) -> int:
@@ -214,12 +251,19 @@ class JumpPlant:
         """
         K = np.asarray(gains, float)
         name = None if self.name is None else f"{self.name} (closed loop)"
-        if K.ndim == 4:
+        if K.ndim == 4 or self.Gw is not None:
+            if K.ndim == 3:     # one gain for every previous mode
+                K = np.repeat(K[:, None], self.probabilities.shape[1], 1)
             return self._close_pairs(K, name, info)
         F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
         A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
         C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
-        loop = (A, self.Bw, C, self.Dw)
+        B, D = self.Bw, self.Dw
+        if self.Ew is not None:
+            Fw = np.einsum("kuj,kjw->kuw", K, self.Ew)
+            B = B + np.einsum("kmxu,kuw->kmxw", self.Bu, Fw)
+            D = D + np.einsum("kmzu,kuw->kmzw", self.Du, Fw)
+        loop = (A, B, C, D)
         if self.transition is not None:
             # Markov modes are not merged (their futures differ, theory: Markov
             # losses)
@@ -267,19 +311,14 @@ class JumpPlant:
         :meth:`pair_modes` (also recorded as ``info['pair_modes']``). The
         initial law is the stationary one.
         """
-        A, C, where, padded = self._lumped_pairs(K)
+        A, B, C, D, where, padded = self._lumped_pairs(K)
         N, M = self.probabilities.shape
         T = self.transitions()
         G = len(padded[0])
         cur = np.array([[i for i, _ in g] for g in padded])
-        Ap = np.array([[A[k, ell, i] for i, ell in g]
-                       for k, g in enumerate(padded)])
-        Cp = np.array([[C[k, ell, i] for i, ell in g]
-                       for k, g in enumerate(padded)])
-        Bp = np.array([[self.Bw[k, i] for i, _ in g]
-                       for k, g in enumerate(padded)])
-        Dp = np.array([[self.Dw[k, i] for i, _ in g]
-                       for k, g in enumerate(padded)])
+        Ap, Bp, Cp, Dp = (np.array([[X[k, ell, i] for i, ell in g]
+                                    for k, g in enumerate(padded)])
+                          for X in (A, B, C, D))
         Tp = np.zeros((N, G, G))
         for k in range(N):
             for s, (i, _) in enumerate(padded[k]):
@@ -314,17 +353,28 @@ class JumpPlant:
             Row ``k``: the plant mode of each closed-loop mode at phase
             ``k`` (the loop's modes in the order :meth:`close` gives them).
         """
-        padded = self._lumped_pairs(np.asarray(gains, float))[3]
+        padded = self._lumped_pairs(np.asarray(gains, float))[5]
         return np.array([[i for i, _ in g] for g in padded])
 
     def _lumped_pairs(self, K: np.ndarray) -> tuple:
         """Mode matrices of the pairs ``(ℓ, i)`` and their lumping:
-        ``A[k, ℓ, i]``, ``C[k, ℓ, i]``, ``where[k][(ℓ, i)]`` (the lumped
-        mode) and the padded groups ``[(i, ℓ), …]`` per phase."""
+        ``A, B, C, D[k, ℓ, i]``, ``where[k][(ℓ, i)]`` (the lumped mode) and
+        the padded groups ``[(i, ℓ), …]`` per phase. With noise the
+        controller hears (``Ew``, ``Gw``) the input matrices are
+        ``Bw + Bu K Ew + (A + Bu K E) Gw`` and likewise for ``D``."""
         N, M = self.probabilities.shape
         F = np.einsum("kluj,kjx->klux", K, self.E)  # K_{k,ℓ} E_k
         A = self.A[:, None] + np.einsum("kmxu,kluy->klmxy", self.Bu, F)
         C = self.Cz[:, None] + np.einsum("kmzu,kluy->klmzy", self.Du, F)
+        B = np.repeat(self.Bw[:, None], M, 1)
+        D = np.repeat(self.Dw[:, None], M, 1)
+        if self.Ew is not None:
+            Fw = np.einsum("kluj,kjw->kluw", K, self.Ew)
+            B = B + np.einsum("kmxu,kluw->klmxw", self.Bu, Fw)
+            D = D + np.einsum("kmzu,kluw->klmzw", self.Du, Fw)
+        if self.Gw is not None:
+            B = B + np.einsum("klmxy,klyw->klmxw", A, self.Gw)
+            D = D + np.einsum("klmzy,klyw->klmzw", C, self.Gw)
         # lumped mode of the pair (ℓ, i) at each phase; first member kept
         where: list = []
         groups: list = []
@@ -334,7 +384,8 @@ class JumpPlant:
             groups.append([])
             for i in range(M):
                 for ell in range(M):
-                    key = (i, A[k, ell, i].tobytes(), C[k, ell, i].tobytes())
+                    key = (i,) + tuple(X[k, ell, i].tobytes()
+                                       for X in (A, B, C, D))
                     if key not in index:
                         index[key] = len(groups[k])
                         groups[k].append((i, ell))
@@ -342,7 +393,7 @@ class JumpPlant:
         G = max(map(len, groups))
         # unreachable copies keep the shape (N, G): no flow enters them
         padded = [g + [g[-1]] * (G - len(g)) for g in groups]
-        return A, C, where, padded
+        return A, B, C, D, where, padded
 
     def merged(self) -> "JumpPlant":
         """The same plant with coinciding modes merged.
@@ -354,8 +405,10 @@ class JumpPlant:
         JumpPlant
             Same ``E``, fewer modes where modes coincide.
         """
-        if self.transition is not None:
-            return self  # Markov modes are not merged (theory: Markov losses)
+        if self.transition is not None or self.Gw is not None:
+            # Markov modes are not merged (theory: Markov losses), nor modes
+            # that Gw tells apart as previous modes
+            return self
         mats = [getattr(self, f) for f in self._FIELDS]
         groups, nominal = merge_groups(mats, self.probabilities, self.nominal)
         (A, Bu, Bw, Cz, Du, Dw), p = apply_groups(mats, self.probabilities,

@@ -101,6 +101,7 @@ def _full_information(P: Any, actuator: str, solver: str | None,
             f"P: {who} needs the state measured, y = x (C2 = I, {n}x{n}), "
             f"got C2 of shape {P.C2.shape}")
     plant = build(P, "static", actuator)
+    plant.require_noise_free(who)
     if not plant.is_iid:
         raise ControlArgument(
             f"P: {who}'s exact program is for Bernoulli links; a bursty link "

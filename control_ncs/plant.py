@@ -69,7 +69,7 @@ class NetworkedStateSpace(ct.StateSpace):
 
         x⁺ = A x + B1 w + B2 u        inputs  [w; u],  u = last ncon
         z  = C1 x + D11 w + D12 u     outputs [z; y],  y = last nmeas
-        y  = C2 x                     (D21 = 0, D22 = 0)
+        y  = C2 x + D21 w             (D22 = 0)
 
     The network (:ref:`theory-network`): at time ``t`` only the sensors in
     ``sensor_schedule`` phase ``t mod N`` send, in one packet lost with
@@ -188,9 +188,9 @@ class NetworkedStateSpace(ct.StateSpace):
                 raise ControlDimension(
                     f"{arg}: {split}; the closed loop needs at least one "
                     f"{what} (add a zero column or row if there is none)")
-        if np.any(D[p1:, :] != 0):
+        if np.any(D[p1:, m1:] != 0):
             raise ValueError(f"D: the measured outputs y must not depend on "
-                             f"the inputs (D21 = 0 and D22 = 0 are required, "
+                             f"the control inputs (D22 = 0 is required, "
                              f"theory: plant); {split}: check nmeas and ncon")
         self.sensor_schedule = schedule(sensor_schedule, self.nmeas,
                                         "sensor_schedule")
@@ -305,6 +305,11 @@ class NetworkedStateSpace(ct.StateSpace):
     def C2(self) -> np.ndarray:
         """Measurement matrix (rows of ``C`` for ``y``)."""
         return self.C[self._p1:]
+
+    @property
+    def D21(self) -> np.ndarray:
+        """Feedthrough from ``w`` to ``y``: measurement noise, references."""
+        return self.D[self._p1:, :self._m1]
 
     @property
     def D11(self) -> np.ndarray:
@@ -534,7 +539,8 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         Continuous-time plant without ``dt``, matrices with complex, string, non-finite or
         overflowing (``> 1e150``) entries, bad schedule, a loss that is not
         a real number in ``[0, 1]`` (bools and strings included),
-        ``D21``/``D22`` nonzero, shared-channel conflicts.
+        ``D22`` nonzero (``D21``, noise or references in ``y``, is
+        allowed), shared-channel conflicts.
     ControlDimension
         Inconsistent shapes, ``nmeas``/``ncon`` out of range.
     ControlArgument

@@ -810,6 +810,7 @@ def refine_gain(P: NetworkedStateSpace | JumpPlant, eta: float | None = None,
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()) "
                               f"or a JumpPlant (see build()), got "
                               f"{type(P).__name__}")
+    plant.require_noise_free("refine")
     if plant.shape["nw"] != plant.shape["nz"] or plant.shape["nw"] == 0:
         raise ControlDimension(
             f"P: passivity needs w and z of equal, nonzero size, got "

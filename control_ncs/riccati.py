@@ -450,6 +450,7 @@ def riccati_synthesis(plant: JumpPlant, eta: float | None = None, *,
         raise ControlArgument(
             f"plant: expected a JumpPlant (control_ncs.build(P)), got "
             f"{type(plant).__name__}")
+    plant.require_noise_free("the Riccati iteration")
     plant = plant.merged()
     s, N = plant.shape, plant.period
     nx = s["nx"]

@@ -153,9 +153,21 @@ def build(P: NetworkedStateSpace, controller: str = "static",
             built[key] = [strategy.phase(P, k, t1, t2, **opts)
                           for (t1, t2) in MODES]
         fields.extend(built[key])
+    per_phase = ("E", "Ew", "Gnext")
     stacked = {f: np.array([m[f] for m in fields]).reshape(
-        (N, 4) + fields[0][f].shape) for f in fields[0] if f != "E"}
+        (N, 4) + fields[0][f].shape) for f in fields[0]
+        if f not in per_phase}
     E = np.array([fields[4 * k]["E"] for k in range(N)])
+    # measurement noise (D21 ≠ 0, theory: measurement noise): read at once
+    # (Ew, the static gain) or stored on arrival, the next step's offset
+    # Gw[k + 1, ℓ] of this step's mode ℓ (the model-based controllers)
+    Ew = Gw = None
+    if np.any(P.D21 != 0):
+        if "Ew" in fields[0]:
+            Ew = np.array([fields[4 * k]["Ew"] for k in range(N)])
+        if "Gnext" in fields[0]:
+            Gw = np.roll(np.array([m["Gnext"] for m in fields]).reshape(
+                (N, 4) + fields[0]["Gnext"].shape), 1, axis=0)
     a1, a2 = P.sensor_loss, P.actuator_loss
     prob = P.mode_probabilities()
     p = np.tile([prob[m] for m in MODES], (N, 1))
@@ -180,7 +192,8 @@ def build(P: NetworkedStateSpace, controller: str = "static",
                      controller=controller, actuator=actuator,
                      observed=(None if T is None
                                else _observed(P, controller, N)),
-                     estimator_gain=opts.get("L"), description=description)
+                     estimator_gain=opts.get("L"), Ew=Ew, Gw=Gw,
+                     description=description)
 
 
 def _observed(P: NetworkedStateSpace, controller: str, N: int) -> np.ndarray:
@@ -284,9 +297,10 @@ def _static_phase(P: NetworkedStateSpace, k: int, t1: int, t2: int, *,
     g = t1 * t2
     A, B1, B2, C1, D11, D12 = P.A, P.B1, P.B2, P.C1, P.D11, P.D12
     E = S1 @ P.C2
+    Ew = S1 @ P.D21           # the noise read with the measurement
     if actuator == "zero":
         return dict(A=A, Bu=g * B2 @ S2, Bw=B1, Cz=C1, Du=g * D12 @ S2,
-                    Dw=D11, E=E)
+                    Dw=D11, E=E, Ew=Ew)
     # hold: ξ = [x; u⁻], u = (I - θ2 Σ2) u⁻ + θ2 Σ2 v
     H = _held(P)
     h = H.shape[0]
@@ -297,7 +311,7 @@ def _static_phase(P: NetworkedStateSpace, k: int, t1: int, t2: int, *,
         Bu=g * np.vstack([B2 @ S2, H @ S2]),
         Bw=np.vstack([B1, Z((h, B1.shape[1]))]),
         Cz=np.hstack([C1, D12 @ keep @ H.T]), Du=g * D12 @ S2, Dw=D11,
-        E=np.hstack([E, Z((E.shape[0], h))]))
+        E=np.hstack([E, Z((E.shape[0], h))]), Ew=Ew)
 
 
 def _held(P: NetworkedStateSpace) -> np.ndarray:
@@ -323,12 +337,17 @@ def _predictor_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int,
     estimate after the sensor update and ``e = x - x̂``. With estimator
     gains ``L`` (:ref:`theory-output-feedback`) the correction is
     ``R = θ1 L_{k+1} Σ1 C2`` instead of :ref:`theory-predictor`'s ``θ1 Σ1``
-    (which is ``C2 = I``, ``L = I``).
+    (which is ``C2 = I``, ``L = I``). A measurement with noise
+    (``D21 ≠ 0``) moves the estimate by ``Rw w_{k+1}``, ``Rw = θ1 L_{k+1}
+    Σ1 D21``, and the error by ``-Rw w_{k+1}``: the next step's offset
+    ``Gnext`` (:ref:`theory-measurement-noise`).
     """
     n, m2 = P.nstates, P.ncon
     S2 = P.actuator_schedule.selection(k)
     R = t1_next * P.sensor_schedule.selection(k + 1)
+    Rw = R @ P.D21
     if L is not None:
+        Rw = L[(k + 1) % L.shape[0]] @ Rw
         R = L[(k + 1) % L.shape[0]] @ R @ P.C2
     A, B1, B2, C1, D11, D12 = P.A, P.B1, P.B2, P.C1, P.D11, P.D12
     I, Z = np.eye(n), np.zeros
@@ -339,7 +358,7 @@ def _predictor_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int,
             Bu=t2 * np.vstack([B2 @ S2, Z((n, m2))]),
             Bw=np.vstack([R @ B1, (I - R) @ B1]),
             Cz=np.hstack([C1, C1]), Du=t2 * D12 @ S2, Dw=D11,
-            E=np.hstack([I, Z((n, n))]))
+            E=np.hstack([I, Z((n, n))]), Gnext=np.vstack([Rw, -Rw]))
     H = _held(P)
     h = H.shape[0]
     keep = np.eye(m2) - t2 * S2
@@ -355,7 +374,7 @@ def _predictor_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int,
         Bu=t2 * np.vstack([B2 @ S2, H @ S2, Z((n, m2))]),
         Bw=np.vstack([R @ B1, Z((h, m1)), (I - R) @ B1]),
         Cz=np.hstack([C1, D12 @ keep @ H.T, C1]), Du=t2 * D12 @ S2, Dw=D11,
-        E=E)
+        E=E, Gnext=np.vstack([Rw, Z((h, m1)), -Rw]))
 
 
 def _plant_states(P: NetworkedStateSpace, **_: Any) -> list[str]:
@@ -399,7 +418,10 @@ def _lti_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int, *,
     controller's input while the controller itself stays a gain
     ``[[Dc, Cc], [Bc, Ac]]`` on ``E ξ = [ŷ; xc]``, with outputs
     ``[v; xc⁺]``. As for the predictor the transition ``k → k+1`` depends
-    on ``(θ2,k, θ1,k+1)``; ``y = C2 x`` (``D21 = D22 = 0``).
+    on ``(θ2,k, θ1,k+1)``. The noise of a measurement ``y = C2 x + D21 w``
+    arrives with ``w_{k+1}``, the next step's input: the stored ``ŷ`` is
+    the noise-free part and the next step's offset ``Gnext`` adds
+    ``θ1 Σ1 D21 w`` (:ref:`theory-measurement-noise`).
     """
     n, m2 = P.nstates, P.ncon
     A, B1, B2, C1, D11, D12 = P.A, P.B1, P.B2, P.C1, P.D11, P.D12
@@ -444,9 +466,11 @@ def _lti_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int, *,
     E = np.zeros((Hs.shape[1] + nc, nx))
     E[:Hs.shape[1], iy] = Hs.T
     E[Hs.shape[1]:, ic] = np.eye(nc)
+    Gnext = np.zeros((nx, m1))
+    Gnext[iy] = t1_next * Hs @ S1n @ P.D21
     return dict(A=Amat, Bu=Bu, Bw=Bw, Cz=Cz,
                 Du=np.hstack([D12 @ Uv, np.zeros((C1.shape[0], nc))]),
-                Dw=D11, E=E)
+                Dw=D11, E=E, Gnext=Gnext)
 
 
 def _lti_states(P: NetworkedStateSpace, hold: bool, nc: int, **_: Any

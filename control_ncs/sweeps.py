@@ -79,6 +79,11 @@ def _plant(P: Any, passivity: bool = True) -> NetworkedStateSpace:
         raise ControlArgument(
             f"P: synthesis needs the state measured, y = x (C2 = I, {n}x{n}), "
             f"got C2 of shape {P.C2.shape}")
+    if np.any(P.D21 != 0):
+        raise ControlArgument(
+            "P: sweeps design for measurements without noise (D21 = 0); "
+            "with D21 ≠ 0 the gain also acts on w, which the programs do "
+            "not cover yet")
     m1, p1 = P.B1.shape[1], P.C1.shape[0]
     if passivity and (m1 != p1 or m1 == 0):
         raise ControlDimension(

@@ -78,6 +78,7 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant,
             f"P: passivity needs w and z of equal, nonzero size (paper eq. 1 "
             f"with m1 = p1), got {m1} disturbance inputs and {p1} performance "
             "outputs")
+    plant.require_noise_free("passivesyn")
     eta = finite_real(eta, "eta", allow_none=True)
     if eta is not None:
         bound, _ = _feedthrough(plant)

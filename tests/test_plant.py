@@ -84,10 +84,11 @@ def test_counts_leaving_no_w_or_no_z_are_refused_naming_the_dimensions(
 
 
 def test_feedthrough_into_y_names_the_dimensions_of_w_and_z():
-    # nmeas and ncon swapped in a plant with 2 outputs: y = z would see w
+    # a feedthrough from the last input into the last output: y would see u
+    # (D22), the message says how the inputs and outputs were split
     with pytest.raises(ValueError, match="dim w = 2 and dim z = 1"):
         nss([[0.5]], [[1.0, 1.0, 1.0]], [[1.0], [1.0]],
-            [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], nmeas=1, ncon=1)
+            [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]], nmeas=1, ncon=1)
 
 
 def test_network_attributes_are_stored():

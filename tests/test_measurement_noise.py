@@ -1,0 +1,174 @@
+"""Measurement noise and references in y (``D21 ≠ 0``).
+
+Every loop is checked against an independent route: a closed form (static
+gain), python-control's own interconnection when nothing is lost, and a
+sample-path simulation of the protocol written here step by step when
+messages are lost.
+"""
+
+from __future__ import annotations
+
+import control as ct
+import numpy as np
+import pytest
+from control.exception import ControlArgument
+
+import control_ncs as ncs
+
+
+def _tracking_plant(**network):
+    """``x⁺ = 1.05 x + w1 + 0.5 u``; ``w = [w1, r]``; ``z = x - r``; the
+    controller hears ``y = r - x`` (a reference, ``D21 = [0, 1]``)."""
+    G = ct.ss([[1.05]], [[1.0, 0.0, 0.5]], [[1.0], [-1.0]],
+              [[0.0, -1.0, 0.0], [0.0, 1.0, 0.0]], True)
+    return G, ncs.nss(G, nmeas=1, ncon=1, **network)
+
+
+PI = ct.ss([[1.0]], [[1.0]], [[0.2]], [[0.8]], True)   # u = 0.8 e + 0.2 Σ e
+
+
+def test_static_gain_with_noisy_measurement_matches_the_closed_form():
+    """``x⁺ = a x + w1 + θ k (x + d w2)``, ``z = [x; θ u]``: the H2 norm
+    is ``S + q k² (S + d²)`` with ``S = (1 + q k² d²) / (1 - E a²)``."""
+    a, d, k, loss = 1.1, 0.5, -0.8, 0.3
+    P = ncs.nss([[a]], [[1.0, 0.0, 1.0]], [[1.0], [0.0], [1.0]],
+                [[0, 0, 0], [0, 0, 1.0], [0, d, 0]], True, nmeas=1, ncon=1,
+                actuator_loss=loss)
+    CL = ncs.feedback(P, [[k]])
+    q = 1 - loss
+    S = (1 + q * (k * d) ** 2) / (1 - loss * a * a - q * (a + k) ** 2)
+    assert ncs.norm(CL) ** 2 == pytest.approx(S + q * k * k * (S + d * d),
+                                              rel=1e-12)
+
+
+def test_lossless_pi_tracking_loop_is_python_controls_lft():
+    G, P = _tracking_plant()
+    CL = ncs.feedback(P, PI)
+    reference = G.lft(PI, 1, 1)      # python-control: u = K y
+    assert ncs.norm(CL) == pytest.approx(ct.norm(reference, 2), rel=1e-10)
+    for sensor, actuator in (("hold", "zero"), ("zero", "hold")):
+        other = ncs.feedback(P, PI, sensor=sensor, actuator=actuator)
+        assert ncs.norm(other) == pytest.approx(ncs.norm(CL), rel=1e-10)
+
+
+def test_lossless_estimator_loop_with_sensor_noise_is_the_observer_loop():
+    """The estimator controller without losses is the textbook
+    observer-based controller (update, then predict), built here by hand."""
+    A = np.array([[1.1, 0.3], [0.0, 0.95]])
+    B1 = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    B2 = np.array([[0.0], [1.0]])
+    C2 = np.array([[1.0, 0.0]])
+    D21 = np.array([[0.0, 0.0, 0.4]])
+    C1 = np.vstack([np.eye(2), np.zeros((1, 2))])
+    D12 = np.array([[0.0], [0.0], [1.0]])
+    P = ncs.nss(A, np.hstack([B1, B2]), np.vstack([C1, C2]),
+                np.block([[np.zeros((3, 3)), D12], [D21, np.zeros((1, 1))]]),
+                True, nmeas=1, ncon=1)
+    K = -ct.dlqr(A, B2, np.eye(2), np.eye(1))[0]
+    L = np.array([[0.8], [0.3]])
+    CL = ncs.feedback(P, K, controller="estimator", estimator_gain=L)
+    # state [x; p] with p the predicted estimate: u = K (p + L (y - C2 p))
+    I = np.eye(2)
+    Ku_x, Ku_p, Ku_w = K @ L @ C2, K @ (I - L @ C2), K @ L @ D21
+    Acl = np.block([[A + B2 @ Ku_x, B2 @ Ku_p],
+                    [(A + B2 @ K) @ L @ C2, (A + B2 @ K) @ (I - L @ C2)]])
+    Bcl = np.vstack([B1 + B2 @ Ku_w, (A + B2 @ K) @ L @ D21])
+    Ccl = np.hstack([C1 + D12 @ Ku_x, D12 @ Ku_p])
+    reference = ct.ss(Acl, Bcl, Ccl, D12 @ Ku_w, True)
+    assert ncs.norm(CL) == pytest.approx(ct.norm(reference, 2), rel=1e-10)
+
+
+def _simulated_power(P, controller, paths=3000, steps=400, burn=100,
+                     seed=1):
+    """Mean ``‖z‖²`` of the protocol simulated path by path: each step the
+    sensor packet and the command are lost independently; the LTI
+    controller hears ``y = C2 x + D21 w`` when it arrives (else 0 or the
+    last value), the actuator applies the command (else 0 or the last)."""
+    rng = np.random.default_rng(seed)
+    Kc, sensor, actuator = controller
+    n, nc, m1 = P.nstates, Kc.nstates, P.B1.shape[1]
+    x = np.zeros((paths, n))
+    xc = np.zeros((paths, nc))
+    yh = np.zeros((paths, P.nmeas))
+    uh = np.zeros((paths, P.ncon))
+    power = np.zeros(paths)
+    for t in range(steps):
+        w = rng.standard_normal((paths, m1))
+        t1 = rng.random((paths, 1)) >= P.sensor_loss
+        t2 = rng.random((paths, 1)) >= P.actuator_loss
+        y = x @ P.C2.T + w @ P.D21.T
+        yr = np.where(t1, y, yh if sensor == "hold" else 0.0)
+        yh = yr
+        v = xc @ Kc.C.T + yr @ Kc.D.T
+        xc = xc @ Kc.A.T + yr @ Kc.B.T
+        u = np.where(t2, v, uh if actuator == "hold" else 0.0)
+        uh = u
+        z = x @ P.C1.T + w @ P.D11.T + u @ P.D12.T
+        if t >= burn:
+            power += (z ** 2).sum(axis=1)
+        x = x @ P.A.T + w @ P.B1.T + u @ P.B2.T
+    power /= steps - burn
+    return power.mean(), power.std(ddof=1) / np.sqrt(paths)
+
+
+@pytest.mark.parametrize("sensor, actuator", [("zero", "zero"),
+                                              ("hold", "hold")])
+def test_lossy_pi_tracking_loop_agrees_with_the_simulated_protocol(
+        sensor, actuator):
+    _, P = _tracking_plant(sensor_loss=0.2, actuator_loss=0.1)
+    CL = ncs.feedback(P, PI, sensor=sensor, actuator=actuator)
+    exact = ncs.norm(CL) ** 2
+    mean, se = _simulated_power(P, (PI, sensor, actuator))
+    assert abs(mean - exact) < 4 * se + 0.01 * exact
+
+
+def test_lossy_estimator_loop_with_sensor_noise_agrees_with_moments():
+    """The exact stationary covariance of a noisy estimator loop against a
+    Monte Carlo estimate of the same loop (the sample paths of the jump
+    system, :func:`control_ncs.simulate`-independent: drawn here)."""
+    P = ncs.nss([[1.2]], [[1.0, 0.0, 1.0]], [[1.0], [0.0], [1.0]],
+                [[0, 0, 0], [0, 0, 1.0], [0, 0.5, 0]], True, nmeas=1,
+                ncon=1, sensor_loss=0.3, actuator_loss=0.1)
+    K, L = np.array([[-0.9]]), np.array([[0.7]])
+    CL = ncs.feedback(P, K, controller="estimator", estimator_gain=L)
+    exact = ncs.norm(CL) ** 2
+    rng = np.random.default_rng(7)
+    paths, steps, burn = 4000, 300, 60
+    x = np.zeros(paths)
+    xh = np.zeros(paths)          # estimate after the update
+    total = np.zeros(paths)
+    w = rng.standard_normal((paths, 2))
+    t1 = rng.random(paths) >= 0.3
+    for t in range(steps):
+        t2 = rng.random(paths) >= 0.1
+        u = np.where(t2, K[0, 0] * xh, 0.0)
+        z2 = x ** 2 + u ** 2
+        if t >= burn:
+            total += z2
+        x = 1.2 * x + w[:, 0] + u
+        pred = 1.2 * xh + u
+        w = rng.standard_normal((paths, 2))     # w_{k+1}: its noise is read
+        t1 = rng.random(paths) >= 0.3
+        y = x + 0.5 * w[:, 1]
+        xh = np.where(t1, pred + L[0, 0] * (y - pred), pred)
+    total /= steps - burn
+    se = total.std(ddof=1) / np.sqrt(paths)
+    assert abs(total.mean() - exact) < 4 * se + 0.01 * exact
+
+
+def test_synthesis_refuses_a_noisy_measurement_and_says_what_to_do():
+    P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[1.0, 0.0], [0.5, 0.0]], True, nmeas=1, ncon=1)
+    with pytest.raises(ControlArgument, match="^P: passivesyn .*D21"):
+        ncs.passivesyn(P)
+    with pytest.raises(ControlArgument, match="^P: h2syn .*D21"):
+        ncs.h2syn(P)
+    with pytest.raises(ControlArgument, match="^P: sweeps .*D21"):
+        ncs.design_map(P, progress=False)
+    with pytest.raises(ControlArgument, match="D21"):
+        ncs.feedback(P.with_network(sensor_delay=[0.5, 0.5]), [[-1.0]])
+    with pytest.raises(ValueError, match="^D: .*D22"):
+        ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[1.0, 0.0], [0.0, 0.3]], True, nmeas=1, ncon=1)
+    # the loop itself closes: analysis covers it
+    assert ncs.is_mss(ncs.feedback(P, [[-1.0]]))
