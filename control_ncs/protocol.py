@@ -20,7 +20,7 @@ Plant (discrete time; sensor ``i`` measures ``y_i = (C2 x)_i``, by default
 
     x(k+1) = A x(k) + B1 w(k) + B2 u(k)
     z(k)   = C1 x(k) + D11 w(k) + D12 u(k)
-    y(k)   = C2 x(k)
+    y(k)   = C2 x(k) + D21 w(k)          (D21 = 0 unless given)
 
 Controllers: a static gain on the received measurement, the model-based
 predictor (:ref:`theory-predictor`), the estimator
@@ -51,6 +51,20 @@ where ``loss`` is the loss probability for a Bernoulli link, and for a
 bursty one the stationary loss at ``k = 0``, then ``f`` after a delivery and
 ``1 - r`` after a loss (so a Bernoulli link, ``f = 1 - r = alpha``, draws
 exactly as before). No other random numbers are consumed.
+
+Random delays (time-stamped packets)
+------------------------------------
+A link given a delay law (``sensor_delay=``, ``actuator_delay=``: a pmf
+``[P(δ = 0), P(δ = 1), …]`` or an object with ``pmf`` and ``buffer``) sends
+at every step its schedule addresses it one packet stamped with the step
+``t``; the packet arrives at ``t + δ``, ``δ`` drawn from the pmf (lost with
+probability ``1 - Σ pmf``), in place of that link's ``theta`` draw. The
+receiver keeps the freshest packet that has arrived, by its stamp; one
+older than ``buffer`` steps is stale (the actuator then applies 0 or holds,
+the static controller sends 0). The static controller applies the gain of
+the measurement's age, ``v_t = K[a] y_{t-a}``. Written from this
+description alone, it is the reference for the age chain of
+:ref:`theory-delays`.
 """
 
 from __future__ import annotations
@@ -184,6 +198,9 @@ def simulate_protocol(
     controller_system: tuple | None = None,
     sensor: str = "zero",
     initial_controller_state: ArrayLike | None = None,
+    D21: ArrayLike | None = None,
+    sensor_delay: Any = None,
+    actuator_delay: Any = None,
 ) -> dict[str, NDArray[Any]]:
     """Simulate a scheduled, lossy networked control loop event by event.
 
@@ -217,8 +234,10 @@ def simulate_protocol(
         delivered; or an object with a ``transition`` attribute).
     actuator_loss : float, 2x2 array or Gilbert-Elliott link
         ``alpha2 = P(theta2_k = 0)``, likewise for the actuator packets.
-    gains : array_like, shape (N, m2, nk) or (N, 4, m2, nk)
-        Periodic gains; step ``k`` uses ``gains[k mod N]``. ``nk = p2``
+    gains : array_like, shape (N, m2, nk), (N, 4, m2, nk) or (D + 1, m2, p2)
+        Periodic gains; step ``k`` uses ``gains[k mod N]``. With a
+        ``sensor_delay`` of buffer ``D``: one gain per age of the
+        measurement, ``gains[a]``. ``nk = p2``
         (static) or ``n`` (predictor, estimator), except for the predictor
         and the estimator with ``actuator='hold'``, where ``nk = n + m2``
         and the gain acts on ``[xhat; u_{k-1}]``. Ignored (pass ``None``)
@@ -244,8 +263,9 @@ def simulate_protocol(
         ``'zero'``: unaddressed or lost actuators apply 0.
         ``'hold'``: unaddressed or lost actuators keep their previous value
         (``u_{-1} = 0``).
-    inputs : array_like, shape (m1, steps), optional
-        Deterministic disturbance sequence ``w``; zeros if omitted.
+    inputs : array_like, shape (m1, steps) or (trials, m1, steps), optional
+        Disturbance sequence ``w``, shared by the trials or one per trial
+        (e.g. white noise drawn by the caller); zeros if omitted.
     initial_state : array_like, shape (n,), optional
         Plant initial state ``x_0`` shared by all trials; zeros if omitted.
     initial_estimate : array_like, shape (n,), optional
@@ -272,6 +292,15 @@ def simulate_protocol(
         received as 0, or as the last received value (initially 0).
     initial_controller_state : array_like, shape (nc,), optional
         ``xc_0`` of ``controller='lti'``; zeros if omitted.
+    D21 : array_like, shape (p2, m1), optional
+        Feedthrough of ``w`` into the measurements (noise, references).
+    sensor_delay, actuator_delay : array_like or object, optional
+        Random integer delays of the link's time-stamped packets (see the
+        module's notes): a pmf, or an object with ``pmf`` and ``buffer``
+        (such as :func:`control_ncs.random_delay`'s). The link's loss must
+        then be 0 (the pmf carries it), its schedule must address all of
+        its nodes together or none, and the controller must be
+        ``'static'``.
 
     Returns
     -------
@@ -283,7 +312,11 @@ def simulate_protocol(
         ``'u'`` : ndarray, shape (trials, m2, steps)
             Applied control inputs.
         ``'theta1'``, ``'theta2'`` : ndarray of bool, shape (trials, steps)
-            Packet-success indicators drawn at each step.
+            Packet-success indicators drawn at each step (a delayed link:
+            whether a packet no older than its buffer was in use).
+        ``'age1'``, ``'age2'`` : ndarray of int, shape (trials, steps)
+            Only for a delayed link: the age of the packet in use
+            (``buffer + 1``: stale or none).
         ``'xc'`` : ndarray, shape (trials, nc, steps + 1)
             Only for ``controller='lti'``: controller states.
         ``'xhat'`` : ndarray, shape (trials, n, steps + 1)
@@ -367,6 +400,13 @@ def simulate_protocol(
 
     link1 = _link(sensor_loss, "sensor_loss")
     link2 = _link(actuator_loss, "actuator_loss")
+    delay1 = _delay(sensor_delay, "sensor_delay", link1, S1)
+    delay2 = _delay(actuator_delay, "actuator_delay", link2, S2)
+    if (delay1 or delay2) and controller != "static":
+        raise ValueError("sensor_delay, actuator_delay: delayed links are "
+                         "simulated with controller='static'")
+    D21m = np.zeros((p2, m1)) if D21 is None else _matrix(D21, "D21")
+    _expect_shape(D21m, (p2, m1), "D21")
 
     predictor = controller in ("predictor", "estimator")
     estimator = controller == "estimator"
@@ -399,7 +439,16 @@ def simulate_protocol(
     except (TypeError, ValueError) as exc:
         raise ValueError("gains must be a real array of shape (N, m2, nk)") from exc
     by_mode = K.ndim == 4 and not lti
-    if K.shape != ((N, 4, m2, nk) if by_mode else (N, m2, nk)):
+    NK = delay1[1] + 1 if delay1 else N       # a gain per age, or per phase
+    if (delay1 or delay2) and by_mode:
+        raise ValueError("gains: over delayed links one gain per phase, or "
+                         "per age over a delayed sensor link, not per mode")
+    if delay1 and K.shape != (NK, m2, nk):
+        raise ValueError(
+            f"gains must have shape (D + 1, m2, p2) = ({NK}, {m2}, {nk}) "
+            f"over a delayed sensor link (a gain per age), got {K.shape}")
+    if not delay1 and \
+            K.shape != ((N, 4, m2, nk) if by_mode else (N, m2, nk)):
         raise ValueError(
             f"gains must have shape (N, m2, nk) = ({N}, {m2}, {nk}) or "
             f"(N, 4, m2, nk) = ({N}, 4, {m2}, {nk}) for "
@@ -411,15 +460,18 @@ def simulate_protocol(
     steps = _count(steps, "steps", 0)
     trials = _count(trials, "trials", 1)
 
-    W: NDArray[np.float64] = np.zeros((m1, steps))
+    W: NDArray[np.float64] = np.zeros((1, m1, steps))
     if inputs is not None:
-        given = _matrix(inputs, "inputs") if np.ndim(inputs) >= 1 else None
-        if given is None or given.shape != (m1, steps):
+        given = (np.asarray(inputs, dtype=float)
+                 if np.ndim(inputs) in (2, 3) else None)
+        if given is None or given.shape not in ((m1, steps),
+                                                (trials, m1, steps)) \
+                or not np.all(np.isfinite(given)):
             raise ValueError(
-                f"inputs must have shape (m1, steps) = ({m1}, {steps}), "
-                f"got {np.shape(inputs)}"
+                f"inputs must be finite, of shape (m1, steps) = ({m1}, "
+                f"{steps}) or (trials, m1, steps), got {np.shape(inputs)}"
             )
-        W = given
+        W = given if given.ndim == 3 else given[None]
 
     x0 = np.zeros(n) if initial_state is None else _vector(
         initial_state, "initial_state", n
@@ -465,13 +517,18 @@ def simulate_protocol(
     xhat_hist = np.empty((trials, n if predictor else 0, steps + 1))
     th1_hist = np.empty((trials, steps), dtype=bool)
     th2_hist = np.empty((trials, steps), dtype=bool)
+    # delayed links: the packets stamped t - c, c = 0..buffer, with their
+    # arrival times and contents, and the age of the packet in use
+    sens_q = _Queue(delay1, trials, p2, steps)
+    act_q = _Queue(delay2, trials, m2, steps)
 
     def draw(link: tuple[float, float, float], before: Any) -> Any:
         loss = (link[0] if before is None
                 else np.where(before, link[1], link[2]))
         return rng.random(trials) >= loss
 
-    th1 = th2 = None
+    th1: Any = None
+    th2: Any = None
     if by_mode:
         # step -1: the previous mode at step 0 (stationary channels)
         th1 = draw(link1, th1)
@@ -483,24 +540,32 @@ def simulate_protocol(
         # Drawn unconditionally so the random stream is independent of the
         # schedule (the channel moves whether or not it carries a packet);
         # with a loss of 1 this is always False since random() < 1.
-        th1 = draw(link1, th1)
-        th2 = draw(link2, th2)
-        th1_hist[:, k] = th1
-        th2_hist[:, k] = th2
+        th1 = draw(link1, th1) if not delay1 else None
+        th2 = draw(link2, th2) if not delay2 else None
+        if delay1:
+            sens_q.send(k, S1[phase].any(), rng)
+        if delay2:
+            act_q.send(k, S2[phase].any(), rng)
 
         # A packet is received only if scheduled and not lost; the product
         # is the per-trial, per-channel delivery mask.
-        recv1 = th1[:, None] * S1[phase][None, :]
-        recv2 = th2[:, None] * S2[phase][None, :]
-        Kk = K[phase]
+        # (a delayed link's mask comes from its queue below)
+        recv1: Any = th1[:, None] * S1[phase][None, :] if not delay1 else None
+        recv2: Any = th2[:, None] * S2[phase][None, :] if not delay2 else None
+        Kk = K[phase % NK]
         if by_mode:
             # ℓ = σ_{k-1}: (θ1,k-1, θ2,k-1) for the static gain, (θ1,k,
             # θ2,k-1) for the model-based controllers (theory: Markov losses)
             seen1 = th1 if predictor else before1
             Kk = Kk[np.asarray(seen1, int) + 2 * np.asarray(before2, int)]
-        w = W[:, k]
+        w = W[:, :, k]
 
-        y = x @ C2m.T
+        y = x @ C2m.T + w @ D21m.T
+        if delay1:
+            sens_q.store(y)
+            y, th1 = sens_q.freshest(k)
+            recv1 = np.ones((trials, p2))       # y is 0 where none is fresh
+            Kk = K[np.minimum(sens_q.age[:, k], NK - 1)]
         if estimator:
             xhat = xhat + (recv1 * (y - xhat @ C2m.T)) @ L[phase].T
         elif predictor:
@@ -518,11 +583,17 @@ def simulate_protocol(
             v = xc @ Cc.T + y_rcv @ Dc.T
             xc = xc @ Ac.T + y_rcv @ Bc.T
             xc_hist[:, :, k + 1] = xc
-        elif by_mode:
+        elif by_mode or delay1:
             v = np.einsum("tij,tj->ti", Kk, recv1 * y)
         else:
             v = (recv1 * y) @ Kk.T
 
+        if delay2:
+            act_q.store(v)
+            v, th2 = act_q.freshest(k)
+            recv2 = th2[:, None] * np.ones((1, m2))
+        th1_hist[:, k] = th1
+        th2_hist[:, k] = th2
         if hold:
             u = u_prev + recv2 * (v - u_prev)
         else:
@@ -551,4 +622,72 @@ def simulate_protocol(
         result["xhat"] = xhat_hist
     if lti:
         result["xc"] = xc_hist
+    if delay1:
+        result["age1"] = sens_q.age
+    if delay2:
+        result["age2"] = act_q.age
     return result
+
+
+def _delay(value: Any, name: str, link: tuple[float, float, float],
+           S: NDArray[np.float64]) -> tuple[NDArray[np.float64], int] | None:
+    """``(pmf, buffer)`` of a delayed link, checked; None without one."""
+    if value is None:
+        return None
+    pmf = np.asarray(getattr(value, "pmf", value), dtype=float)
+    if pmf.ndim != 1 or pmf.size == 0 or not np.all(np.isfinite(pmf)) \
+            or np.any(pmf < 0) or pmf.sum() > 1 + 1e-12 or pmf.sum() == 0:
+        raise ValueError(f"{name} must be a pmf [P(δ = 0), P(δ = 1), ...] "
+                         f"with a positive sum <= 1, got {pmf.tolist()}")
+    buffer = int(getattr(value, "buffer", pmf.size - 1))
+    if buffer < 0:
+        raise ValueError(f"{name}: buffer must be >= 0, got {buffer}")
+    if link != (0.0, 0.0, 0.0):
+        raise ValueError(f"{name}: the link's loss is 1 - sum(pmf); give "
+                         f"a loss of 0 with a delay law")
+    if np.any(S.any(axis=1) & ~S.all(axis=1)):
+        raise ValueError(f"{name}: one packet carries all nodes of the link, "
+                         f"so its schedule must address all of them or none")
+    return pmf, buffer
+
+
+class _Queue:
+    """The time-stamped packets of one delayed link, for all trials.
+
+    Slot ``c`` holds the packet stamped ``t - c`` (``c = 0..buffer``): its
+    arrival time (``inf``: lost or never sent) and its content. Older
+    packets are stale and dropped.
+    """
+
+    def __init__(self, delay: Any, trials: int, width: int,
+                 steps: int) -> None:
+        pmf, buffer = delay if delay is not None else (np.ones(1), 0)
+        self.buffer: int = buffer
+        self.cdf = np.cumsum(pmf)
+        self.lost = pmf.size                    # the outcome "never arrives"
+        self.arrival = np.full((trials, self.buffer + 1), np.inf)
+        self.content = np.zeros((trials, self.buffer + 1, width))
+        self.age = np.full((trials, steps), self.buffer + 1)
+
+    def send(self, t: int, sent: bool, rng: np.random.Generator) -> None:
+        """Age every slot by one step and stamp the packet of step ``t``."""
+        trials = self.arrival.shape[0]
+        delta = np.searchsorted(self.cdf, rng.random(trials), side="right")
+        self.arrival = np.roll(self.arrival, 1, axis=1)
+        self.content = np.roll(self.content, 1, axis=1)
+        self.arrival[:, 0] = np.where((delta < self.lost) & sent,
+                                      t + delta, np.inf)
+
+    def store(self, value: NDArray[np.float64]) -> None:
+        """The content of the packet stamped now."""
+        self.content[:, 0] = value
+
+    def freshest(self, t: int) -> tuple[NDArray[np.float64], Any]:
+        """The content of the freshest arrived packet no older than the
+        buffer (0 where none) and whether there is one."""
+        arrived = self.arrival <= t
+        fresh: Any = arrived.any(axis=1)
+        c = np.argmax(arrived, axis=1)          # smallest age that arrived
+        self.age[:, t] = np.where(fresh, c, self.buffer + 1)
+        value = self.content[np.arange(c.size), c] * fresh[:, None]
+        return value, fresh

@@ -13,6 +13,7 @@ from hypothesis import given, settings, strategies as st
 
 import control_ncs as ncs
 from control_ncs.modes import age_chain
+from control_ncs.protocol import simulate_protocol
 
 
 def packet_level_ages(pmf, buffer, sent, steps, rng):
@@ -44,8 +45,12 @@ def empirical_transitions(ages, N, states, skip):
 
 def assert_matches_simulation(pmf, buffer, sent, seed, steps=200_000):
     rng = np.random.default_rng(seed)
-    T = age_chain(np.asarray(pmf, float), buffer, np.asarray(sent, bool))
     ages = packet_level_ages(pmf, buffer, sent, steps, rng)
+    assert_ages_follow_the_chain(ages, pmf, buffer, sent)
+
+
+def assert_ages_follow_the_chain(ages, pmf, buffer, sent):
+    T = age_chain(np.asarray(pmf, float), buffer, np.asarray(sent, bool))
     counts = empirical_transitions(ages, len(sent), buffer + 2, buffer + 2)
     visits = counts.sum(axis=2, keepdims=True)
     seen = visits[..., 0] >= 200
@@ -284,6 +289,58 @@ def test_delayed_loop_power_equals_a_packet_level_simulation(actuator):
     batches = zz[: zz.size // 100 * 100].reshape(100, -1).mean(axis=1)
     se = batches.std(ddof=1) / 10
     assert abs(zz.mean() - exact) < 4 * se
+
+
+def test_time_stamped_packets_of_the_protocol_simulator_follow_the_chain():
+    """The event-level simulator stamps each packet and keeps the freshest
+    (its own implementation, not packet_level_ages): the ages it uses follow
+    the age chain, scheduled or not."""
+    pmf, buffer, sent = [0.5, 0.3, 0.1], 3, (True, True, False)
+    out = simulate_protocol(
+        [[0.5]], [[0.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]],
+        [[int(s)] for s in sent], [[1]] * 3, 0.0, 0.0,
+        np.zeros((buffer + 1, 1, 1)), 150_000,
+        sensor_delay=ncs.random_delay(pmf, buffer=buffer),
+        rng=np.random.default_rng(5))
+    assert_ages_follow_the_chain(out["age1"][0], pmf, buffer, sent)
+
+
+@pytest.mark.parametrize("actuator", ["zero", "hold"])
+def test_delayed_loop_power_equals_the_protocol_simulator(actuator):
+    """Stationary output power under unit noise: exact against the
+    event-level simulator with time-stamped packets on both links."""
+    P = ncs.nss([[0.9, 0.4], [-0.3, 0.8]],
+                [[1.0, 1.0], [0.5, 0.3]],
+                [[1.0, -1.0], [1.0, 0.0], [0.0, 1.0]],
+                [[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]], True, nmeas=2, ncon=1,
+                sensor_delay=ncs.random_delay([0.6, 0.25, 0.1], buffer=2),
+                actuator_delay=ncs.random_delay([0.7, 0.2], buffer=1))
+    K = np.array([[[-0.4, -0.3]], [[-0.3, -0.2]], [[-0.2, -0.1]]])
+    exact = ncs.norm(ncs.feedback(P, K, actuator=actuator)) ** 2
+    rng = np.random.default_rng(12)
+    trials, steps, burn = 2000, 500, 100
+    out = simulate_protocol(
+        P.A, P.B1, P.B2, P.C1, P.D11, P.D12, [[1, 1]], [[1]], 0.0, 0.0, K,
+        steps, actuator=actuator, C2=P.C2, trials=trials, rng=rng,
+        inputs=rng.standard_normal((trials, 1, steps)),
+        sensor_delay=P.sensor_delay, actuator_delay=P.actuator_delay)
+    power = (out["z"][:, :, burn:] ** 2).sum(axis=1).mean(axis=1)
+    se = power.std(ddof=1) / np.sqrt(trials)
+    assert abs(power.mean() - exact) < 4 * se
+
+
+def test_protocol_simulator_refuses_delays_it_does_not_model():
+    args = ([[0.5]], [[0.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]], [[1]],
+            [[1]])
+    with pytest.raises(ValueError, match="^sensor_delay: the link's loss"):
+        simulate_protocol(*args, 0.2, 0.0, np.zeros((2, 1, 1)), 5,
+                          sensor_delay=[0.5, 0.3])
+    with pytest.raises(ValueError, match="controller='static'"):
+        simulate_protocol(*args, 0.0, 0.0, np.zeros((1, 1, 1)), 5,
+                          controller="predictor", actuator_delay=[0.5])
+    with pytest.raises(ValueError, match=r"^gains must have shape \(D \+ 1"):
+        simulate_protocol(*args, 0.0, 0.0, np.zeros((1, 1, 1)), 5,
+                          sensor_delay=[0.5, 0.3])
 
 
 def test_delayed_plants_refuse_what_has_no_model_yet():

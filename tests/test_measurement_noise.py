@@ -1,9 +1,8 @@
 """Measurement noise and references in y (``D21 ≠ 0``).
 
 Every loop is checked against an independent route: a closed form (static
-gain), python-control's own interconnection when nothing is lost, and a
-sample-path simulation of the protocol written here step by step when
-messages are lost.
+gain), python-control's own interconnection when nothing is lost, and the
+event-level protocol simulator when messages are lost.
 """
 
 from __future__ import annotations
@@ -14,6 +13,7 @@ import pytest
 from control.exception import ControlArgument
 
 import control_ncs as ncs
+from control_ncs.protocol import simulate_protocol
 
 
 def _tracking_plant(**network):
@@ -78,82 +78,61 @@ def test_lossless_estimator_loop_with_sensor_noise_is_the_observer_loop():
     assert ncs.norm(CL) == pytest.approx(ct.norm(reference, 2), rel=1e-10)
 
 
-def _simulated_power(P, controller, paths=3000, steps=400, burn=100,
-                     seed=1):
-    """Mean ``‖z‖²`` of the protocol simulated path by path: each step the
-    sensor packet and the command are lost independently; the LTI
-    controller hears ``y = C2 x + D21 w`` when it arrives (else 0 or the
-    last value), the actuator applies the command (else 0 or the last)."""
+def _protocol_power(P, seed, trials=3000, steps=400, burn=100, **loop):
+    """Mean ``‖z‖²`` of the protocol run packet by packet by the reference
+    simulator (:mod:`control_ncs.protocol`), each trial with its own white
+    ``w``: the measurement ``y = C2 x + D21 w`` is read when its packet
+    arrives; the mean of the per-trial time averages and its standard
+    error."""
     rng = np.random.default_rng(seed)
-    Kc, sensor, actuator = controller
-    n, nc, m1 = P.nstates, Kc.nstates, P.B1.shape[1]
-    x = np.zeros((paths, n))
-    xc = np.zeros((paths, nc))
-    yh = np.zeros((paths, P.nmeas))
-    uh = np.zeros((paths, P.ncon))
-    power = np.zeros(paths)
-    for t in range(steps):
-        w = rng.standard_normal((paths, m1))
-        t1 = rng.random((paths, 1)) >= P.sensor_loss
-        t2 = rng.random((paths, 1)) >= P.actuator_loss
-        y = x @ P.C2.T + w @ P.D21.T
-        yr = np.where(t1, y, yh if sensor == "hold" else 0.0)
-        yh = yr
-        v = xc @ Kc.C.T + yr @ Kc.D.T
-        xc = xc @ Kc.A.T + yr @ Kc.B.T
-        u = np.where(t2, v, uh if actuator == "hold" else 0.0)
-        uh = u
-        z = x @ P.C1.T + w @ P.D11.T + u @ P.D12.T
-        if t >= burn:
-            power += (z ** 2).sum(axis=1)
-        x = x @ P.A.T + w @ P.B1.T + u @ P.B2.T
-    power /= steps - burn
-    return power.mean(), power.std(ddof=1) / np.sqrt(paths)
+    w = rng.standard_normal((trials, P.B1.shape[1], steps))
+    out = simulate_protocol(
+        P.A, P.B1, P.B2, P.C1, P.D11, P.D12,
+        np.ones((1, P.nmeas)), np.ones((1, P.ncon)), P.sensor_link,
+        P.actuator_link, loop.pop("gains", None), steps, inputs=w,
+        trials=trials, rng=rng, C2=P.C2, D21=P.D21, **loop)
+    power = (out["z"][:, :, burn:] ** 2).sum(axis=1).mean(axis=1)
+    return power.mean(), power.std(ddof=1) / np.sqrt(trials)
 
 
-@pytest.mark.parametrize("sensor, actuator", [("zero", "zero"),
-                                              ("hold", "hold")])
-def test_lossy_pi_tracking_loop_agrees_with_the_simulated_protocol(
-        sensor, actuator):
-    _, P = _tracking_plant(sensor_loss=0.2, actuator_loss=0.1)
+@pytest.mark.parametrize("sensor, actuator, bursty", [
+    ("zero", "zero", False), ("hold", "hold", False), ("zero", "hold", True)])
+def test_lossy_pi_tracking_loop_agrees_with_the_protocol_simulator(
+        sensor, actuator, bursty):
+    link = ncs.gilbert_elliott(loss=0.2, burst=2.5) if bursty else 0.2
+    _, P = _tracking_plant(sensor_loss=link, actuator_loss=0.1)
     CL = ncs.feedback(P, PI, sensor=sensor, actuator=actuator)
     exact = ncs.norm(CL) ** 2
-    mean, se = _simulated_power(P, (PI, sensor, actuator))
+    mean, se = _protocol_power(
+        P, 1, controller="lti", sensor=sensor, actuator=actuator,
+        gains=np.zeros((1, 1, 1)),
+        controller_system=(PI.A, PI.B, PI.C, PI.D))
     assert abs(mean - exact) < 4 * se + 0.01 * exact
 
 
-def test_lossy_estimator_loop_with_sensor_noise_agrees_with_moments():
-    """The exact stationary covariance of a noisy estimator loop against a
-    Monte Carlo estimate of the same loop (the sample paths of the jump
-    system, :func:`control_ncs.simulate`-independent: drawn here)."""
+def test_lossy_estimator_loop_with_sensor_noise_agrees_with_the_protocol():
     P = ncs.nss([[1.2]], [[1.0, 0.0, 1.0]], [[1.0], [0.0], [1.0]],
                 [[0, 0, 0], [0, 0, 1.0], [0, 0.5, 0]], True, nmeas=1,
                 ncon=1, sensor_loss=0.3, actuator_loss=0.1)
     K, L = np.array([[-0.9]]), np.array([[0.7]])
     CL = ncs.feedback(P, K, controller="estimator", estimator_gain=L)
     exact = ncs.norm(CL) ** 2
-    rng = np.random.default_rng(7)
-    paths, steps, burn = 4000, 300, 60
-    x = np.zeros(paths)
-    xh = np.zeros(paths)          # estimate after the update
-    total = np.zeros(paths)
-    w = rng.standard_normal((paths, 2))
-    t1 = rng.random(paths) >= 0.3
-    for t in range(steps):
-        t2 = rng.random(paths) >= 0.1
-        u = np.where(t2, K[0, 0] * xh, 0.0)
-        z2 = x ** 2 + u ** 2
-        if t >= burn:
-            total += z2
-        x = 1.2 * x + w[:, 0] + u
-        pred = 1.2 * xh + u
-        w = rng.standard_normal((paths, 2))     # w_{k+1}: its noise is read
-        t1 = rng.random(paths) >= 0.3
-        y = x + 0.5 * w[:, 1]
-        xh = np.where(t1, pred + L[0, 0] * (y - pred), pred)
-    total /= steps - burn
-    se = total.std(ddof=1) / np.sqrt(paths)
-    assert abs(total.mean() - exact) < 4 * se + 0.01 * exact
+    mean, se = _protocol_power(P, 7, controller="estimator",
+                               gains=K[None], estimator_gains=L[None])
+    assert abs(mean - exact) < 4 * se + 0.01 * exact
+
+
+def test_static_gain_over_bursty_links_with_noise_agrees_with_the_protocol():
+    P = ncs.nss([[1.1, 0.0], [0.3, 0.5]], [[1.0, 0.0, 1.0], [0.0, 1.0, 0.5]],
+                [[1.0, 0.0], [0.0, 1.0], [1.0, 0.0]],
+                [[0, 0, 0], [0, 0, 0], [0.3, 0.2, 0]], True, nmeas=1,
+                ncon=1, sensor_loss=ncs.gilbert_elliott(loss=0.2, burst=3.0),
+                actuator_loss=0.1)
+    K = np.array([[[-1.1]]])
+    CL = ncs.feedback(P, K)
+    exact = ncs.norm(CL) ** 2
+    mean, se = _protocol_power(P, 11, gains=K)
+    assert abs(mean - exact) < 4 * se + 0.01 * exact
 
 
 def test_synthesis_refuses_a_noisy_measurement_and_says_what_to_do():
