@@ -4,11 +4,14 @@ A delayed link keeps the freshest packet; the age of what it holds is a
 Markov chain (:func:`control_ncs.modes.age_chain`). The loop is a Markov jump
 system on a state that remembers what the buffers may still deliver::
 
-    X_k = [x_k; x_{k-1}; …; x_{k-Ds};  v_{k-1}; …; v_{k-Da};  u_{k-1}; …]
+    X_k = [x_k; x_{k-1}; …; x_{k-Ds};  v_{k-1}; …; v_{k-Da};  u_{k-1}; …;
+           xc_k; ŷ_{k-1}]
 
 (``Ds``, ``Da``: the sensor and actuator buffers; ``v`` the controller's
 commands; the applied inputs ``u`` kept as far as the predictor or a hold
-actuator needs them), with the mode ``(a_k, b_k)`` of the two ages,
+actuator needs them; an LTI controller's state ``xc`` and, when it holds
+a stale measurement, the last one it read), with the mode ``(a_k, b_k)``
+of the two ages,
 independent chains (``T = T_a ⊗ T_b``). In mode ``(a, b)``:
 
 * the controller uses the freshest measurement, of age ``a``: the static
@@ -16,6 +19,9 @@ independent chains (``T = T_a ⊗ T_b``). In mode ``(a, b)``:
   time stamp); the predictor sends ``v_k = K x̂_k`` with
   ``x̂_k = A^a x_{k-a} + Σ_{i=1}^{a} A^{i-1} B2 u_{k-i}`` (it knows the applied
   inputs from acknowledgements); nothing when the measurement is stale;
+  an LTI controller ``xc⁺ = Ac xc + Bc ŷ``, ``v = Cc xc + Dc ŷ`` reads
+  ``ŷ_k = C2 x_{k-a}``, and 0 or the last value it read (``sensor='hold'``)
+  when the measurement is stale;
 * the actuator applies the freshest command, ``u_k = v_{k-b}``; zero, or the
   last applied input (``'hold'``), when the command is stale.
 
@@ -38,7 +44,7 @@ from .plant import NetworkedStateSpace
 
 __all__: list[str] = []
 
-CONTROLLERS = ("static", "predictor")
+CONTROLLERS = ("static", "predictor", "lti")
 ACTUATORS = ("zero", "hold")
 
 
@@ -74,18 +80,21 @@ def _gains(K: Any, count: int, shape: tuple[int, int]) -> np.ndarray:
 
 
 def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
-                 actuator: str) -> JumpStateSpace:
+                 actuator: str, sensor: str = "zero") -> JumpStateSpace:
     """The closed loop of ``P`` over its delayed links (module docstring).
 
     Parameters
     ----------
     P : NetworkedStateSpace
         With ``sensor_delay``, ``actuator_delay`` and/or ``input_delay``.
-    K : array_like
+    K : array_like or control.StateSpace
         The gain ``(ncon, nmeas)`` (predictor: ``(ncon, n)``), or one per
-        sensor age, ``(Ds + 1, …)``.
-    controller : {'static', 'predictor'}
+        sensor age, ``(Ds + 1, …)``; for ``controller='lti'`` the
+        controller, discrete-time with the plant's ``dt``.
+    controller : {'static', 'predictor', 'lti'}
     actuator : {'zero', 'hold'}
+    sensor : {'zero', 'hold'}
+        LTI controller: what it reads when the measurement is stale.
 
     Returns
     -------
@@ -118,7 +127,14 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
     Da, Ta, actuator_ages = _chain(P.actuator_delay,
                                    P.actuator_schedule.pattern.any(axis=1), N)
     width = n if controller == "predictor" else p2
-    G = _gains(K, Ds + 1, (m2, width))
+    lti = controller == "lti"
+    if lti:
+        Ac, Bc, Cc, Dc = (np.asarray(M, float) for M in (K.A, K.B, K.C, K.D))
+        G = np.repeat(Dc[None], Ds + 1, axis=0)      # v = Dc ŷ + Cc xc
+    else:
+        G = _gains(K, Ds + 1, (m2, width))
+    nc = Ac.shape[0] if lti else 0
+    hy = p2 if lti and sensor == "hold" else 0
     # how many applied inputs are kept: the predictor's window and the hold
     delay = P.input_delay
     Lu = max(Ds if controller == "predictor" else 0,
@@ -128,9 +144,11 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
             "P: with sub-sample input delays z must not depend on u "
             "(D12 = 0): the input of step k is applied after the sample")
     taus = 1 if delay is None else delay.taus.size
-    # blocks of X: x (Ds + 1 copies), v (Da), u (Lu)
-    nX = n * (Ds + 1) + m2 * Da + m2 * Lu
+    # blocks of X: x (Ds + 1 copies), v (Da), u (Lu), xc (nc), ŷ_{k-1} (hy)
+    nX = n * (Ds + 1) + m2 * Da + m2 * Lu + nc + hy
     ox, ov, ou = 0, n * (Ds + 1), n * (Ds + 1) + m2 * Da
+    xcb = slice(ou + m2 * Lu, ou + m2 * Lu + nc)
+    yb = slice(xcb.stop, nX)
 
     def xb(j: int) -> slice:        # x_{k-j}
         return slice(ox + n * j, ox + n * (j + 1))
@@ -149,7 +167,15 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
     for a in sensor_ages:
         # the command v_k as a row block acting on X
         V = np.zeros((m2, nX))
-        if a <= Ds:
+        Y = np.zeros((p2, nX))          # what an LTI controller reads
+        if lti:
+            if a <= Ds:
+                Y[:, xb(a)] = C2
+            elif hy:
+                Y[:, yb] = np.eye(p2)
+            V = Dc @ Y
+            V[:, xcb] += Cc
+        elif a <= Ds:
             if controller == "static":
                 V[:, xb(a)] = G[a] @ C2
             else:
@@ -187,6 +213,10 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
                     Am[ub(1)] = U                # u_k joins the history
                     for j in range(2, Lu + 1):
                         Am[ub(j), ub(j - 1)] = np.eye(m2)
+                if lti:
+                    Am[xcb] = Bc @ Y
+                    Am[xcb, xcb] += Ac
+                    Am[yb] = Y[:hy]              # ŷ_k kept for a hold
                 Cm = np.zeros((p1, nX))
                 Cm[:, xb(0)] = C1
                 Cm += D12 @ U
@@ -204,7 +234,9 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
     states = ([f"{s}[k-{j}]" if j else s for j in range(Ds + 1)
                for s in P.state_labels]
               + [f"v{i}[k-{j}]" for j in range(1, Da + 1) for i in range(m2)]
-              + [f"u{i}[k-{j}]" for j in range(1, Lu + 1) for i in range(m2)])
+              + [f"u{i}[k-{j}]" for j in range(1, Lu + 1) for i in range(m2)]
+              + [f"xc[{i}]" for i in range(nc)]
+              + [f"y{i}_rcv[k-1]" for i in range(hy)])
     # the same matrices at every phase; the schedule is in the chain
     Ak, Bk, Ck, Dk = (np.repeat(np.array([X]), N, axis=0)
                       for X in (modes_A, modes_B, modes_C, modes_D))
@@ -214,6 +246,7 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
         states=states,
         name=None if P.name is None else f"{P.name} (closed loop)",
         info=dict(controller=controller, actuator=actuator, plant=P.name,
+                  **({"sensor": sensor} if lti else {}),
                   gains=G, delay_modes=names,
                   sensor_delay=P.sensor_delay,
                   actuator_delay=P.actuator_delay,

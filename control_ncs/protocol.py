@@ -62,7 +62,8 @@ probability ``1 - Σ pmf``), in place of that link's ``theta`` draw. The
 receiver keeps the freshest packet that has arrived, by its stamp; one
 older than ``buffer`` steps is stale (the actuator then applies 0 or holds,
 the static controller sends 0). The static controller applies the gain of
-the measurement's age, ``v_t = K[a] y_{t-a}``. Written from this
+the measurement's age, ``v_t = K[a] y_{t-a}``; an LTI controller reads
+``y_{t-a}`` (or, when it is stale, 0 or its last reading). Written from this
 description alone, it is the reference for the age chain of
 :ref:`theory-delays`.
 """
@@ -300,7 +301,8 @@ def simulate_protocol(
         (such as :func:`control_ncs.random_delay`'s). The link's loss must
         then be 0 (the pmf carries it), its schedule must address all of
         its nodes together or none, and the controller must be
-        ``'static'``.
+        ``'static'`` or ``'lti'`` (which reads the freshest measurement, or
+        0 or its last reading when that is stale).
 
     Returns
     -------
@@ -402,9 +404,9 @@ def simulate_protocol(
     link2 = _link(actuator_loss, "actuator_loss")
     delay1 = _delay(sensor_delay, "sensor_delay", link1, S1)
     delay2 = _delay(actuator_delay, "actuator_delay", link2, S2)
-    if (delay1 or delay2) and controller != "static":
+    if (delay1 or delay2) and controller not in ("static", "lti"):
         raise ValueError("sensor_delay, actuator_delay: delayed links are "
-                         "simulated with controller='static'")
+                         "simulated with controller='static' or 'lti'")
     D21m = np.zeros((p2, m1)) if D21 is None else _matrix(D21, "D21")
     _expect_shape(D21m, (p2, m1), "D21")
 
@@ -439,15 +441,16 @@ def simulate_protocol(
     except (TypeError, ValueError) as exc:
         raise ValueError("gains must be a real array of shape (N, m2, nk)") from exc
     by_mode = K.ndim == 4 and not lti
-    NK = delay1[1] + 1 if delay1 else N       # a gain per age, or per phase
+    per_age = bool(delay1) and not lti
+    NK = delay1[1] + 1 if delay1 and per_age else N   # per age, or phase
     if (delay1 or delay2) and by_mode:
         raise ValueError("gains: over delayed links one gain per phase, or "
                          "per age over a delayed sensor link, not per mode")
-    if delay1 and K.shape != (NK, m2, nk):
+    if per_age and K.shape != (NK, m2, nk):
         raise ValueError(
             f"gains must have shape (D + 1, m2, p2) = ({NK}, {m2}, {nk}) "
             f"over a delayed sensor link (a gain per age), got {K.shape}")
-    if not delay1 and \
+    if not per_age and \
             K.shape != ((N, 4, m2, nk) if by_mode else (N, m2, nk)):
         raise ValueError(
             f"gains must have shape (N, m2, nk) = ({N}, {m2}, {nk}) or "
@@ -564,8 +567,9 @@ def simulate_protocol(
         if delay1:
             sens_q.store(y)
             y, th1 = sens_q.freshest(k)
-            recv1 = np.ones((trials, p2))       # y is 0 where none is fresh
-            Kk = K[np.minimum(sens_q.age[:, k], NK - 1)]
+            recv1 = th1[:, None] * np.ones((1, p2))     # a fresh packet
+            if per_age:
+                Kk = K[np.minimum(sens_q.age[:, k], NK - 1)]
         if estimator:
             xhat = xhat + (recv1 * (y - xhat @ C2m.T)) @ L[phase].T
         elif predictor:
@@ -583,7 +587,7 @@ def simulate_protocol(
             v = xc @ Cc.T + y_rcv @ Dc.T
             xc = xc @ Ac.T + y_rcv @ Bc.T
             xc_hist[:, :, k + 1] = xc
-        elif by_mode or delay1:
+        elif by_mode or per_age:
             v = np.einsum("tij,tj->ti", Kk, recv1 * y)
         else:
             v = (recv1 * y) @ Kk.T

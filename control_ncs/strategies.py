@@ -616,7 +616,10 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         for those with a hold actuator. Or a discrete-time LTI controller
         with the plant's ``dt``, ``nmeas`` inputs (the received
         measurements) and ``ncon`` outputs (the controls it sends); it runs
-        at every step.
+        at every step. Over delayed links (:ref:`theory-delays`): a static
+        gain, or one per age of the measurement ``(Ds + 1, m2, nmeas)``,
+        the predictor's gain, or an LTI controller reading the freshest
+        measurement; the estimator is refused there.
     controller : {'static', 'predictor', 'estimator', 'lti'}, optional
         Default: ``'lti'`` for a system ``K``, else the gain's own kind,
         else ``'estimator'`` when an estimator gain is given, else
@@ -697,12 +700,17 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
                               f"got {type(P).__name__}")
     if P.sensor_delay is not None or P.actuator_delay is not None or \
             P.input_delay is not None:
-        if isinstance(K, (ct.StateSpace, ct.TransferFunction)) or \
-                estimator_gain is not None or sensor is not None:
+        if isinstance(K, (ct.StateSpace, ct.TransferFunction)):
+            Kss = _lti_controller(P, K, controller, estimator_gain)
+            choice(sensor or "zero", "sensor", ("zero", "hold"))
+            return delayed_loop(P, Kss, "lti", str(actuator or "zero"),
+                                str(sensor or "zero"))
+        if estimator_gain is not None or sensor is not None:
             raise ControlArgument(
                 "K: over delayed links the loop is closed with a static gain "
-                "(one, or one per age) or controller='predictor'; LTI and "
-                "estimator controllers are not supported there yet")
+                "(one, or one per age), controller='predictor' or an LTI "
+                "controller; the estimator controller is not supported there "
+                "yet")
         return delayed_loop(
             P, K, str(controller or getattr(K, "controller", "static")),
             str(actuator or getattr(K, "actuator", "zero")))
@@ -817,10 +825,10 @@ def _require_observed(gains: np.ndarray, observed: np.ndarray) -> None:
                         "them the same gain")
 
 
-def _feedback_lti(P: NetworkedStateSpace, K: Any, controller: str | None,
-                  actuator: str | None, sensor: str | None,
-                  estimator_gain: Any) -> JumpStateSpace:
-    """:func:`feedback` with an LTI controller: checks, then build + close."""
+def _lti_controller(P: NetworkedStateSpace, K: Any, controller: str | None,
+                    estimator_gain: Any) -> ct.StateSpace:
+    """An LTI controller ``K`` for ``P``, checked: discrete-time with the
+    plant's ``dt``, ``nmeas`` inputs, ``ncon`` outputs, finite."""
     if controller not in (None, "lti"):
         raise ControlArgument(f"controller: a system K is an LTI controller "
                               f"(controller='lti'), got {controller!r}")
@@ -834,9 +842,17 @@ def _feedback_lti(P: NetworkedStateSpace, K: Any, controller: str | None,
             f"K: expected a controller with {nmeas} inputs (the received "
             f"measurements) and {ncon} outputs (the controls), got "
             f"{Kss.ninputs} inputs and {Kss.noutputs} outputs")
-    realisation = np.block([[Kss.D, Kss.C], [Kss.B, Kss.A]])
-    if not np.all(np.isfinite(realisation)):
+    if not np.all(np.isfinite(np.block([[Kss.D, Kss.C], [Kss.B, Kss.A]]))):
         raise ValueError("K: the controller's matrices must be finite")
+    return Kss
+
+
+def _feedback_lti(P: NetworkedStateSpace, K: Any, controller: str | None,
+                  actuator: str | None, sensor: str | None,
+                  estimator_gain: Any) -> JumpStateSpace:
+    """:func:`feedback` with an LTI controller: checks, then build + close."""
+    Kss = _lti_controller(P, K, controller, estimator_gain)
+    realisation = np.block([[Kss.D, Kss.C], [Kss.B, Kss.A]])
     plant = build(P, "lti", actuator or "zero", sensor=sensor or "zero",
                   controller_order=Kss.nstates)
     gains = np.tile(realisation, (P.period, 1, 1))

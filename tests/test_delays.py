@@ -329,13 +329,62 @@ def test_delayed_loop_power_equals_the_protocol_simulator(actuator):
     assert abs(power.mean() - exact) < 4 * se
 
 
+def _pi_tracking_plant(**network):
+    G = ct.ss([[1.05]], [[1.0, 0.0, 0.5]], [[1.0], [-1.0]],
+              [[0.0, -1.0, 0.0], [0.0, 0.0, 0.0]], True)
+    return G, ncs.nss(G, nmeas=1, ncon=1, **network)
+
+
+PI = ct.ss([[1.0]], [[1.0]], [[0.2]], [[0.8]], True)
+
+
+def test_lti_controller_over_links_that_only_lose_is_the_bernoulli_loop():
+    """A delay law with all its mass on 0 is a Bernoulli link: the LTI
+    loop over delayed links equals the one over lossy links, and with no
+    loss python-control's lft."""
+    G, on_time = _pi_tracking_plant(sensor_delay=[1.0])
+    assert ncs.norm(ncs.feedback(on_time, PI)) == pytest.approx(
+        ct.norm(G.lft(PI, 1, 1), 2), rel=1e-12)
+    _, delayed = _pi_tracking_plant(sensor_delay=[0.7], actuator_delay=[0.9])
+    _, lossy = _pi_tracking_plant(sensor_loss=0.3, actuator_loss=0.1)
+    for sensor in ("zero", "hold"):
+        for actuator in ("zero", "hold"):
+            exact = ncs.norm(ncs.feedback(lossy, PI, sensor=sensor,
+                                          actuator=actuator))
+            assert ncs.norm(ncs.feedback(
+                delayed, PI, sensor=sensor, actuator=actuator)) == \
+                pytest.approx(exact, rel=1e-12)
+
+
+@pytest.mark.parametrize("sensor, actuator", [("zero", "zero"),
+                                              ("hold", "hold")])
+def test_lti_controller_over_delayed_links_equals_the_protocol_simulator(
+        sensor, actuator):
+    _, P = _pi_tracking_plant(sensor_delay=[0.5, 0.3, 0.1],
+                              actuator_delay=[0.8, 0.15])
+    CL = ncs.feedback(P, PI, sensor=sensor, actuator=actuator)
+    assert "xc[0]" in CL.jump_states
+    exact = ncs.norm(CL) ** 2
+    rng = np.random.default_rng(21)
+    trials, steps, burn = 2000, 500, 100
+    out = simulate_protocol(
+        P.A, P.B1, P.B2, P.C1, P.D11, P.D12, [[1]], [[1]], 0.0, 0.0, None,
+        steps, controller="lti", sensor=sensor, actuator=actuator, C2=P.C2,
+        controller_system=(PI.A, PI.B, PI.C, PI.D), trials=trials, rng=rng,
+        inputs=rng.standard_normal((trials, 2, steps)),
+        sensor_delay=P.sensor_delay, actuator_delay=P.actuator_delay)
+    power = (out["z"][:, :, burn:] ** 2).sum(axis=1).mean(axis=1)
+    se = power.std(ddof=1) / np.sqrt(trials)
+    assert abs(power.mean() - exact) < 4 * se
+
+
 def test_protocol_simulator_refuses_delays_it_does_not_model():
     args = ([[0.5]], [[0.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]], [[1]],
             [[1]])
     with pytest.raises(ValueError, match="^sensor_delay: the link's loss"):
         simulate_protocol(*args, 0.2, 0.0, np.zeros((2, 1, 1)), 5,
                           sensor_delay=[0.5, 0.3])
-    with pytest.raises(ValueError, match="controller='static'"):
+    with pytest.raises(ValueError, match="controller='static' or 'lti'"):
         simulate_protocol(*args, 0.0, 0.0, np.zeros((1, 1, 1)), 5,
                           controller="predictor", actuator_delay=[0.5])
     with pytest.raises(ValueError, match=r"^gains must have shape \(D \+ 1"):
@@ -349,8 +398,8 @@ def test_delayed_plants_refuse_what_has_no_model_yet():
         ncs.build(P)
     with pytest.raises(ControlArgument, match="^controller:"):
         ncs.passivesyn(P, controller="estimator")
-    with pytest.raises(ControlArgument, match="LTI and estimator"):
-        ncs.feedback(P, ct.ss([], [], [], [[1.0]], True))
+    with pytest.raises(ControlArgument, match="estimator controller is not"):
+        ncs.feedback(P, [[-1.0]], estimator_gain=[[0.5]])
     with pytest.raises(ValueError, match="^sensor_loss:"):
         _scalar(1.1, sensor_delay=[0.5, 0.4], sensor_loss=0.3)
     with pytest.raises(ValueError, match="^sensor_delay:.*together"):
