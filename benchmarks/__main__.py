@@ -35,6 +35,7 @@ SECTIONS = [
     ("bench_refine", "refine_section"),
     ("bench_performance", "performance_section"),
     ("bench_delays", "delays_section"),
+    ("bench_delays", "delayed_design_section"),
 ]
 
 

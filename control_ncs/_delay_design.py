@@ -25,7 +25,8 @@ import time
 import numpy as np
 from scipy.optimize import minimize
 
-from .exceptions import NOT_FOUND, CertificationError, SynthesisError
+from .exceptions import (NOT_FOUND, TIME_LIMIT, CertificationError,
+                         SynthesisError)
 from .gain import PeriodicGain
 from .jump import JumpStateSpace
 from .passivity import passivity_certificate
@@ -76,6 +77,8 @@ def delayed_design(P: NetworkedStateSpace, eta: float | None, decay: float,
         return deadline is not None and time.perf_counter() > deadline
 
     def rate(x: np.ndarray) -> float:
+        if out_of_time():
+            return math.inf
         r = ms_radius(loop(x))
         return math.log(r) if r > 0 else -50.0
 
@@ -86,6 +89,11 @@ def delayed_design(P: NetworkedStateSpace, eta: float | None, decay: float,
                                     fatol=1e-9))
         x = res.x
     if not ms_radius(loop(x)) < target:
+        if out_of_time():
+            raise SynthesisError(
+                "passivesyn: the time limit ran out before the local search "
+                "over the delayed link made the loop mean-square stable",
+                TIME_LIMIT, dict(ms_radius=ms_radius(loop(x))))
         raise SynthesisError(
             "passivesyn: the local search over the delayed link found no "
             "gain that makes the loop mean-square stable" +

@@ -51,7 +51,7 @@ from .exceptions import (CERTIFIED, FEEDTHROUGH, INFEASIBLE,
                          MESSAGES, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
                          CertificationError)
 from .driver import drive
-from .riccati import dare_certificate
+from .riccati import COUPLED_THRESHOLD, coupled_certificate, dare_certificate
 from ._results import Result
 from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
                   analysis_model, check_options, check_solver, solve,
@@ -225,9 +225,10 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
     conditions that fail (``ms_radius ≥ 1``, the feedthrough bound
     ``D̄ + D̄ᵀ - 2ρ Σ p_i D_iᵀD_i ≻ 2ηI``) give an exact "no" without a
     solve. Two routes find ``P`` (``method``): the LMI, solved by cvxpy,
-    for any jump system; and, for a deterministic system (one mode,
-    period 1) with ``ρ = 0``, the KYP frequency test and one Riccati
-    equation, without a solver (see Notes).
+    for any jump system; and, with ``ρ = 0``, a Riccati route without a
+    solver: for a deterministic system (one mode, period 1) the KYP
+    frequency test and one Riccati equation (see Notes), for a jump
+    system the coupled Riccati iteration (fast for large loops).
 
     Parameters
     ----------
@@ -247,10 +248,15 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         Also certify ``E V`` decaying like ``r^(2t)`` (``r = decay`` in
         (0, 1]).
     method : {'auto', 'riccati', 'lmi'}, optional
-        ``'auto'``: the Riccati route for a deterministic system with
-        ``ρ = 0`` (unless ``solver`` or solver options are given), falling
-        back to the LMI if it cannot certify; the LMI otherwise.
-        ``'riccati'``: the Riccati route only (deterministic, ``ρ = 0``).
+        ``'auto'``: with ``ρ = 0`` and neither ``solver`` nor solver options
+        given, the Riccati route for a deterministic system, and for a
+        jump system of more than ``riccati.COUPLED_THRESHOLD`` (8) states,
+        falling back to the LMI if it cannot certify; the LMI otherwise.
+        ``'riccati'``: the Riccati route only (``ρ = 0``): one DARE for a
+        deterministic system; for a jump system the coupled Riccati
+        iteration of :func:`passivesyn`'s Riccati route, on the loop with
+        no control input (its bisection stops within a relative ``1e-4``
+        of the supremum, so an index may lie that much below the LMI's).
         ``'lmi'``: the LMI only.
     solver : str, optional
         LMI route: any installed cvxpy solver (default Clarabel).
@@ -371,15 +377,36 @@ def _certificate(sys, ifp_index, ofp_index, decay, method, solver, margin,
                  solver_options) -> PassivityResult:
     """:func:`passivity_certificate` on checked arguments."""
     mats = _deterministic(sys)
-    if method == "riccati" and (mats is None or ofp_index != 0.0):
+    if method == "riccati" and (ofp_index != 0.0 or
+                                sys.modes.A.shape[-1] == 0):
         raise ControlArgument(
-            "method: 'riccati' needs a deterministic system with at least "
-            "one state (one mode, period 1) and ofp_index=0; sys has period "
-            f"{sys.period}, {int(np.sum(sys.modes.probabilities > 0))} live "
-            f"mode(s) and {sys.modes.A.shape[-1]} state(s), ofp_index="
-            f"{ofp_index}; use method='lmi' or 'auto'")
+            "method: 'riccati' needs ofp_index=0 and at least one state; "
+            f"got ofp_index={ofp_index} and {sys.modes.A.shape[-1]} "
+            "state(s); use method='lmi' or 'auto'")
     # under 'auto', a named solver or solver options ask for the LMI
     lmi_asked = solver is not None or bool(solver_options)
+    if mats is None and ofp_index == 0.0 and (
+            method == "riccati" or (
+                method == "auto" and not lmi_asked
+                and sys.modes.A.shape[-1] > COUPLED_THRESHOLD)):
+        # a jump system: the coupled Riccati iteration (no solver), exact
+        # check; the necessary conditions first, as on the LMI route
+        rho = ms_radius(sys)
+        if not rho < min(1.0, decay ** 2):
+            return PassivityResult(False, np.nan, None, None, NOT_MSS)
+        if _feedthrough_refutes(sys, ifp_index, 0.0):
+            return PassivityResult(False, float(ifp_index), None, None,
+                                   FEEDTHROUGH)
+        reason, eta, cert, fields, figures = coupled_certificate(
+            sys, ifp_index, decay)
+        if reason is not None:
+            return PassivityResult(True, eta, cert, SolveReport(**fields),
+                                   reason, "riccati")
+        if method == "riccati":
+            raise CertificationError(
+                "passivity: the coupled Riccati iteration found no "
+                "certificate that passes the exact check; try method='lmi'",
+                NOT_VERIFIED, figures)
     if mats is not None and ofp_index == 0.0 and (
             method == "riccati" or (method == "auto" and not lmi_asked)):
         reason, eta, cert, fields, upper, figures = dare_certificate(

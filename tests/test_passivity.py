@@ -404,11 +404,44 @@ def test_unknown_method_raises_naming_it():
         passivity_certificate(G, method="kyp")
 
 
-def test_riccati_method_refuses_a_lossy_loop():
+def test_riccati_method_on_a_lossy_loop_is_the_coupled_iteration():
+    """A jump system: the coupled Riccati iteration on the loop without
+    control gives an index within its bisection tolerance (1e-4 relative)
+    below the LMI's, both certified by the exact check; under 'auto' a
+    small loop keeps the LMI."""
     CL = random_closed_loop(5, sensor_loss=0.2, actuator_loss=0.1)
-    with pytest.raises(ControlArgument, match="deterministic"):
-        get_input_ff_index(CL, method="riccati")
+    fast = passivity_certificate(CL, method="riccati")
+    lmi = passivity_certificate(CL, method="lmi")
+    assert fast.method == "riccati" and fast.certificate.verified
+    assert fast.eta <= lmi.eta + 1e-9 * max(1.0, abs(lmi.eta))
+    assert lmi.eta - fast.eta <= 2e-4 * max(1.0, abs(lmi.eta))
     assert passivity_certificate(CL).method == "lmi"
+    # a level just below the index is certified, one above the LMI's index
+    # is not (the route says it found nothing; 'auto' lets the LMI decide)
+    assert passivity_certificate(CL, fast.eta - 0.01,
+                                 method="riccati").passive
+    with pytest.raises(CertificationError) as info:
+        passivity_certificate(CL, lmi.eta + 0.05, method="riccati")
+    assert info.value.reason == "not_verified"
+
+
+def test_large_markov_loop_takes_the_coupled_riccati_route_under_auto():
+    """A loop over a delayed link (22 states, 5 Markov modes): 'auto'
+    takes the coupled iteration (above riccati.COUPLED_THRESHOLD states)
+    and agrees with the LMI within the bisection tolerance."""
+    P = cn.nss([[1.05, 0.2], [0.0, 0.9]], [[1.0, 0.0, 1.0], [0.0, 1.0, 0.5]],
+               [[1.0, 0.0], [0.0, 1.0], [1.0, 0.0], [0.0, 1.0]],
+               np.block([[np.eye(2), np.zeros((2, 1))], [np.zeros((2, 3))]]),
+               True, nmeas=2, ncon=1,
+               sensor_delay=cn.random_delay([0.4, 0.3, 0.2, 0.05], buffer=3))
+    CL = feedback(P, [[-0.5, -0.3]], controller="predictor")
+    assert CL.modes.A.shape[-1] > riccati.COUPLED_THRESHOLD
+    auto = passivity_certificate(CL)
+    lmi = passivity_certificate(CL, method="lmi")
+    assert auto.method == "riccati" and auto.passive
+    assert cn.check_certificate(CL, auto.certificate.P, auto.eta).verified
+    assert auto.eta <= lmi.eta + 1e-9 * max(1.0, abs(lmi.eta))
+    assert lmi.eta - auto.eta <= 2e-4 * max(1.0, abs(lmi.eta))
 
 
 def test_naming_a_solver_selects_the_lmi_route_under_auto():
