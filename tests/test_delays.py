@@ -271,17 +271,22 @@ def _packet_loop(P, K, sens, act, actuator, steps, rng, sent=(True,)):
     return zz
 
 
-@pytest.mark.parametrize("actuator", ["zero", "hold"])
-def test_delayed_loop_power_equals_a_packet_level_simulation(actuator):
-    """Stationary output power under unit noise: exact (the jump model's
-    stationary covariances) against the protocol run from packets."""
+def _two_state_delayed_loop():
+    """A two-state plant over delayed links, with a gain per sensor age."""
     P = ncs.nss([[0.9, 0.4], [-0.3, 0.8]],
                 [[1.0, 1.0], [0.5, 0.3]],
                 [[1.0, -1.0], [1.0, 0.0], [0.0, 1.0]],
                 [[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]], True, nmeas=2, ncon=1,
                 sensor_delay=ncs.random_delay([0.6, 0.25, 0.1], buffer=2),
                 actuator_delay=ncs.random_delay([0.7, 0.2], buffer=1))
-    K = np.array([[[-0.4, -0.3]], [[-0.3, -0.2]], [[-0.2, -0.1]]])
+    return P, np.array([[[-0.4, -0.3]], [[-0.3, -0.2]], [[-0.2, -0.1]]])
+
+
+@pytest.mark.parametrize("actuator", ["zero", "hold"])
+def test_delayed_loop_power_equals_a_packet_level_simulation(actuator):
+    """Stationary output power under unit noise: exact (the jump model's
+    stationary covariances) against the protocol run from packets."""
+    P, K = _two_state_delayed_loop()
     CL = ncs.feedback(P, K, actuator=actuator)
     exact = ncs.norm(CL) ** 2
     zz = _packet_loop(P, K, P.sensor_delay, P.actuator_delay, actuator,
@@ -309,13 +314,7 @@ def test_time_stamped_packets_of_the_protocol_simulator_follow_the_chain():
 def test_delayed_loop_power_equals_the_protocol_simulator(actuator):
     """Stationary output power under unit noise: exact against the
     event-level simulator with time-stamped packets on both links."""
-    P = ncs.nss([[0.9, 0.4], [-0.3, 0.8]],
-                [[1.0, 1.0], [0.5, 0.3]],
-                [[1.0, -1.0], [1.0, 0.0], [0.0, 1.0]],
-                [[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]], True, nmeas=2, ncon=1,
-                sensor_delay=ncs.random_delay([0.6, 0.25, 0.1], buffer=2),
-                actuator_delay=ncs.random_delay([0.7, 0.2], buffer=1))
-    K = np.array([[[-0.4, -0.3]], [[-0.3, -0.2]], [[-0.2, -0.1]]])
+    P, K = _two_state_delayed_loop()
     exact = ncs.norm(ncs.feedback(P, K, actuator=actuator)) ** 2
     rng = np.random.default_rng(12)
     trials, steps, burn = 2000, 500, 100
