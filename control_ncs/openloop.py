@@ -92,7 +92,7 @@ class JumpPlant:
         The parameters above as read-only float (``nominal``: int) arrays.
     dt, inputs, outputs, states, name, controller, actuator
         As given.
-    observed, estimator_gain : ndarray or None
+    observed, estimator_gain, Ew, Gw : ndarray or None
         As given, read-only.
     description : dict
         A copy, for people: synthesis never reads it.
