@@ -440,14 +440,17 @@ def lyapunov_exponent(sys: Any, *, steps: int = 5000, trials: int = 20,
 
 
 def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
-                  tol: float = 1e-6, **kwargs: Any) -> float:
+                  tol: float = 1e-6, h2: float | None = None,
+                  **kwargs: Any) -> float:
     """The loss probability at which a gain stops stabilising the loop.
 
     The loop ``feedback(P, K)`` with the loss of one Bernoulli ``link``
     varied: the loss ``α*`` at which ``ms_radius`` reaches 1, found by
     bisection on ``[0, 1)`` and checked at both ends of the final bracket
     (the loop is mean-square stable at the returned ``α*`` minus ``tol``
-    and not at ``α*``). For the loss beyond which *no* gain stabilises a
+    and not at ``α*``). With ``h2=`` the spec is the H2 norm instead: the
+    loss at which :func:`norm` of the loop reaches ``h2`` (the loop meets
+    the spec below it, and is mean-square stable there). For the loss beyond which *no* gain stabilises a
     state-feedback loop over its actuator link, see the critical arrival
     probability :func:`control_ncs.dlqr` states; ``K=None`` returns that
     loss (``1 - ν_c``: exact when ``B2`` is square and invertible, from a
@@ -465,6 +468,11 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
         Which link's loss varies.
     tol : float, optional
         Width of the final bracket.
+    h2 : float, optional
+        A bound on the loop's H2 norm (a spec): return the loss at which
+        the norm reaches it. Needs a gain ``K``; the best gain's H2 norm at
+        each loss is :func:`control_ncs.design_map` with
+        ``objective='h2'``.
     **kwargs
         Passed to :func:`control_ncs.feedback` (``controller``,
         ``actuator``).
@@ -472,8 +480,9 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     Returns
     -------
     float
-        ``α*`` in ``(0, 1]``; 1.0 if the loop is mean-square stable for every
-        loss below 1; 0.0 if it is not even without loss.
+        ``α*`` in ``(0, 1]``; 1.0 if the loop is mean-square stable (meets
+        the spec) for every loss below 1; 0.0 if it is not even without
+        loss.
 
     Raises
     ------
@@ -498,9 +507,22 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
 
     >>> round(ncs.critical_loss(P), 5)
     0.25
+
+    With ``w`` entering as ``x⁺ = 2x + w + θu`` and ``z = x``, the H2 norm
+    is ``1/√(1 - 4α)``: it reaches 2 at ``α = 3/16``.
+
+    >>> round(ncs.critical_loss(P, [[-2.0]], h2=2.0), 5)
+    0.1875
     """
     choice(link, "link", ("actuator", "sensor"))
     tol = positive_real(tol, "tol")
+    if h2 is not None:
+        h2 = positive_real(h2, "h2")
+        if K is None:
+            raise ControlArgument(
+                "K: critical_loss(h2=...) measures a given gain's loop; the "
+                "best gain's H2 norm at each loss is design_map(P, ..., "
+                "objective='h2')")
     if K is None:
         if link != "actuator" or P.period != 1 or not np.array_equal(
                 P.C2, np.eye(P.nstates)):
@@ -515,7 +537,10 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
 
     def stable(alpha: float) -> bool:
         Pa = P.with_network(**{f"{link}_loss": alpha})
-        return ms_radius(feedback(Pa, K, **kwargs)) < 1.0
+        CL = feedback(Pa, K, **kwargs)
+        if h2 is None:
+            return ms_radius(CL) < 1.0
+        return norm(CL, print_warning=False) < h2
 
     if not stable(0.0):
         return 0.0
@@ -529,9 +554,11 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     # the bisection assumes one crossing; check a coarse grid above it
     for alpha in np.linspace(hi, top, 9)[1:]:
         if stable(float(alpha)):
+            what = ("mean-square stable" if h2 is None
+                    else f"within the H2 bound {h2:g}")
             raise ValueError(
-                f"K: the loop is not mean-square stable at loss {hi:.6g} but "
-                f"is again at {alpha:.6g}; no single critical loss exists")
+                f"K: the loop is not {what} at loss {hi:.6g} but is again "
+                f"at {alpha:.6g}; no single critical loss exists")
     return float(hi)
 
 

@@ -491,3 +491,26 @@ def test_performance_design_map_needs_the_state_at_every_step():
         actuator_loss=ncs.gilbert_elliott(fail=0.2, recover=0.5))
     with pytest.raises(ControlArgument, match="bursty"):
         ncs.design_map(bursty, objective="hinf", progress=False)
+
+
+def test_critical_loss_of_an_h2_spec_matches_the_closed_form():
+    """``x⁺ = a x + w + θ k x``, ``z = x``: ``‖G‖₂² = 1/(1 - E a_cl²)``
+    with ``E a_cl² = α a² + (1 - α)(a + k)²`` reaches ``b²`` at
+    ``α* = (1 - 1/b² - (a + k)²) / (a² - (a + k)²)``; the spec is met
+    only below the loss at which the loop stops being mean-square stable."""
+    a, k, b = 1.1, -0.8, 3.0
+    P = ncs.nss([[a]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[0.0, 0.0], [0.0, 0.0]], True, nmeas=1, ncon=1)
+    expected = (1 - 1 / b ** 2 - (a + k) ** 2) / (a ** 2 - (a + k) ** 2)
+    for link in ("actuator", "sensor"):
+        got = ncs.critical_loss(P, [[k]], h2=b, link=link, tol=1e-9)
+        assert got == pytest.approx(expected, abs=2e-9)
+    assert ncs.critical_loss(P, [[k]], h2=b) < ncs.critical_loss(P, [[k]])
+
+
+def test_critical_loss_of_an_h2_spec_refuses_what_it_does_not_measure():
+    P = _lq_plant(0.0)
+    with pytest.raises(ControlArgument, match="^K: .*objective='h2'"):
+        ncs.critical_loss(P, h2=2.0)
+    with pytest.raises(ValueError, match="^h2:"):
+        ncs.critical_loss(P, [[-1.0]], h2=-1.0)
