@@ -128,9 +128,8 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
                                    P.actuator_schedule.pattern.any(axis=1), N)
     width = n if controller == "predictor" else p2
     lti = controller == "lti"
-    if lti:
+    if lti:             # v = Cc xc + Dc ŷ, xc⁺ = Ac xc + Bc ŷ
         Ac, Bc, Cc, Dc = (np.asarray(M, float) for M in (K.A, K.B, K.C, K.D))
-        G = np.repeat(Dc[None], Ds + 1, axis=0)      # v = Dc ŷ + Cc xc
     else:
         G = _gains(K, Ds + 1, (m2, width))
     nc = Ac.shape[0] if lti else 0
@@ -246,8 +245,9 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
         states=states,
         name=None if P.name is None else f"{P.name} (closed loop)",
         info=dict(controller=controller, actuator=actuator, plant=P.name,
-                  **({"sensor": sensor} if lti else {}),
-                  gains=G, delay_modes=names,
+                  **({"sensor": sensor, "controller_system": K} if lti
+                     else {"gains": G}),
+                  delay_modes=names,
                   sensor_delay=P.sensor_delay,
                   actuator_delay=P.actuator_delay,
                   input_delay=None if delay is None else delay.taus))

@@ -40,6 +40,7 @@ from .montecarlo import root_entropy
 from .stability import ms_radius, output_power
 from .strategies import feedback
 from .lq import critical_arrival
+from .plant import NetworkedStateSpace
 from .verify import gain_certificate_check, supply_certificate_check
 
 __all__ = ["norm", "l2_gain", "GainResult", "lyapunov_exponent",
@@ -450,7 +451,8 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     (the loop is mean-square stable at the returned ``α*`` minus ``tol``
     and not at ``α*``). With ``h2=`` the spec is the H2 norm instead: the
     loss at which :func:`norm` of the loop reaches ``h2`` (the loop meets
-    the spec below it, and is mean-square stable there). For the loss beyond which *no* gain stabilises a
+    the spec below it, and is mean-square stable there). For the loss
+    beyond which *no* gain stabilises a
     state-feedback loop over its actuator link, see the critical arrival
     probability :func:`control_ncs.dlqr` states; ``K=None`` returns that
     loss (``1 - ν_c``: exact when ``B2`` is square and invertible, from a
@@ -514,6 +516,9 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     >>> round(ncs.critical_loss(P, [[-2.0]], h2=2.0), 5)
     0.1875
     """
+    if not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
+                              f"got {type(P).__name__}")
     choice(link, "link", ("actuator", "sensor"))
     tol = positive_real(tol, "tol")
     if h2 is not None:

@@ -522,8 +522,8 @@ def simulate_protocol(
     th2_hist = np.empty((trials, steps), dtype=bool)
     # delayed links: the packets stamped t - c, c = 0..buffer, with their
     # arrival times and contents, and the age of the packet in use
-    sens_q = _Queue(delay1, trials, p2, steps)
-    act_q = _Queue(delay2, trials, m2, steps)
+    sens_q: Any = _Queue(delay1, trials, p2, steps) if delay1 else None
+    act_q: Any = _Queue(delay2, trials, m2, steps) if delay2 else None
 
     def draw(link: tuple[float, float, float], before: Any) -> Any:
         loss = (link[0] if before is None
@@ -663,9 +663,9 @@ class _Queue:
     packets are stale and dropped.
     """
 
-    def __init__(self, delay: Any, trials: int, width: int,
-                 steps: int) -> None:
-        pmf, buffer = delay if delay is not None else (np.ones(1), 0)
+    def __init__(self, delay: tuple[NDArray[np.float64], int], trials: int,
+                 width: int, steps: int) -> None:
+        pmf, buffer = delay
         self.buffer: int = buffer
         self.cdf = np.cumsum(pmf)
         self.lost = pmf.size                    # the outcome "never arrives"

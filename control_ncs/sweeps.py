@@ -40,7 +40,8 @@ from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
                          _letter_maps, _loop_closes, _orbit_count, _prune,
                          _relabellings)
-from .performance_synthesis import h2syn, hinfsyn
+from .lmi import DEFAULT_MARGIN
+from .performance_synthesis import _full_information, h2syn, hinfsyn
 from .stability import ms_radius as _ms_radius
 from .synthesis import METHODS, passivesyn
 
@@ -570,7 +571,9 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
 def _performance_options(P: NetworkedStateSpace, objective: str,
                          eta: Any, decay: Any, controller: str,
                          actuator: str, method: str) -> None:
-    """The options an H2 or H∞ map refuses, said before any cell runs."""
+    """The options an H2 or H∞ map refuses, and the checks of h2syn /
+    hinfsyn on ``P`` (state measured at every step, Bernoulli links), said
+    before any cell runs."""
     given = [name for name, value, default in (
         ("eta", eta, None), ("decay", decay, None),
         ("controller", controller, "static"), ("actuator", actuator, "zero"),
@@ -581,16 +584,8 @@ def _performance_options(P: NetworkedStateSpace, objective: str,
             f"feedback with a zero actuator by its exact program (h2syn / "
             f"hinfsyn); it takes no {', '.join(given)} (those are "
             f"passivesyn's options, objective='eta')")
-    n = P.nstates
-    if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)) or \
-            not P.sensor_schedule.pattern.all():
-        raise ControlArgument(
-            f"P: objective={objective!r} needs the state measured at every "
-            f"step (y = x, C2 = I, every sensor scheduled at every phase)")
-    if not P.is_iid:
-        raise ControlArgument(
-            f"P: objective={objective!r} is for Bernoulli links; a bursty "
-            f"link (Markov modes) is not supported yet")
+    _full_information(P, actuator, None, DEFAULT_MARGIN, {},
+                      f"design_map(objective={objective!r})")
 
 
 @dataclass(frozen=True)

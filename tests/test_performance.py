@@ -514,3 +514,6 @@ def test_critical_loss_of_an_h2_spec_refuses_what_it_does_not_measure():
         ncs.critical_loss(P, h2=2.0)
     with pytest.raises(ValueError, match="^h2:"):
         ncs.critical_loss(P, [[-1.0]], h2=-1.0)
+    with pytest.raises(ControlArgument, match="^P: expected a Networked"):
+        ncs.critical_loss(ct.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], True),
+                          [[-1.0]])
