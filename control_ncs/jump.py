@@ -15,6 +15,7 @@ that synthesis designs in :mod:`control_ncs.openloop`.
 
 from __future__ import annotations
 
+import inspect
 import numbers
 from typing import Any
 
@@ -30,6 +31,9 @@ from .modes import (Modes, apply_groups, chain_law, check_probabilities,
 from .plant import NetworkedStateSpace
 
 __all__ = ["JumpStateSpace", "jss"]
+
+#: python-control's norm, recognised by its code object (not patched).
+_SYSTEM_NORM_CODE = ct.system_norm.__code__
 
 
 def _phase_mode_array(value: Any, name: str, N: int, M: int, shape: tuple
@@ -334,6 +338,30 @@ class JumpStateSpace(ct.StateSpace):
             if not np.all(same | ~live):
                 return None
         return mats
+
+    def _generic_name_check(self) -> bool:
+        """python-control's name check, which its ``ss(sys)`` copy calls
+        first; refuses when :func:`control.norm` is the caller.
+
+        ``ct.norm`` copies its argument into a plain ``StateSpace`` (this
+        system's mean face) and would return the *mean* system's norm, which
+        is not the jump system's (:ref:`theory-performance`): the one place
+        where python-control would compute a silently different figure. The
+        copy is refused there, naming :func:`control_ncs.norm`; every other
+        ``ss(sys)`` copy keeps the mean face, as documented.
+        """
+        frame = inspect.currentframe()
+        for _ in range(3):                  # this method, ss(), its caller
+            frame = frame.f_back if frame is not None else None
+            if frame is not None and frame.f_code is _SYSTEM_NORM_CODE \
+                    and self.deterministic() is None:
+                raise ControlArgument(
+                    "control.norm(sys) would compute the norm of the mean "
+                    "system, not of this jump system (its modes are "
+                    "random): use control_ncs.norm(sys, p) for the exact H2 "
+                    "norm or the certified l2 gain, or control.norm("
+                    "sys.mean(), p) for the mean system's")
+        return bool(super()._generic_name_check())
 
     def mean(self) -> ct.StateSpace:
         """The mean system as a plain :class:`control.StateSpace` (a copy).

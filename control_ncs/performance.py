@@ -4,8 +4,9 @@ and the top Lyapunov exponent (:ref:`theory-performance`).
 * :func:`norm` mirrors :func:`control.norm`: for a jump system the H2 norm
   is the stationary output power under unit white noise, exact, from the
   linear fixed point of :func:`control_ncs.stability_covariances`; it is
-  not the mean system's H2 norm (which ``ct.norm(CL, 2)`` would compute on
-  the StateSpace face).
+  not the mean system's H2 norm (the StateSpace face's, which
+  ``ct.norm(CL, 2)`` would compute: it refuses a jump system and names this
+  function).
 * :func:`l2_gain` brackets the ℓ2 gain (H∞ norm): a certified upper bound
   from the bounded real lemma (an LMI, checked exactly) and the mean
   system's gain below it.

@@ -52,6 +52,20 @@ def test_h2_of_a_lossy_loop_is_not_the_mean_systems():
     assert ct.norm(CL.mean(), 2) == pytest.approx(1.09109, abs=5e-6)
 
 
+@pytest.mark.parametrize("p", [2, "inf"])
+def test_python_control_norm_refuses_a_jump_system(p):
+    """ct.norm would compute the mean system's norm: refused, naming ncs.norm;
+    a deterministic jump system and the explicit mean are still answered."""
+    P = ncs.nss([[1.1]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0], [0.0, 0.0]],
+                True, nmeas=1, ncon=1, actuator_loss=0.3)
+    CL = ncs.feedback(P, [[-1.0]])
+    with pytest.raises(ControlArgument, match="control_ncs.norm"):
+        ct.norm(CL, p)
+    assert ct.norm(CL.mean(), p) == pytest.approx(ct.norm(ct.ss(CL), p))
+    same = ncs.jss([[[0.5]], [[0.5]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
+    assert ct.norm(same, 2) == pytest.approx(ncs.norm(same, 2), rel=1e-12)
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_h2_of_a_deterministic_system_equals_python_control(seed):
     rng = np.random.default_rng(seed)
