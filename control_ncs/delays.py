@@ -103,6 +103,35 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
         stale), ``b`` the actuator age, and ``τ`` the input delay when the
         plant has one (``(a, b, τ)``); ``info['delay_modes']`` names them.
     """
+    return _build(P, K, controller, actuator, sensor)[0]
+
+
+def delayed_parts(P: NetworkedStateSpace, controller: str, actuator: str
+                  ) -> tuple[np.ndarray, ...]:
+    """The loop of a static gain per sensor age, or of the predictor, as an
+    affine function of the gains, for the local design.
+
+    Mode ``i`` of :func:`delayed_loop` (same order) is ``A_i = A0_i + L_i
+    K_{g_i} S_i``: ``K_g`` the gain of sensor age ``g_i`` (one per age;
+    the predictor's one gain is age 0's), ``S_i`` what it reads (zero when
+    stale). Returns ``(A0, L, S, g, T)`` of shapes ``(M, nX, nX)``,
+    ``(M, nX, m2)``, ``(M, width, nX)``, ``(M,)`` and the chain ``(N, M,
+    M)``.
+    """
+    from ._delay_design import gain_shape
+    CL, parts = _build(P, np.zeros(gain_shape(P, controller)), controller,
+                       actuator, "zero")
+    A0, L, S, g = (np.array(X) for X in zip(*parts))
+    if controller == "predictor":
+        g = np.zeros_like(g)
+    T = CL.modes.transition
+    assert T is not None                # delayed loops have Markov modes
+    return A0, L, S, g, T
+
+
+def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
+           sensor: str) -> tuple[JumpStateSpace, list[tuple]]:
+    """:func:`delayed_loop` and, for gains, its affine parts per mode."""
     if controller not in CONTROLLERS:
         raise ControlArgument(f"controller: over delayed links expected one "
                               f"of {CONTROLLERS}, got {controller!r}")
@@ -162,66 +191,86 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
     C1, D11, D12 = (np.asarray(M, float) for M in (P.C1, P.D11, P.D12))
     C2 = np.asarray(P.C2, float)
     powers = [np.linalg.matrix_power(A, i) for i in range(Ds + 1)]
+
+    def read(a: int) -> np.ndarray:
+        """What a gain acts on at sensor age ``a``, as rows on X: ``C2
+        x_{k-a}`` (static) or the prediction ``x̂_k`` (predictor); zero
+        when the measurement is stale (nothing is sent)."""
+        S = np.zeros((width, nX))
+        if a <= Ds:
+            if controller == "static":
+                S[:, xb(a)] = C2
+            else:
+                S[:, xb(a)] = powers[a]
+                for i in range(1, a + 1):
+                    S[:, ub(i)] += powers[i - 1] @ B2
+        return S
+
+    def assemble(b: int, c: int) -> tuple[np.ndarray, ...]:
+        """Mode ``(·, b, τ_c)`` affine in the command ``v_k``:
+        ``A = A0 + L v``, ``C = C0 + LC v`` (the sensor age enters only
+        through ``v``)."""
+        U0 = np.zeros((m2, nX))         # the applied input, v_k aside
+        if 1 <= b <= Da:
+            U0[:, vb(b)] = np.eye(m2)
+        elif b > Da and actuator == "hold":
+            U0[:, ub(1)] = np.eye(m2)
+        fresh = 1.0 if b == 0 else 0.0  # u_k = v_k
+        A0 = np.zeros((nX, nX))
+        L = np.zeros((nX, m2))
+        Bm = np.zeros((nX, m1))
+        A0[xb(0), xb(0)] = A
+        if delay is None:
+            A0[xb(0)] += B2 @ U0
+            L[xb(0)] = fresh * B2
+        else:
+            # the previous input acts first, then u_k (after τ)
+            A0[xb(0)] += delay.gamma0[c] @ U0
+            A0[xb(0), ub(1)] += delay.gamma1[c]
+            L[xb(0)] = fresh * delay.gamma0[c]
+        Bm[xb(0)] = B1
+        for j in range(1, Ds + 1):       # shift the measurements
+            A0[xb(j), xb(j - 1)] = np.eye(n)
+        if Da:
+            L[vb(1)] = np.eye(m2)        # v_k joins the commands
+            for j in range(2, Da + 1):
+                A0[vb(j), vb(j - 1)] = np.eye(m2)
+        if Lu:
+            A0[ub(1)] = U0               # u_k joins the history
+            L[ub(1)] = fresh * np.eye(m2)
+            for j in range(2, Lu + 1):
+                A0[ub(j), ub(j - 1)] = np.eye(m2)
+        C0 = np.zeros((p1, nX))
+        C0[:, xb(0)] = C1
+        C0 += D12 @ U0
+        return A0, L, Bm, C0, fresh * D12
+
     modes_A, modes_B, modes_C, modes_D, names = [], [], [], [], []
+    parts: list[tuple] = []
     for a in sensor_ages:
-        # the command v_k as a row block acting on X
-        V = np.zeros((m2, nX))
-        Y = np.zeros((p2, nX))          # what an LTI controller reads
-        if lti:
+        if lti:         # the command v_k as a row block acting on X
+            Y = np.zeros((p2, nX))          # what the controller reads
             if a <= Ds:
                 Y[:, xb(a)] = C2
             elif hy:
                 Y[:, yb] = np.eye(p2)
             V = Dc @ Y
             V[:, xcb] += Cc
-        elif a <= Ds:
-            if controller == "static":
-                V[:, xb(a)] = G[a] @ C2
-            else:
-                xhat = np.zeros((n, nX))
-                xhat[:, xb(a)] = powers[a]
-                for i in range(1, a + 1):
-                    xhat[:, ub(i)] += powers[i - 1] @ B2
-                V = G[a] @ xhat
+        else:
+            S = read(a)
+            V = G[min(a, Ds)] @ S
         for b in actuator_ages:
-            U = np.zeros((m2, nX))          # the applied input u_k
-            if b == 0:
-                U = V.copy()
-            elif b <= Da:
-                U[:, vb(b)] = np.eye(m2)
-            elif actuator == "hold":
-                U[:, ub(1)] = np.eye(m2)
             for c in range(taus):
-                Am = np.zeros((nX, nX))
-                Bm = np.zeros((nX, m1))
-                Am[xb(0), xb(0)] = A
-                if delay is None:
-                    Am[xb(0)] += B2 @ U
-                else:
-                    # the previous input acts first, then u_k (after τ)
-                    Am[xb(0)] += delay.gamma0[c] @ U
-                    Am[xb(0), ub(1)] += delay.gamma1[c]
-                Bm[xb(0)] = B1
-                for j in range(1, Ds + 1):       # shift the measurements
-                    Am[xb(j), xb(j - 1)] = np.eye(n)
-                if Da:
-                    Am[vb(1)] = V                # v_k joins the commands
-                    for j in range(2, Da + 1):
-                        Am[vb(j), vb(j - 1)] = np.eye(m2)
-                if Lu:
-                    Am[ub(1)] = U                # u_k joins the history
-                    for j in range(2, Lu + 1):
-                        Am[ub(j), ub(j - 1)] = np.eye(m2)
+                A0, L, Bm, C0, LC = assemble(b, c)
                 if lti:
-                    Am[xcb] = Bc @ Y
-                    Am[xcb, xcb] += Ac
-                    Am[yb] = Y[:hy]              # ŷ_k kept for a hold
-                Cm = np.zeros((p1, nX))
-                Cm[:, xb(0)] = C1
-                Cm += D12 @ U
-                modes_A.append(Am)
+                    A0[xcb] = Bc @ Y
+                    A0[xcb, xcb] += Ac
+                    A0[yb] = Y[:hy]              # ŷ_k kept for a hold
+                else:
+                    parts.append((A0, L, S, min(int(a), Ds)))
+                modes_A.append(A0 + L @ V)
                 modes_B.append(Bm)
-                modes_C.append(Cm)
+                modes_C.append(C0 + LC @ V)
                 modes_D.append(D11)
                 names.append((int(a), int(b)) if delay is None
                              else (int(a), int(b), float(delay.taus[c])))
@@ -239,7 +288,7 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
     # the same matrices at every phase; the schedule is in the chain
     Ak, Bk, Ck, Dk = (np.repeat(np.array([X]), N, axis=0)
                       for X in (modes_A, modes_B, modes_C, modes_D))
-    return JumpStateSpace(
+    CL = JumpStateSpace(
         Ak, Bk, Ck, Dk, None, P.dt, transition=T,
         inputs=P.disturbance_labels, outputs=P.performance_labels,
         states=states,
@@ -251,3 +300,4 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
                   sensor_delay=P.sensor_delay,
                   actuator_delay=P.actuator_delay,
                   input_delay=None if delay is None else delay.taus))
+    return CL, parts

@@ -28,8 +28,8 @@ import control as ct
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import (choice, decay_bound, no_extra_kwargs, positive_int,
-                      positive_real, real_array)
+from ._checks import (choice, decay_bound, finite_real, no_extra_kwargs,
+                      positive_int, positive_real, real_array)
 from .exceptions import (CERTIFIED, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
                          CertificationError)
 from .lmi import (DEFAULT_MARGIN, check_options, check_solver,
@@ -443,6 +443,7 @@ def lyapunov_exponent(sys: Any, *, steps: int = 5000, trials: int = 20,
 
 def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
                   tol: float = 1e-6, h2: float | None = None,
+                  hinf: float | None = None, eta: float | None = None,
                   **kwargs: Any) -> float:
     """The loss probability at which a gain stops stabilising the loop.
 
@@ -452,7 +453,14 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     (the loop is mean-square stable at the returned ``α*`` minus ``tol``
     and not at ``α*``). With ``h2=`` the spec is the H2 norm instead: the
     loss at which :func:`norm` of the loop reaches ``h2`` (the loop meets
-    the spec below it, and is mean-square stable there). For the loss
+    the spec below it, and is mean-square stable there). With ``hinf=`` or
+    ``eta=`` the spec is a certified one: the ℓ2 gain below ``hinf``
+    (:func:`l2_gain`'s certified bound) or the passivity level at least
+    ``eta`` (:func:`control_ncs.passivity_certificate`); the returned loss
+    is where the certificate stops: the spec is *proven* just below it, and
+    not certified at it (the bounded real and passivity LMIs are exact for
+    a fixed loop, so the two differ by the certificates' tolerance, about
+    1e-4 relative in the gain, not by a gap of the method). For the loss
     beyond which *no* gain stabilises a
     state-feedback loop over its actuator link, see the critical arrival
     probability :func:`control_ncs.dlqr` states; ``K=None`` returns that
@@ -476,6 +484,13 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
         the norm reaches it. Needs a gain ``K``; the best gain's H2 norm at
         each loss is :func:`control_ncs.design_map` with
         ``objective='h2'``.
+    hinf : float, optional
+        A bound on the loop's ℓ2 gain (H∞ norm), certified at each loss
+        tried. Needs a gain ``K``.
+    eta : float, optional
+        A passivity level (the output-feedback index ``η`` of
+        :ref:`theory-passivity`), certified at each loss tried. Needs a gain
+        ``K``. At most one of ``h2``, ``hinf`` and ``eta``.
     **kwargs
         Passed to :func:`control_ncs.feedback` (``controller``,
         ``actuator``).
@@ -516,19 +531,31 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
 
     >>> round(ncs.critical_loss(P, [[-2.0]], h2=2.0), 5)
     0.1875
+
+    Its ℓ2 gain is certified below 3 up to the loss ``1/6``, where the
+    scalar bounded real lemma puts it at 3:
+
+    >>> round(ncs.critical_loss(P, [[-2.0]], hinf=3.0, tol=1e-4), 3)
+    0.167
     """
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
     choice(link, "link", ("actuator", "sensor"))
     tol = positive_real(tol, "tol")
-    if h2 is not None:
-        h2 = positive_real(h2, "h2")
-        if K is None:
-            raise ControlArgument(
-                "K: critical_loss(h2=...) measures a given gain's loop; the "
-                "best gain's H2 norm at each loss is design_map(P, ..., "
-                "objective='h2')")
+    specs = [name for name, value in (("h2", h2), ("hinf", hinf),
+                                      ("eta", eta)) if value is not None]
+    if len(specs) > 1:
+        raise ControlArgument(f"{', '.join(specs)}: give at most one spec "
+                              f"of h2, hinf and eta")
+    h2 = None if h2 is None else positive_real(h2, "h2")
+    hinf = None if hinf is None else positive_real(hinf, "hinf")
+    eta = None if eta is None else finite_real(eta, "eta")
+    if specs and K is None:
+        raise ControlArgument(
+            f"K: critical_loss({specs[0]}=...) measures a given gain's loop; "
+            f"the best gain's figure at each loss is design_map(P, ..., "
+            f"objective='{specs[0]}')")
     if K is None:
         if link != "actuator" or P.period != 1 or not np.array_equal(
                 P.C2, np.eye(P.nstates)):
@@ -544,9 +571,22 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     def stable(alpha: float) -> bool:
         Pa = P.with_network(**{f"{link}_loss": alpha})
         CL = feedback(Pa, K, **kwargs)
-        if h2 is None:
-            return ms_radius(CL) < 1.0
-        return norm(CL, print_warning=False) < h2
+        if h2 is not None:
+            return norm(CL, print_warning=False) < h2
+        if not ms_radius(CL) < 1.0:
+            return False
+        try:
+            if hinf is not None:
+                return l2_gain(CL).gamma < hinf
+            if eta is not None:
+                from .passivity import passivity_certificate
+                result = passivity_certificate(CL, None)
+                return bool(result.certificate is not None
+                            and result.certificate.verified
+                            and result.eta >= eta)
+        except CertificationError:          # nothing certified there
+            return False
+        return True
 
     if not stable(0.0):
         return 0.0
@@ -560,8 +600,11 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     # the bisection assumes one crossing; check a coarse grid above it
     for alpha in np.linspace(hi, top, 9)[1:]:
         if stable(float(alpha)):
-            what = ("mean-square stable" if h2 is None
-                    else f"within the H2 bound {h2:g}")
+            what = ("mean-square stable" if not specs else
+                    f"within the H2 bound {h2:g}" if h2 is not None else
+                    f"certified within the l2 gain {hinf:g}"
+                    if hinf is not None else
+                    f"certified at the passivity level {eta:g}")
             raise ValueError(
                 f"K: the loop is not {what} at loss {hi:.6g} but is again "
                 f"at {alpha:.6g}; no single critical loss exists")

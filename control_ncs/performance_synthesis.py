@@ -1,8 +1,9 @@
 """H2- and H∞-optimal state feedback over the network
 (:ref:`theory-performance`).
 
-Convex programs design periodic gains ``K_k`` when the controller sees the
-whole loop state: Costa, do Val and Geromel's for the H2 norm
+Convex programs design periodic gains ``K_k`` (over bursty links ``K_{k,ℓ}``,
+also on the previous link state) when the controller sees the whole loop
+state: Costa, do Val and Geromel's for the H2 norm
 (``lmi.h2_model``), the bounded real lemma in ``X = P⁻¹, Y = K X`` for the
 ℓ2 gain (``lmi.hinf_model``). The number returned is always an analysis of
 the closed loop — its exact H2 norm (:func:`control_ncs.norm`), or its
@@ -25,8 +26,8 @@ from ._results import CertifiedResult
 from .exceptions import NOT_MSS, SOLVER_FAILED, SynthesisError
 from .gain import PeriodicGain, actuators
 from .jump import JumpStateSpace
-from .lmi import (DEFAULT_MARGIN, check_options, check_solver, h2_model,
-                  hinf_model, solve)
+from .lmi import (DEFAULT_MARGIN, check_options, check_solver, gain_kinds,
+                  h2_model, hinf_model, solve)
 from .performance import GainResult, l2_gain, norm
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
@@ -102,10 +103,12 @@ def _full_information(P: Any, actuator: str, solver: str | None,
             f"got C2 of shape {P.C2.shape}")
     plant = build(P, "static", actuator)
     plant.require_noise_free(who)
-    if not plant.is_iid:
+    if not plant.is_iid and "phase" in gain_kinds(plant, "mode"):
         raise ControlArgument(
-            f"P: {who}'s exact program is for Bernoulli links; a bursty link "
-            f"(Markov modes) is not supported yet")
+            f"P: {who}'s exact program over a bursty link uses gains on the "
+            f"previous link state, known from acknowledgements; under this "
+            f"schedule a link idle the step before hides its state, and the "
+            f"program with one gain for the hidden states is not written")
     if not all(np.array_equal(Ek, np.eye(n)) for Ek in plant.E):
         raise ControlArgument(
             f"P: the static gain does not see the whole state at every phase "
@@ -145,14 +148,19 @@ def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
     ``u = K_k x`` minimising ``‖G‖₂`` (unit white ``w``; see
     :func:`control_ncs.norm`), by the convex program of Costa, do Val and
     Geromel. Exact (the global optimum over periodic static gains) when the
-    controller sees the whole state, ``y = x`` at every phase, with i.i.d.
-    losses; ``z`` counts the applied control (``D12`` acts on what
-    arrives).
+    controller sees the whole state, ``y = x`` at every phase; over a
+    bursty (Gilbert–Elliott) link the gains also use the link's previous
+    state, known from acknowledgements, ``K_{k,ℓ}`` (:ref:`theory-markov`),
+    and the program, written per class of previous states, is exact again
+    (it solves the coupled Riccati equations of LQ over the link). ``z``
+    counts the applied control (``D12`` acts on what arrives).
 
     Parameters
     ----------
     P : NetworkedStateSpace
-        With ``y = x`` (``C2 = I``) and Bernoulli links.
+        With ``y = x`` (``C2 = I``); Bernoulli or bursty links (a bursty
+        link's state must be revealed at every step: a schedule that
+        leaves it idle is refused).
     actuator : {'zero'}, optional
         What the actuator applies when a command is lost (the exact program
         needs the loop state to be the plant state).
@@ -166,7 +174,8 @@ def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
     Returns
     -------
     K : PeriodicGain
-        ``K.result`` is an :class:`H2Result`.
+        ``K.result`` is an :class:`H2Result`; shape ``(N, m2, n)``, or
+        ``(N, M, m2, n)`` (gains on the previous mode) over bursty links.
     CL : JumpStateSpace
         The closed loop ``w → z``.
     h2 : float
@@ -176,7 +185,8 @@ def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
     ------
     ControlArgument
         ``P`` is not a NetworkedStateSpace, the state is not measured,
-        a link is bursty, or ``actuator`` is not ``'zero'``.
+        a schedule hides a bursty link's state, or ``actuator`` is not
+        ``'zero'``.
     SynthesisError
         The solver gave no gain (``'solver_failed'``), or the gain does not
         make the loop mean-square stable (``'not_mss'``).
@@ -224,7 +234,9 @@ def hinfsyn(P: NetworkedStateSpace, *, actuator: str = "zero",
     periodic static gains ``u = K_k x`` minimising the loop's ℓ2 gain from
     ``w`` to ``z`` for inputs adapted to the past, by the bounded real
     lemma in ``X_k = P_k⁻¹``, ``Y_k = K_k X_k`` (convex, and exact for
-    ``y = x`` at every phase and Bernoulli links). The returned ``gamma`` is
+    ``y = x`` at every phase; over bursty links with gains ``K_{k,ℓ}`` on
+    the previous link state and storages per previous state, exact again).
+    The returned ``gamma`` is
     the certified upper bound of :func:`control_ncs.l2_gain` on the
     designed loop — its own LMI and exact check — never this program's
     objective; ``K.result`` is that :class:`GainResult` (with the lower end
@@ -233,7 +245,8 @@ def hinfsyn(P: NetworkedStateSpace, *, actuator: str = "zero",
     Parameters
     ----------
     P : NetworkedStateSpace
-        With ``y = x`` (``C2 = I``) and Bernoulli links.
+        With ``y = x`` (``C2 = I``); Bernoulli or bursty links, as for
+        :func:`h2syn`.
     actuator : {'zero'}, optional
         What the actuator applies when a command is lost.
     solver : str, optional

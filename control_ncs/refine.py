@@ -332,6 +332,17 @@ class _Loop:
             v = v / max(np.linalg.norm(v), 1e-300)
         return lam, q.reshape(shape), v.reshape(shape)
 
+    def _gradient(self, Acl: np.ndarray, Qs: list, Vs: list) -> np.ndarray:
+        """``∂ρ/∂K`` up to the scale ``⟨V_0, Q_0⟩``, in the gains' shape."""
+        G = np.zeros(self.mask.shape)
+        for k in range(self.N):
+            W = self._weights(k, Vs[k + 1])                 # (M, n, n)
+            AQ = Acl[k] @ Qs[k]     # Q_k shared (i.i.d.) or per mode
+            # batched products (BLAS), not a 4-operand einsum (8 ms at n = 16)
+            G[k] = 2 * (self.Bu[k].transpose(0, 2, 1) @ W @ AQ).sum(axis=0) \
+                @ self.E[k].T
+        return G
+
     def rate(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         """``log ms_radius`` (per step) and its gradient in ``x``."""
         self.evaluations += 1
@@ -347,17 +358,43 @@ class _Loop:
         for k in reversed(range(1, self.N)):
             Vs[k] = self._adjoint(Acl, k, Vs[k + 1])
         scale = float(np.sum(V0 * Q0))
-        G = np.zeros(self.mask.shape)
-        for k in range(self.N):
-            W = self._weights(k, Vs[k + 1])                 # (M, n, n)
-            AQ = Acl[k] @ Qs[k]     # Q_k shared (i.i.d.) or per mode
-            # batched products (BLAS), not a 4-operand einsum (8 ms at n = 16)
-            G[k] = 2 * (self.Bu[k].transpose(0, 2, 1) @ W @ AQ).sum(axis=0) \
-                @ self.E[k].T
+        G = self._gradient(Acl, Qs, Vs)
         if scale == 0 or not np.isfinite(scale):
             return math.log(lam) / self.N, np.zeros_like(x)
         grad = G.flat[self.free] / (scale * lam * self.N)
         return math.log(lam) / self.N, grad
+
+
+class _StackLoop(_Loop):
+    """``Acl_ki = A_ki + Bu_ki K_{g_i} E_ki``: a stack of gains, mode ``i``
+    applying gain ``g_i`` to what it reads, ``E_ki`` (a gain per sensor age
+    over a delayed link, :mod:`control_ncs.delays`). Same rate and Perron
+    gradient as :class:`_Loop`, summed over the modes that share a gain.
+    """
+
+    def __init__(self, A: np.ndarray, Bu: np.ndarray, E: np.ndarray,
+                 index: np.ndarray, count: int, transition: np.ndarray):
+        self.A, self.Bu, self.E = A, Bu, E
+        self.index = np.asarray(index, int)
+        self.N, self.M, self.n = A.shape[0], A.shape[1], A.shape[-1]
+        # Markov modes: the law is the chain's (``p`` is never read)
+        self.p, self.T = np.zeros((self.N, self.M)), transition
+        self.mask = np.ones((count, Bu.shape[-1], E.shape[-2]), bool)
+        self.free = np.flatnonzero(self.mask)
+        self.evaluations = 0
+        self._warm = [None, None]
+
+    def closed(self, x: np.ndarray) -> np.ndarray:
+        return self.A + self.Bu @ (self.gains(x)[self.index] @ self.E)
+
+    def _gradient(self, Acl: np.ndarray, Qs: list, Vs: list) -> np.ndarray:
+        G = np.zeros(self.mask.shape)
+        for k in range(self.N):
+            W = self._weights(k, Vs[k + 1])
+            per_mode = 2 * (self.Bu[k].transpose(0, 2, 1) @ W @ Acl[k]
+                            @ Qs[k] @ self.E[k].transpose(0, 2, 1))
+            np.add.at(G, self.index, per_mode)
+        return G
 
 
 # -- BFGS with a weak Wolfe line search (HIFOO's scheme) -----------------------

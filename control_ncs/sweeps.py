@@ -465,7 +465,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         What each cell designs for: passivity with the largest certified
         ``η`` (default), the least H2 norm, or the least ℓ2 gain. The
         H2 and H∞ programs are exact for static state feedback (``y = x``
-        at every step) over Bernoulli links with a zero actuator, and take
+        at every step) with a zero actuator, over Bernoulli or bursty links
+        (gains on the previous link state), and take
         none of ``eta``, ``decay``, ``method`` or other controllers.
 
     Returns
@@ -572,7 +573,8 @@ def _performance_options(P: NetworkedStateSpace, objective: str,
                          eta: Any, decay: Any, controller: str,
                          actuator: str, method: str) -> None:
     """The options an H2 or H∞ map refuses, and the checks of h2syn /
-    hinfsyn on ``P`` (state measured at every step, Bernoulli links), said
+    hinfsyn on ``P`` (state measured at every step, a bursty link's state
+    revealed at every step), said
     before any cell runs."""
     given = [name for name, value, default in (
         ("eta", eta, None), ("decay", decay, None),

@@ -283,6 +283,64 @@ def test_h2syn_reaches_the_modified_riccati_cost():
     assert K.gains[0, 0, 0] == pytest.approx(-Klq[0, 0], rel=1e-3)
 
 
+def _bursty_lq_cost(a, b, fail, recover):
+    """TCP-like LQ over a Gilbert–Elliott actuator link, by value iteration
+    on the coupled Riccati equations of the previous link state ℓ
+    (0 lost, 1 delivered): ``S_ℓ = min_k Σ_i T[ℓ, i] (1 + θ_i k² + S_i
+    (a + θ_i b k)²)``; the H2 cost is ``Σ_i π_i S_i`` (noise enters after
+    the link state is drawn)."""
+    T = np.array([[1 - recover, recover], [fail, 1 - fail]])
+    theta = np.array([0.0, 1.0])
+    S = np.ones(2)
+    for _ in range(5000):
+        c2 = T @ (theta + S * (theta * b) ** 2)
+        c1 = T @ (2 * S * a * theta * b)
+        c0 = T @ (1 + S * a * a)
+        S = c0 - c1 ** 2 / (4 * c2)
+    pi = np.array([fail, recover]) / (fail + recover)
+    return float(pi @ S)
+
+
+@pytest.mark.parametrize("fail, recover", [(0.2, 0.6), (0.1, 0.5),
+                                           (0.3, 0.8)])
+def test_h2syn_over_a_bursty_link_solves_the_coupled_riccati_equations(
+        fail, recover):
+    P = _lq_plant(loss=ncs.gilbert_elliott(fail=fail, recover=recover))
+    K, CL, h2 = ncs.h2syn(P)
+    assert K.gains.ndim == 4                    # K_{k,ℓ} on the last state
+    assert h2 ** 2 == pytest.approx(_bursty_lq_cost(1.2, 1.0, fail, recover),
+                                    rel=1e-7)
+    assert h2 == ncs.norm(CL) == ncs.norm(ncs.feedback(P, K))
+
+
+def test_h2syn_over_a_link_without_memory_is_the_bernoulli_design():
+    """f = α, r = 1 - α: the chain forgets, the link is Bernoulli(α)."""
+    bernoulli = ncs.h2syn(_lq_plant(loss=0.3))[2]
+    memoryless = ncs.h2syn(_lq_plant(
+        loss=ncs.gilbert_elliott(fail=0.3, recover=0.7)))[2]
+    assert memoryless == pytest.approx(bernoulli, rel=1e-7)
+
+
+def test_hinfsyn_over_a_bursty_link_beats_one_gain_for_every_link_state():
+    """Gains on the previous link state: the certified gain is below the
+    best single gain's (Nelder-Mead over the scalar, each loop certified)
+    and the H2 design's."""
+    from scipy.optimize import minimize_scalar
+    P = _lq_plant(loss=ncs.gilbert_elliott(fail=0.2, recover=0.6))
+    K, CL, gamma = ncs.hinfsyn(P)
+    assert K.result.status == "certified" and K.result.lower <= gamma
+    assert gamma == ncs.l2_gain(ncs.feedback(P, K)).gamma
+
+    def single(k):
+        loop = ncs.feedback(P, [[k]])
+        return ncs.l2_gain(loop).gamma if ncs.is_mss(loop) else 1e9
+
+    best = minimize_scalar(single, bounds=(-1.6, -0.9), method="bounded",
+                           options=dict(xatol=1e-6)).fun
+    assert gamma <= best * (1 + 1e-6)
+    assert gamma < ncs.l2_gain(ncs.h2syn(P)[1]).gamma
+
+
 def test_h2syn_beats_every_other_gain_on_a_periodic_plant():
     """Two states, two inputs on a period-2 actuator schedule: the exact
     H2 norm of the designed loop is at most that of passivesyn's gain and
@@ -306,9 +364,10 @@ def test_h2syn_beats_every_other_gain_on_a_periodic_plant():
 def test_h2syn_refuses_what_its_exact_program_does_not_cover():
     with pytest.raises(ControlArgument, match="^actuator:"):
         ncs.h2syn(_lq_plant(), actuator="hold")
-    bursty = _lq_plant(loss=ncs.gilbert_elliott(fail=0.2, recover=0.5))
-    with pytest.raises(ControlArgument, match="bursty"):
-        ncs.h2syn(bursty)
+    hidden = _lq_plant(loss=ncs.gilbert_elliott(fail=0.2, recover=0.5),
+                       actuator_schedule=[1, 0])
+    with pytest.raises(ControlArgument, match="^P: .*hides its state"):
+        ncs.h2syn(hidden)
     with pytest.raises(ControlArgument, match="^P:"):
         ncs.h2syn(ct.ss([[1.0]], [[1.0]], [[1.0]], [[0.0]], True))
 
@@ -341,6 +400,53 @@ def test_critical_loss_of_a_gain_matches_the_closed_form():
                                                               [0.0, 0.0]],
                      True, nmeas=1, ncon=1)
     assert ncs.critical_loss(stable, [[-0.1]]) == 1.0
+
+
+def test_critical_loss_of_an_l2_gain_spec_is_the_bounded_real_lemmas():
+    """x⁺ = 2x + w + θu, z = x, u = -2x: modes a ∈ {2 (lost), 0}; the loss
+    at which the scalar lemma's gain reaches 3 (brentq on the closed form)
+    is where the certified gain stops being below 3."""
+    from scipy.optimize import brentq
+    P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0],
+                                                         [0.0, 0.0]],
+                True, nmeas=1, ncon=1)
+
+    def gain(alpha):
+        return _scalar_gain([2.0, 0.0], [1.0, 1.0], [1.0, 1.0], [0.0, 0.0],
+                            [alpha, 1 - alpha])
+
+    true = brentq(lambda a: gain(a) - 3.0, 0.01, 0.24, xtol=1e-12)
+    got = ncs.critical_loss(P, [[-2.0]], hinf=3.0, tol=1e-6)
+    # certified just below, never above (the bound is an upper bound)
+    assert true - 1e-5 < got <= true + 1e-6
+    assert ncs.l2_gain(ncs.feedback(P.with_network(actuator_loss=got - 2e-6),
+                                    [[-2.0]])).gamma < 3.0
+
+
+def test_critical_loss_of_a_passivity_level_is_the_scalar_lemmas():
+    """x⁺ = -0.5x + w + θu, z = x + w, u = 0.9x: modes a ∈ {-0.5, 0.4};
+    the storage inequality of theory (passivity) for p x² gives
+    η* = d - (√(1 - s + m²) - m)/(1 - s), m = E a, s = E a², d = 1."""
+    from scipy.optimize import brentq
+    P = ncs.nss([[-0.5]], [[1.0, 1.0]], [[1.0], [1.0]], [[1.0, 0.0],
+                                                          [0.0, 0.0]],
+                True, nmeas=1, ncon=1)
+
+    def eta(alpha):
+        m = -0.5 * alpha + 0.4 * (1 - alpha)
+        s = 0.25 * alpha + 0.16 * (1 - alpha)
+        return 1.0 - (math.sqrt(1 - s + m * m) - m) / (1 - s)
+
+    CL = ncs.feedback(P.with_network(actuator_loss=0.2), [[0.9]])
+    assert ncs.passivity_certificate(CL, None).eta == pytest.approx(
+        eta(0.2), abs=1e-5)
+    true = brentq(eta, 0.1, 0.5, xtol=1e-12)
+    got = ncs.critical_loss(P, [[0.9]], eta=0.0, tol=1e-7)
+    assert got == pytest.approx(true, abs=1e-5)
+    with pytest.raises(ControlArgument, match="^h2, eta:"):
+        ncs.critical_loss(P, [[0.9]], h2=1.0, eta=0.0)
+    with pytest.raises(ControlArgument, match="objective='hinf'"):
+        ncs.critical_loss(P, hinf=2.0)
 
 
 # -- any quadratic supply -----------------------------------------------------------
@@ -501,10 +607,11 @@ def test_performance_design_map_needs_the_state_at_every_step():
     scheduled = _two_state_plant().with_network(sensor_schedule=[1, 2])
     with pytest.raises(ControlArgument, match="^P: .*every step"):
         ncs.design_map(scheduled, objective="h2", progress=False)
-    bursty = _two_state_plant().with_network(
-        actuator_loss=ncs.gilbert_elliott(fail=0.2, recover=0.5))
-    with pytest.raises(ControlArgument, match="bursty"):
-        ncs.design_map(bursty, objective="hinf", progress=False)
+    hidden = _two_state_plant().with_network(
+        actuator_loss=ncs.gilbert_elliott(fail=0.2, recover=0.5),
+        actuator_schedule=[1, 0])
+    with pytest.raises(ControlArgument, match="hides its state"):
+        ncs.design_map(hidden, objective="hinf", progress=False)
 
 
 def test_critical_loss_of_an_h2_spec_matches_the_closed_form():

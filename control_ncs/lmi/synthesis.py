@@ -375,138 +375,193 @@ def read_gains(model: SynthesisModel, plant: JumpPlant
     return gains, P
 
 
-# -- H2: theory: performance -------------------------------------------------------
-class H2Model:
-    """Costa–do Val–Geromel's convex H2 program over one period.
+# -- H2 and H∞: theory: performance ------------------------------------------------
+class _ClassModel:
+    """A program whose variables are per phase ``k`` and class ``c`` of
+    previous modes ``ℓ = σ_{k-1}`` with equal rows ``T_{k-1}[ℓ]``
+    (:func:`mode_classes`; i.i.d. modes: one class per phase), with the
+    gain ``K_{k,c} = Y_{k,c} X_{k,c}⁻¹``.
 
     Attributes
     ----------
     problem : cvxpy.Problem
-    Q, Y : list of cvxpy.Variable
-        Per phase: the covariance bound ``Q_k`` and ``Y_k = K_k Q_k``.
+    X, Y : list of list of cvxpy.Variable
+        Per phase and class: the matrix the gain is read against (a
+        covariance bound ``Q`` or an inverse storage ``X = P⁻¹``) and ``Y``.
+    labels : list of ndarray
+        Per phase, the class of each previous mode ``ℓ``.
+    markov : bool
     """
 
-    def __init__(self, problem: cp.Problem, Q: list, Y: list):
-        self.problem, self.Q, self.Y = problem, Q, Y
+    def __init__(self, problem: cp.Problem, X: list, Y: list,
+                 labels: list, markov: bool):
+        self.problem, self.X, self.Y = problem, X, Y
+        self.labels, self.markov = labels, markov
 
     def gains(self) -> np.ndarray:
-        """``K_k = Y_k Q_k⁻¹`` per phase, shape (N, nu, nx)."""
-        return np.array([np.linalg.solve(np.asarray(Q.value, float).T,
-                                         np.asarray(Y.value, float).T).T
-                         for Q, Y in zip(self.Q, self.Y)])
+        """``K_k`` (i.i.d. modes), shape (N, nu, nx); ``K_{k,ℓ}`` per
+        previous mode (Markov modes), shape (N, M, nu, nx)."""
+        per_class = [[np.linalg.solve(np.asarray(X.value, float).T,
+                                      np.asarray(Y.value, float).T).T
+                      for X, Y in zip(Xk, Yk)]
+                     for Xk, Yk in zip(self.X, self.Y)]
+        if not self.markov:
+            return np.array([Ks[0] for Ks in per_class])
+        return np.array([[per_class[k][c] for c in self.labels[k]]
+                         for k in range(len(per_class))])
+
+
+class H2Model(_ClassModel):
+    """Costa–do Val–Geromel's convex H2 program over one period
+    (:func:`h2_model`); ``X`` are the covariance bounds ``Q_{k,c}``."""
+
+    @property
+    def Q(self) -> list:
+        """Per phase and class, the covariance bound ``Q_{k,c}``."""
+        return self.X
+
+
+class HinfModel(_ClassModel):
+    """The bounded real lemma in the synthesis variables ``X = P⁻¹``,
+    ``Y = K X`` (:func:`hinf_model`); ``gamma2`` is minimised."""
+
+    def __init__(self, problem: cp.Problem, gamma2: Any, X: list, Y: list,
+                 labels: list, markov: bool):
+        super().__init__(problem, X, Y, labels, markov)
+        self.gamma2 = gamma2
+
+
+def _classes(plant: JumpPlant) -> tuple[np.ndarray, list, list]:
+    """``T``, and per phase the class of each previous mode and the rows
+    ``t_c = T_{k-1}[ℓ]`` of its classes."""
+    T = plant.transitions()
+    N = T.shape[0]
+    labels, rows = [], []
+    for k in range(N):
+        lab, reps = mode_classes(T[k - 1])
+        labels.append(lab)
+        rows.append([T[k - 1][r] for r in reps])
+    return T, labels, rows
+
+
+def _psd_schur(lhs: Any, rows: list, inner: list) -> Any:
+    """``lhs - Σ_j rows_j inner_j⁻¹ rows_jᵀ ⪰ 0`` as one LMI (Schur)."""
+    L = len(rows)
+    block = [[lhs] + rows]
+    for j in range(L):
+        block.append([rows[j].T] + [
+            inner[j] if jj == j else np.zeros((inner[j].shape[0],
+                                               inner[jj].shape[0]))
+            for jj in range(L)])
+    Mx = cp.bmat(block)
+    return 0.5 * (Mx + Mx.T) >> 0
 
 
 def h2_model(plant: JumpPlant, margin: float) -> H2Model:
-    """``min (1/N) Σ_k tr W_k`` over ``Q_k ≻ 0``, ``Y_k``, ``W_k`` with
+    """``min (1/N) Σ_k (Σ_c tr W_{k,c} + Σ_i π_{k,i} tr Dw Dwᵀ)`` over
+    ``Q_{k,c} ≻ 0``, ``Y_{k,c}``, ``W_{k,c}`` with (Schur complements)
 
-    ``Q_{k+1} ⪰ Σ_i p_ki (A_ki Q_k + Bu_ki Y_k) Q_k⁻¹ (·)ᵀ + Σ_i p_ki Bw Bwᵀ``
-    and ``W_k ⪰ Σ_i p_ki (Cz Q_k + Du Y_k) Q_k⁻¹ (·)ᵀ + Σ_i p_ki Dw Dwᵀ``
-    (Schur complements), for a plant whose controller sees the whole state
-    (``E_k = I``) and i.i.d. modes: any feasible point bounds the periodic
-    stationary covariance of the loop ``u = K_k x`` with ``K_k = Y_k
-    Q_k⁻¹``, and the loop's own covariances are feasible, so the optimum is
-    the optimal H2 cost (:ref:`theory-performance`)."""
+    ``Q_{k+1,c'} ⪰ Σ_{i ∈ c'} Σ_c t_c[i] (A_ki Q_kc + Bu_ki Y_kc) Q_kc⁻¹ (·)ᵀ
+    + Σ_{i ∈ c'} π_ki Bw Bwᵀ`` and
+    ``W_{k,c} ⪰ Σ_i t_c[i] (Cz_ki Q_kc + Du_ki Y_kc) Q_kc⁻¹ (·)ᵀ``,
+
+    ``c`` the classes of previous modes at phase ``k`` (rows ``t_c``),
+    ``c'`` those at phase ``k + 1`` (the class of ``i = σ_k``), ``π`` the
+    stationary law; for a plant whose controller sees the whole state
+    (``E_k = I``). ``Q_{k,c}`` bounds ``Σ_{ℓ∈c} E[ξ_k ξ_kᵀ 1{σ_{k-1}=ℓ}]``
+    for the loop ``u = K_{k,c} x`` with ``K_{k,c} = Y_{k,c} Q_{k,c}⁻¹``
+    (gains on the previous mode, known from acknowledgements), and the
+    loop's own moments are feasible, so the optimum is the optimal H2 cost
+    (:ref:`theory-performance`, :ref:`theory-markov`). i.i.d. modes: one
+    class per phase, the program of Costa, do Val and Geromel."""
     N, M = plant.probabilities.shape
     nx, nu = plant.A.shape[-1], plant.Bu.shape[-1]
     nz = plant.Cz.shape[-2]
     eps = margin * data_scale(plant.A, plant.Bu, plant.Bw, plant.Cz)
-    Q = [cp.Variable((nx, nx), symmetric=True) for _ in range(N)]
-    Y = [cp.Variable((nu, nx)) for _ in range(N)]
-    W = [cp.Variable((nz, nz), symmetric=True) for _ in range(N)]
-    cons = []
+    _, labels, rows = _classes(plant)
+    Q = [[cp.Variable((nx, nx), symmetric=True) for _ in r] for r in rows]
+    Y = [[cp.Variable((nu, nx)) for _ in r] for r in rows]
+    W = [[cp.Variable((nz, nz), symmetric=True) for _ in r] for r in rows]
+    cons, constant = [], 0.0
     for k in range(N):
-        live = np.flatnonzero(plant.probabilities[k] > 0)
-        p = plant.probabilities[k]
-        BB = sum(p[i] * plant.Bw[k, i] @ plant.Bw[k, i].T for i in live)
-        DD = sum(p[i] * plant.Dw[k, i] @ plant.Dw[k, i].T for i in live)
-        for lhs, rows in (
-                (Q[(k + 1) % N] - BB,
-                 [np.sqrt(p[i]) * (plant.A[k, i] @ Q[k] + plant.Bu[k, i] @ Y[k])
-                  for i in live]),
-                (W[k] - DD,
-                 [np.sqrt(p[i]) * (plant.Cz[k, i] @ Q[k]
-                                   + plant.Du[k, i] @ Y[k]) for i in live])):
-            L = len(rows)
-            block = [[lhs] + rows]
-            for j in range(L):
-                row = [rows[j].T] + [Q[k] if jj == j else np.zeros((nx, nx))
-                                     for jj in range(L)]
-                block.append(row)
-            Mx = cp.bmat(block)
-            cons.append(0.5 * (Mx + Mx.T) >> 0)
-        cons.append(Q[k] >> eps * np.eye(nx))
-    objective = cp.Minimize(sum(cp.trace(Wk) for Wk in W) / N)
-    return H2Model(cp.Problem(objective, cons), Q, Y)
-
-
-# -- H∞: theory: performance -------------------------------------------------------
-class HinfModel:
-    """The bounded real lemma in the synthesis variables ``X_k = P_k⁻¹``,
-    ``Y_k = K_k X_k``: minimise ``γ²``.
-
-    Attributes
-    ----------
-    problem : cvxpy.Problem
-    gamma2 : cvxpy.Variable
-    X, Y : list of cvxpy.Variable
-    """
-
-    def __init__(self, problem: cp.Problem, gamma2: Any, X: list, Y: list):
-        self.problem, self.gamma2, self.X, self.Y = problem, gamma2, X, Y
-
-    def gains(self) -> np.ndarray:
-        """``K_k = Y_k X_k⁻¹`` per phase, shape (N, nu, nx)."""
-        return np.array([np.linalg.solve(np.asarray(X.value, float).T,
-                                         np.asarray(Y.value, float).T).T
-                         for X, Y in zip(self.X, self.Y)])
+        pi = plant.probabilities[k]
+        nxt = labels[(k + 1) % N]
+        for c2, Qn in enumerate(Q[(k + 1) % N]):
+            members = [i for i in range(M) if nxt[i] == c2 and pi[i] > 0]
+            BB = sum((pi[i] * plant.Bw[k, i] @ plant.Bw[k, i].T
+                      for i in members), np.zeros((nx, nx)))
+            terms = [(np.sqrt(t[i]) * (plant.A[k, i] @ Q[k][c]
+                                       + plant.Bu[k, i] @ Y[k][c]), Q[k][c])
+                     for c, t in enumerate(rows[k]) for i in members
+                     if t[i] > 0]
+            cons.append(_psd_schur(Qn - BB, [r for r, _ in terms],
+                                   [q for _, q in terms]))
+        for c, t in enumerate(rows[k]):
+            live = np.flatnonzero(t > 0)
+            cons.append(_psd_schur(
+                W[k][c], [np.sqrt(t[i]) * (plant.Cz[k, i] @ Q[k][c]
+                                           + plant.Du[k, i] @ Y[k][c])
+                          for i in live], [Q[k][c]] * live.size))
+            cons.append(Q[k][c] >> eps * np.eye(nx))
+        constant += float(sum(pi[i] * np.trace(plant.Dw[k, i]
+                                               @ plant.Dw[k, i].T)
+                              for i in range(M)))
+    objective = cp.Minimize((sum(cp.trace(Wkc) for Wk in W for Wkc in Wk)
+                             + constant) / N)
+    return H2Model(cp.Problem(objective, cons), Q, Y, labels,
+                   plant.transition is not None)
 
 
 def hinf_model(plant: JumpPlant, margin: float) -> HinfModel:
-    """``min γ²`` over ``X_k ≻ 0``, ``Y_k`` with, per phase ``k``, the
-    Schur form of the bounded real lemma of the loop ``u = K_k x``
-    (congruence by ``diag(X_k, I)``)::
+    """``min γ²`` over ``X_{k,c} ≻ 0``, ``Y_{k,c}`` with, per phase ``k``
+    and class ``c`` of previous modes (rows ``t = t_c``), the Schur form of
+    the bounded real lemma of the loop ``u = K_{k,c} x`` (congruence by
+    ``diag(X_{k,c}, I)``)::
 
-        [ -X_k    0       √p_i (A_i X_k + Bu_i Y_k)ᵀ   √p_i (Cz_i X_k + Du_i Y_k)ᵀ ]
-        [  0    -γ² I     √p_i Bw_iᵀ                   √p_i Dw_iᵀ                 ]  ≺ 0
-        [  ·      ·       -X_{k+1} (per mode i)         0                          ]
-        [  ·      ·        0                            -I (per mode i)            ]
+        [ -X_kc   0      √t_i (A_i X_kc + Bu_i Y_kc)ᵀ   √t_i (Cz_i X_kc + Du_i Y_kc)ᵀ ]
+        [  0    -γ² I    √t_i Bw_iᵀ                     √t_i Dw_iᵀ                   ]  ≺ 0
+        [  ·      ·      -X_{k+1,c'(i)} (per mode i)     0                            ]
+        [  ·      ·       0                              -I (per mode i)              ]
 
-    exact for a controller that sees the whole state and i.i.d. modes
-    (the storage ``P_k`` cannot depend on a mode not yet drawn)."""
+    ``c'(i)`` the class of ``i = σ_k`` at phase ``k + 1``. The storage may
+    depend on what the controller knows (the previous mode) but not on a
+    mode not yet drawn, so the lemma is exact for a controller that sees
+    the whole state with gains on the previous mode (i.i.d. modes: one
+    class per phase)."""
     N, M = plant.probabilities.shape
     nx, nu = plant.A.shape[-1], plant.Bu.shape[-1]
     nw, nz = plant.Bw.shape[-1], plant.Cz.shape[-2]
     eps = margin * data_scale(plant.A, plant.Bu, plant.Bw, plant.Cz)
-    X = [cp.Variable((nx, nx), symmetric=True) for _ in range(N)]
-    Y = [cp.Variable((nu, nx)) for _ in range(N)]
+    _, labels, rows = _classes(plant)
+    X = [[cp.Variable((nx, nx), symmetric=True) for _ in r] for r in rows]
+    Y = [[cp.Variable((nu, nx)) for _ in r] for r in rows]
     gamma2 = cp.Variable(nonneg=True)
     cons = []
     for k in range(N):
-        p = plant.probabilities[k]
-        live = np.flatnonzero(p > 0)
-        Xn = X[(k + 1) % N]
-        left = [[-X[k], np.zeros((nx, nw))],
-                [np.zeros((nw, nx)), -gamma2 * np.eye(nw)]]
-        cols = []       # the off-diagonal blocks, one pair per live mode
-        for i in live:
-            r = np.sqrt(p[i])
-            cols.append((r * (plant.A[k, i] @ X[k] + plant.Bu[k, i] @ Y[k]),
-                         r * plant.Bw[k, i], Xn, nx))
-            cols.append((r * (plant.Cz[k, i] @ X[k] + plant.Du[k, i] @ Y[k]),
-                         r * plant.Dw[k, i], np.eye(nz), nz))
-        size = len(cols)
-        rows = [[left[0][0], left[0][1]] + [c[0].T for c in cols],
-                [left[1][0], left[1][1]] + [c[1].T for c in cols]]
-        for a, (Fx, Fw, W, dim) in enumerate(cols):
-            row = [Fx, Fw]
-            for b in range(size):
-                if a == b:
-                    row.append(-W)
-                else:
-                    row.append(np.zeros((dim, cols[b][3])))
-            rows.append(row)
-        Mx = cp.bmat(rows)
-        total = nx + nw + sum(c[3] for c in cols)
-        cons.append(0.5 * (Mx + Mx.T) << -eps * np.eye(total))
-        cons.append(X[k] >> eps * np.eye(nx))
-    return HinfModel(cp.Problem(cp.Minimize(gamma2), cons), gamma2, X, Y)
+        nxt = labels[(k + 1) % N]
+        for c, t in enumerate(rows[k]):
+            Xk, Yk = X[k][c], Y[k][c]
+            left = [[-Xk, np.zeros((nx, nw))],
+                    [np.zeros((nw, nx)), -gamma2 * np.eye(nw)]]
+            cols = []       # the off-diagonal blocks, one pair per live mode
+            for i in np.flatnonzero(t > 0):
+                r = np.sqrt(t[i])
+                cols.append((r * (plant.A[k, i] @ Xk + plant.Bu[k, i] @ Yk),
+                             r * plant.Bw[k, i], X[(k + 1) % N][nxt[i]], nx))
+                cols.append((r * (plant.Cz[k, i] @ Xk + plant.Du[k, i] @ Yk),
+                             r * plant.Dw[k, i], np.eye(nz), nz))
+            size = len(cols)
+            block = [[left[0][0], left[0][1]] + [col[0].T for col in cols],
+                     [left[1][0], left[1][1]] + [col[1].T for col in cols]]
+            for a, (Fx, Fw, Wd, dim) in enumerate(cols):
+                row = [Fx, Fw]
+                for b in range(size):
+                    row.append(-Wd if a == b else
+                               np.zeros((dim, cols[b][3])))
+                block.append(row)
+            Mx = cp.bmat(block)
+            total = nx + nw + sum(col[3] for col in cols)
+            cons.append(0.5 * (Mx + Mx.T) << -eps * np.eye(total))
+            cons.append(Xk >> eps * np.eye(nx))
+    return HinfModel(cp.Problem(cp.Minimize(gamma2), cons), gamma2, X, Y,
+                     labels, plant.transition is not None)
