@@ -353,7 +353,8 @@ def _eta_search(plant, decay, margin, structure, form, solver, options,
     return best
 
 
-def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
+def _open_loop_bound(plant: JumpPlant, decay: float,
+                     who: str = "passivesyn") -> None:
     """``SynthesisError('infeasible')`` when the modes no gain acts in
     already make the loop mean-square unstable (within ``r²``).
 
@@ -387,7 +388,7 @@ def _open_loop_bound(plant: JumpPlant, decay: float) -> None:
     # a clear margin over rounding (eigvals is backward stable)
     if rho >= bound * (1 + 1e-9):
         raise SynthesisError(
-            f"passivesyn: infeasible: the network modes in which no gain "
+            f"{who}: infeasible: the network modes in which no gain "
             f"acts (every input lost, or nothing known) alone give a "
             f"second-moment rate of {rho:.6g} >= {bound:.6g} per step, and "
             f"every closed loop's rate is at least that: no gain makes the "

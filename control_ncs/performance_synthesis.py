@@ -32,6 +32,7 @@ from .performance import GainResult, l2_gain, norm
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
 from .strategies import build
+from ._synthesis_routes import _open_loop_bound
 
 __all__ = ["h2syn", "H2Result", "hinfsyn"]
 
@@ -120,7 +121,10 @@ def _full_information(P: Any, actuator: str, solver: str | None,
 def _designed_loop(plant: Any, model: Any, name: str, solver_options: dict,
                    who: str) -> tuple[np.ndarray, JumpStateSpace, float, Any]:
     """Solve ``model``, read its gains, close the loop and require it
-    mean-square stable: ``(gains, CL, ms_radius, report)``."""
+    mean-square stable: ``(gains, CL, ms_radius, report)``. Before the
+    solve, the one proof that needs no solver: the modes no gain acts in
+    (a lost command) alone make every loop mean-square unstable."""
+    _open_loop_bound(plant, 1.0, who)
     report = solve(model.problem, name, **solver_options)
     if report.status not in ("optimal", "optimal_inaccurate") or \
             model.problem.value is None:
@@ -188,8 +192,11 @@ def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
         a schedule hides a bursty link's state, or ``actuator`` is not
         ``'zero'``.
     SynthesisError
-        The solver gave no gain (``'solver_failed'``), or the gain does not
-        make the loop mean-square stable (``'not_mss'``).
+        ``'infeasible'`` (a proof: the modes in which every command is lost
+        alone make every loop mean-square unstable, e.g. bursts too long
+        for the plant), the solver gave no gain (``'solver_failed'``), or
+        the gain does not make the loop mean-square stable
+        (``'not_mss'``).
 
     References
     ----------
@@ -268,8 +275,9 @@ def hinfsyn(P: NetworkedStateSpace, *, actuator: str = "zero",
     ControlArgument
         As :func:`h2syn`.
     SynthesisError
-        No gain from the solver (``'solver_failed'``), or the gain leaves the
-        loop not mean-square stable (``'not_mss'``).
+        ``'infeasible'`` (a proof, as for :func:`h2syn`), no gain from the
+        solver (``'solver_failed'``), or the gain leaves the loop not
+        mean-square stable (``'not_mss'``).
     CertificationError
         The designed loop's gain could not be certified (see
         :func:`control_ncs.l2_gain`).

@@ -32,10 +32,10 @@ from control.exception import ControlArgument, ControlDimension
 
 from .exceptions import (PROOFS, TIME_LIMIT, CertificationError,
                          NotPassiveWarning, ScheduleWarning, SynthesisError)
-from .network import GilbertElliott, gilbert_elliott
 from .plant import NetworkedStateSpace
 from ._checks import (choice, decay_bound, finite_real, flag,
                       positive_int)
+from ._map_grid import loss, map_cells
 from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
                          _letter_maps, _loop_closes, _orbit_count, _prune,
@@ -91,49 +91,6 @@ def _plant(P: Any, passivity: bool = True) -> NetworkedStateSpace:
             f"P: passivity needs w and z of equal, nonzero size (m1 = p1), "
             f"got {m1} disturbance inputs and {p1} performance outputs")
     return P
-
-
-def _loss(value: Any, name: str) -> float:
-    try:
-        alpha = finite_real(value, name)
-    except ValueError:
-        raise ValueError(f"{name}: expected a loss probability in [0, 1), "
-                         f"got {value!r}") from None
-    if not 0.0 <= alpha < 1.0:
-        # α = 1: nothing ever arrives, no loop to design
-        raise ValueError(f"{name}: expected a loss probability in [0, 1), "
-                         f"got {value!r}")
-    return alpha
-
-
-def _at_loss(link: Any, loss: float) -> Any:
-    """The link at another stationary loss: a bursty link keeps its mean
-    burst length (so a map over a bursty link stays bursty)."""
-    if isinstance(link, GilbertElliott) and not link.is_bernoulli \
-            and loss > 0.0:
-        try:
-            return gilbert_elliott(loss=loss, burst=link.burst)
-        except ValueError as err:
-            raise ValueError(
-                f"loss: {loss:g} cannot be reached on a bursty link with mean "
-                f"bursts of {link.burst:g} steps ({err})") from None
-    return loss
-
-
-def _loss_grid(values: Any, name: str) -> np.ndarray:
-    if isinstance(values, (str, bytes)):
-        raise ValueError(f"{name}: expected a 1-D grid of loss probabilities "
-                         f"in [0, 1), got {values!r}")
-    arr = np.asarray(values, dtype=object)
-    if arr.ndim == 0:
-        arr = arr.reshape(1)
-    if arr.ndim != 1:
-        raise ValueError(f"{name}: expected a 1-D grid of loss probabilities, "
-                         f"got an array of shape {arr.shape}")
-    if arr.size == 0:
-        raise ValueError(f"{name}: the grid is empty (give at least one loss "
-                         f"probability in [0, 1))")
-    return np.array([_loss(v, f"{name}[{i}]") for i, v in enumerate(arr)])
 
 
 # -- running tasks --------------------------------------------------------------
@@ -413,7 +370,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
                decay: float | None = None, controller: str = "static",
                actuator: str = "zero", executor: Executor | None = None,
                progress: bool | None = None, method: str = "auto",
-               objective: str = "eta") -> DesignMap:
+               objective: str = "eta", sensor_burst: Any = None,
+               actuator_burst: Any = None) -> DesignMap:
     """Verified synthesis over a grid of loss probabilities.
 
     Cell ``[i, j]`` is ``passivesyn(P.with_network(sensor_loss=a1[i],
@@ -428,8 +386,12 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     Over a bursty (Gilbert–Elliott) link a grid value is the link's
     stationary loss at the link's own mean burst length: the cells keep
     the bursts (``gilbert_elliott(loss=a, burst=link.burst)``; a loss of 0
-    is a link that never fails). Maps over the burst length itself are not
-    built yet.
+    is a link that never fails). With ``actuator_burst`` (or
+    ``sensor_burst``), a grid of mean burst lengths, the map's axes are
+    that link's stationary loss and its mean burst length instead: cell
+    ``[i, j]`` is the link ``gilbert_elliott(loss=a[i], burst=b[j])``, the
+    other link at its one given loss. A burst of ``1/(1 - a)`` steps is the
+    Bernoulli link of loss ``a``.
 
     Parameters
     ----------
@@ -468,6 +430,9 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         at every step) with a zero actuator, over Bernoulli or bursty links
         (gains on the previous link state), and take
         none of ``eta``, ``decay``, ``method`` or other controllers.
+    sensor_burst, actuator_burst : sequence of float >= 1, optional
+        A grid of mean burst lengths (steps) of one link: the map's second
+        axis (the other link's loss grid must then have one value).
 
     Returns
     -------
@@ -511,8 +476,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     """
     objective = choice(objective, "objective", _MAP_OBJECTIVES)
     P = _plant(P, passivity=objective == "eta")
-    a1 = _loss_grid(sensor_loss, "sensor_loss")
-    a2 = _loss_grid(actuator_loss, "actuator_loss")
+    axes, (a1, a2), cells = map_cells(P, sensor_loss, actuator_loss,
+                                      sensor_burst, actuator_burst)
     eta = finite_real(eta, "eta", allow_none=True)
     decay = None if decay is None else decay_bound(decay)
     controller = choice(controller, "controller", _CONTROLLERS)
@@ -528,12 +493,9 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
             "schedules a sensor and an actuator together (theory: static-gain loop). Use "
             "controller='predictor'.")
     if objective != "eta":
-        _performance_options(P, objective, eta, decay, controller, actuator,
-                             method)
+        _performance_options(cells[-1], objective, eta, decay, controller,
+                             actuator, method)
     start = time.perf_counter()
-    cells = [P.with_network(sensor_loss=_at_loss(P.sensor_link, x),
-                            actuator_loss=_at_loss(P.actuator_link, y))
-             for x in a1 for y in a2]
     shape = (a1.size, a2.size)
     if objective != "eta":
         out = run_tasks(_perform, [(c, objective) for c in cells], executor,
@@ -541,8 +503,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         reason = np.empty(shape, dtype=object)
         reason.ravel()[:] = [r[3] for r in out]
         return DesignMap(
-            axes=("sensor_loss", "actuator_loss"), values=(a1, a2),
-            eta=np.full(shape, math.nan),
+            axes=axes, values=(a1, a2), eta=np.full(shape, math.nan),
             ms_radius=np.array([r[1] for r in out]).reshape(shape),
             feasible=np.array([r[2] for r in out], dtype=bool).reshape(shape),
             reason=reason, controller=controller, actuator=actuator,
@@ -561,7 +522,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     reason = np.empty(shape, dtype=object)
     reason.ravel()[:] = [r[3] for r in out]
     return DesignMap(
-        axes=("sensor_loss", "actuator_loss"), values=(a1, a2),
+        axes=axes, values=(a1, a2),
         eta=np.array([r[0] for r in out]).reshape(shape),
         ms_radius=np.array([r[1] for r in out]).reshape(shape),
         feasible=np.array([r[2] for r in out], dtype=bool).reshape(shape),
@@ -908,7 +869,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
             "explicitly")
     a1 = P.sensor_loss if sensor_loss is None else sensor_loss
     a2 = P.actuator_loss if actuator_loss is None else actuator_loss
-    a1, a2 = _loss(a1, "sensor_loss"), _loss(a2, "actuator_loss")
+    a1, a2 = loss(a1, "sensor_loss"), loss(a2, "actuator_loss")
     objective = choice(objective, "objective", _OBJECTIVES)
     eta = finite_real(eta, "eta", allow_none=True)
     decay = None if decay is None else decay_bound(decay)

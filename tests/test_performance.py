@@ -611,7 +611,8 @@ def test_performance_design_map_needs_the_state_at_every_step():
         actuator_loss=ncs.gilbert_elliott(fail=0.2, recover=0.5),
         actuator_schedule=[1, 0])
     with pytest.raises(ControlArgument, match="hides its state"):
-        ncs.design_map(hidden, objective="hinf", progress=False)
+        ncs.design_map(hidden, actuator_loss=[0.2], objective="hinf",
+                       progress=False)
 
 
 def test_critical_loss_of_an_h2_spec_matches_the_closed_form():
@@ -638,3 +639,39 @@ def test_critical_loss_of_an_h2_spec_refuses_what_it_does_not_measure():
     with pytest.raises(ControlArgument, match="^P: expected a Networked"):
         ncs.critical_loss(ct.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], True),
                           [[-1.0]])
+
+
+def test_a_map_over_the_burst_length_prices_each_burst():
+    """Axes (loss, burst): each cell is the coupled Riccati cost of its
+    Gilbert–Elliott link; the burst 1/(1 - a) is the Bernoulli link; bursts
+    the plant cannot survive are proven infeasible, not left unsolved."""
+    P = _lq_plant(loss=0.0)
+    losses, bursts = [0.1, 0.3], [1.0, 1 / 0.7, 2.0, 4.0]
+    dm = ncs.design_map(P, actuator_loss=losses, actuator_burst=bursts,
+                        objective="h2", progress=False)
+    assert dm.axes == ("actuator_loss", "actuator_burst")
+    for i, a in enumerate(losses):
+        for j, b in enumerate(bursts):
+            recover = 1 / b
+            fail = a * recover / (1 - a)
+            if (1 - recover) * 1.2 ** 2 >= 1:        # stuck in a burst
+                assert dm.reason[i, j] == "infeasible"
+                continue
+            assert dm.value[i, j] ** 2 == pytest.approx(
+                _bursty_lq_cost(1.2, 1.0, fail, recover), rel=1e-6)
+    bernoulli = ncs.design_map(P, actuator_loss=[0.3], objective="h2",
+                               progress=False).value[0, 0]
+    assert dm.value[1, 1] == pytest.approx(bernoulli, rel=1e-6)
+
+
+def test_a_burst_map_refuses_what_has_no_two_axes():
+    P = _lq_plant(loss=0.0)
+    with pytest.raises(ControlArgument, match="^sensor_burst, actuator_burst"):
+        ncs.design_map(P, actuator_loss=[0.1], sensor_burst=[2.0],
+                       actuator_burst=[2.0], objective="h2", progress=False)
+    with pytest.raises(ControlArgument, match="^sensor_loss: with actuator"):
+        ncs.design_map(P, [0.0, 0.1], [0.1], actuator_burst=[2.0],
+                       objective="h2", progress=False)
+    with pytest.raises(ValueError, match=r"^actuator_burst\[1\]: .*>= 1"):
+        ncs.design_map(P, actuator_loss=[0.1], actuator_burst=[2.0, 0.5],
+                       objective="h2", progress=False)

@@ -521,6 +521,20 @@ def test_a_map_over_a_bursty_link_keeps_the_bursts():
     assert dm.eta[0, 1] < bernoulli.eta[0, 0] - 1e-3
 
 
+def test_a_passivity_map_over_the_burst_length_is_passivesyn_per_cell():
+    P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1)
+    dm = ncs.design_map(P, actuator_loss=[0.2], actuator_burst=[1.25, 1.5],
+                        decay=0.95, progress=False)
+    assert dm.axes == ("actuator_loss", "actuator_burst")
+    for j, burst in enumerate((1.25, 1.5)):
+        _, _, eta = in_fresh_thread(ncs.passivesyn, P.with_network(
+            actuator_loss=ncs.gilbert_elliott(loss=0.2, burst=burst)),
+            decay=0.95)
+        assert dm.eta[0, j] == pytest.approx(eta, rel=1e-9)
+    assert dm.eta[0, 1] < dm.eta[0, 0]          # longer bursts cost
+
+
 def test_a_loss_a_bursty_link_cannot_reach_is_refused_naming_it():
     link = ncs.gilbert_elliott(loss=0.2, burst=1.1)
     P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
