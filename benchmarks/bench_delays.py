@@ -94,9 +94,11 @@ def delayed_design_section(quick: bool) -> Section:
     sec.add("`passivesyn(P, controller=..., decay=0.99)` over a sensor link "
             "with delays uniform on 0..D (loss 0.05), `z = x1 + w`: the "
             "local search of the gain (one per age, or the predictor's) on "
-            "exact figures, from the design without delays; each step of "
-            "its second stage solves one passivity certificate of the "
-            "delayed loop. One run each.", "")
+            "exact figures: quasi-Newton on the exact rate's Perron "
+            "gradient until the loop is mean-square stable, then "
+            "Nelder–Mead on the certified level, each step one passivity "
+            "certificate of the delayed loop (default `time_limit`, 120 s). "
+            "One run each.", "")
     sec.table(["n", "D", "controller", "loop state", "passivesyn time",
                "certified η", "ms_radius"], rows)
     if not quick:
