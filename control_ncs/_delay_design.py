@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize
 
-from .delays import delayed_parts
+from .delays import delayed_parts, gain_shape
 from .exceptions import (NOT_FOUND, TIME_LIMIT, CertificationError,
                          SynthesisError)
 from .gain import PeriodicGain
@@ -62,26 +62,17 @@ def undelayed(P: NetworkedStateSpace) -> NetworkedStateSpace:
                           input_delay=None)
 
 
-def gain_shape(P: NetworkedStateSpace, controller: str) -> tuple[int, ...]:
-    """One gain per sensor age (static) or one predictor gain."""
-    n, m2, p2 = P.nstates, P.B2.shape[1], P.C2.shape[0]
-    ages = (P.sensor_delay.buffer + 1) if P.sensor_delay is not None else 1
-    if controller == "predictor":
-        return (1, m2, n)
-    return (ages, m2, p2)
-
-
 def _rate_loop(P: NetworkedStateSpace, controller: str, actuator: str
                ) -> _StackLoop:
     """The loop's exact rate as a function of the gains, with its gradient."""
-    A0, L, S, g, T = delayed_parts(P, controller, actuator)
-    N = T.shape[0]
+    parts = delayed_parts(P, controller, actuator)
+    N = parts.T.shape[0]
 
     def phases(X: np.ndarray) -> np.ndarray:
         return np.broadcast_to(X, (N,) + X.shape)
 
-    return _StackLoop(phases(A0), phases(L), phases(S), g,
-                      gain_shape(P, controller)[0], T)
+    return _StackLoop(phases(parts.A0), phases(parts.L), phases(parts.S),
+                      parts.g, gain_shape(P, controller)[0], parts.T)
 
 
 def _starts(P: NetworkedStateSpace, controller: str, start: np.ndarray,

@@ -31,7 +31,7 @@ Every analysis of the package applies to the result: it is a
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
@@ -106,27 +106,51 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
     return _build(P, K, controller, actuator, sensor)[0]
 
 
+def gain_shape(P: NetworkedStateSpace, controller: str) -> tuple[int, ...]:
+    """One gain per sensor age (static) or one predictor gain."""
+    n, m2, p2 = P.nstates, P.B2.shape[1], P.C2.shape[0]
+    ages = (P.sensor_delay.buffer + 1) if P.sensor_delay is not None else 1
+    if controller == "predictor":
+        return (1, m2, n)
+    return (ages, m2, p2)
+
+
+class DelayedParts(NamedTuple):
+    """The delayed loop, mode by mode, affine in the gains
+    (:func:`delayed_parts`)."""
+
+    A0: np.ndarray          # (M, nX, nX)
+    L: np.ndarray           # (M, nX, m2): where the command enters
+    S: np.ndarray           # (M, width, nX): what the gain reads
+    g: np.ndarray           # (M,): which gain (sensor age) acts
+    T: np.ndarray           # (N, M, M): the chain
+    C0: np.ndarray          # (M, p1, nX)
+    LC: np.ndarray          # (M, p1, m2)
+    B: np.ndarray           # (M, nX, m1)
+    D: np.ndarray           # (M, p1, m1)
+    pi: np.ndarray          # (N, M): the stationary law
+
+
 def delayed_parts(P: NetworkedStateSpace, controller: str, actuator: str
-                  ) -> tuple[np.ndarray, ...]:
+                  ) -> DelayedParts:
     """The loop of a static gain per sensor age, or of the predictor, as an
-    affine function of the gains, for the local design.
+    affine function of the gains, for the local designs.
 
     Mode ``i`` of :func:`delayed_loop` (same order) is ``A_i = A0_i + L_i
-    K_{g_i} S_i``: ``K_g`` the gain of sensor age ``g_i`` (one per age;
-    the predictor's one gain is age 0's), ``S_i`` what it reads (zero when
-    stale). Returns ``(A0, L, S, g, T)`` of shapes ``(M, nX, nX)``,
-    ``(M, nX, m2)``, ``(M, width, nX)``, ``(M,)`` and the chain ``(N, M,
-    M)``.
+    K_{g_i} S_i``, ``C_i = C0_i + LC_i K_{g_i} S_i``: ``K_g`` the gain of
+    sensor age ``g_i`` (one per age; the predictor's one gain is age 0's),
+    ``S_i`` what it reads (zero when stale); ``B_i``, ``D_i`` do not
+    depend on the gains.
     """
-    from ._delay_design import gain_shape
     CL, parts = _build(P, np.zeros(gain_shape(P, controller)), controller,
                        actuator, "zero")
-    A0, L, S, g = (np.array(X) for X in zip(*parts))
+    A0, L, S, g, C0, LC, B = (np.array(X) for X in zip(*parts))
     if controller == "predictor":
         g = np.zeros_like(g)
     T = CL.modes.transition
     assert T is not None                # delayed loops have Markov modes
-    return A0, L, S, g, T
+    return DelayedParts(A0, L, S, g, T, C0, LC, B,
+                        np.array(CL.modes.D[0]), CL.modes.probabilities)
 
 
 def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
@@ -267,7 +291,7 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
                     A0[xcb, xcb] += Ac
                     A0[yb] = Y[:hy]              # ŷ_k kept for a hold
                 else:
-                    parts.append((A0, L, S, min(int(a), Ds)))
+                    parts.append((A0, L, S, min(int(a), Ds), C0, LC, Bm))
                 modes_A.append(A0 + L @ V)
                 modes_B.append(Bm)
                 modes_C.append(C0 + LC @ V)

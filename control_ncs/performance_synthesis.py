@@ -15,13 +15,16 @@ is TCP-like LQ, whose optimum is the modified Riccati equation's
 
 from __future__ import annotations
 
+import math
+import time
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-from control.exception import ControlArgument
+from control.exception import ControlArgument, ControlDimension
 
 from ._checks import choice, positive_real
+from ._h2_design import H2Objective, local_h2
 from ._results import CertifiedResult
 from .exceptions import NOT_MSS, SOLVER_FAILED, SynthesisError
 from .gain import PeriodicGain, actuators
@@ -50,8 +53,12 @@ class H2Result(CertifiedResult):
         returned number).
     ms_radius : float
         The loop's exact mean-square rate.
-    report : SolveReport
-        The solver's status and timings.
+    report : SolveReport or None
+        The solver's status and timings (None for the local search).
+    route : {'program', 'local'}
+        ``'program'``: the exact convex program, the global optimum over
+        the gains; ``'local'``: the local search on the exact norm
+        (structured gains), a local optimum.
 
     Examples
     --------
@@ -68,53 +75,83 @@ class H2Result(CertifiedResult):
     h2_solver: float
     ms_radius: float
     report: Any
+    route: str = "program"
 
-    _repr_fields: ClassVar[tuple[str, ...]] = ("h2", "ms_radius")
+    _repr_fields: ClassVar[tuple[str, ...]] = ("h2", "ms_radius", "route")
 
     @property
     def message(self) -> str:
         """One sentence."""
+        how = ("the global optimum (exact program)" if self.route ==
+               "program" else "a local optimum of the structured gain")
         return (f"the loop is mean-square stable with H2 norm "
-                f"{self.h2:.6g} (exact)")
+                f"{self.h2:.6g} (exact), {how}")
 
     def _details(self) -> list[str]:
-        return [f"H2 norm {self.h2:.8g} exact (solver's bound "
-                f"{self.h2_solver:.8g}), ms_radius {self.ms_radius:.6g}"]
+        bound = ("" if self.route != "program" else
+                 f" (solver's bound {self.h2_solver:.8g})")
+        return [f"H2 norm {self.h2:.8g} exact{bound}, ms_radius "
+                f"{self.ms_radius:.6g}, route {self.route!r}"]
+
+
+def _not_exact(P: NetworkedStateSpace, controller: str, actuator: str,
+               who: str) -> tuple[str, str] | None:
+    """Why the exact program does not cover this loop, as ``(argument,
+    message)``; None when it does (static state feedback that sees the
+    whole state at every step, zero actuator, no delays, a bursty link's
+    state revealed at every step)."""
+    n = P.nstates
+    if P.sensor_delay is not None or P.actuator_delay is not None or \
+            P.input_delay is not None:
+        return ("P", f"P: {who}'s exact program needs the state now; over "
+                     f"delayed links the gain reads a past measurement")
+    if controller != "static":
+        return ("controller", f"controller: {who}'s exact program is for the "
+                              f"static gain on the state, got {controller!r}")
+    if actuator != "zero":
+        return ("actuator", f"actuator: {who} designs with actuator='zero' "
+                            f"(a held command is extra state the static gain "
+                            f"does not see), got {actuator!r}")
+    if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)):
+        return ("P", f"P: {who} needs the state measured, y = x (C2 = I, "
+                     f"{n}x{n}), got C2 of shape {P.C2.shape}")
+    plant = build(P, "static", actuator)
+    if not plant.is_iid and "phase" in gain_kinds(plant, "mode"):
+        return ("P", f"P: {who}'s exact program over a bursty link uses "
+                     f"gains on the previous link state, known from "
+                     f"acknowledgements; under this schedule a link idle the "
+                     f"step before hides its state, and the program with one "
+                     f"gain for the hidden states is not written")
+    if not all(np.array_equal(Ek, np.eye(n)) for Ek in plant.E):
+        return ("P", f"P: the static gain does not see the whole state at "
+                     f"every phase (a sensor schedule); {who}'s exact program "
+                     f"needs y = x at every step")
+    return None
+
+
+def _checked(P: Any, actuator: str, solver: str | None, margin: Any,
+             solver_options: dict) -> tuple[str, float]:
+    """The argument checks every H2/H∞ design makes first."""
+    if not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
+                              f"got {type(P).__name__}")
+    choice(actuator, "actuator", actuators())
+    name = check_solver(solver)
+    check_options(name, solver_options)
+    return name, positive_real(margin, "margin")
 
 
 def _full_information(P: Any, actuator: str, solver: str | None,
                       margin: Any, solver_options: dict, who: str
                       ) -> tuple[Any, str, float]:
-    """The checks of the exact full-information programs; the open loop."""
-    if not isinstance(P, NetworkedStateSpace):
-        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
-                              f"got {type(P).__name__}")
-    choice(actuator, "actuator", actuators())
-    if actuator != "zero":
-        raise ControlArgument(
-            f"actuator: {who} designs with actuator='zero' (a held command "
-            f"is extra state the static gain does not see), got {actuator!r}")
-    name = check_solver(solver)
-    check_options(name, solver_options)
-    margin = positive_real(margin, "margin")
-    n = P.nstates
-    if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)):
-        raise ControlArgument(
-            f"P: {who} needs the state measured, y = x (C2 = I, {n}x{n}), "
-            f"got C2 of shape {P.C2.shape}")
+    """The checks of the exact full-information programs; the open loop.
+    Refuses (``ControlArgument``) a loop the exact program does not cover."""
+    name, margin = _checked(P, actuator, solver, margin, solver_options)
+    why = _not_exact(P, "static", actuator, who)
+    if why is not None:
+        raise ControlArgument(why[1])
     plant = build(P, "static", actuator)
     plant.require_noise_free(who)
-    if not plant.is_iid and "phase" in gain_kinds(plant, "mode"):
-        raise ControlArgument(
-            f"P: {who}'s exact program over a bursty link uses gains on the "
-            f"previous link state, known from acknowledgements; under this "
-            f"schedule a link idle the step before hides its state, and the "
-            f"program with one gain for the hidden states is not written")
-    if not all(np.array_equal(Ek, np.eye(n)) for Ek in plant.E):
-        raise ControlArgument(
-            f"P: the static gain does not see the whole state at every phase "
-            f"(a sensor schedule); {who}'s exact program needs y = x at "
-            f"every step")
     return plant, name, margin
 
 
@@ -141,10 +178,12 @@ def _designed_loop(plant: Any, model: Any, name: str, solver_options: dict,
     return gains, CL, rate, report
 
 
-def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
-          solver: str | None = None, margin: float = DEFAULT_MARGIN,
+def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
+          actuator: str = "zero", solver: str | None = None,
+          margin: float = DEFAULT_MARGIN, estimator_gain: Any = None,
+          initial_gain: Any = None, time_limit: float | None = 60.0,
           **solver_options: Any) -> tuple[PeriodicGain, JumpStateSpace, float]:
-    """H2-optimal periodic state feedback over the lossy network.
+    """H2-optimal periodic feedback over the lossy network.
 
     Like :func:`control.h2syn` with python-control's generalized-plant
     layout (inputs ``[w; u]``, outputs ``[z; y]``), for the periodic jump
@@ -159,19 +198,40 @@ def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
     (it solves the coupled Riccati equations of LQ over the link). ``z``
     counts the applied control (``D12`` acts on what arrives).
 
+    Where the gain is structured — a sensor schedule, ``y ≠ x`` (static
+    output feedback), the predictor or the estimator, a held command,
+    delayed links (a gain per sensor age, or the predictor's) — no convex
+    program is exact, and the gain is searched locally on the exact norm:
+    quasi-Newton steps on the mean-square rate until the loop is stable,
+    then on ``log ‖G‖₂²`` with its exact gradient (one adjoint fixed
+    point), from the full-information design restricted to the structure,
+    the mean-square LQ gain and zero. The figure is still the exact norm of
+    the returned loop; the gain is a local optimum
+    (``K.result.route == 'local'``).
+
     Parameters
     ----------
     P : NetworkedStateSpace
-        With ``y = x`` (``C2 = I``); Bernoulli or bursty links (a bursty
-        link's state must be revealed at every step: a schedule that
-        leaves it idle is refused).
-    actuator : {'zero'}, optional
+        The plant with its network, ``D21 = 0``. The exact program needs
+        ``y = x`` at every step (a bursty link's state revealed at every
+        step); otherwise the local search runs.
+    controller : {'static', 'predictor', 'estimator'}, optional
+        As for :func:`control_ncs.feedback`; over delayed links
+        ``'static'`` (a gain per sensor age) or ``'predictor'``.
+    actuator : {'zero', 'hold'}, optional
         What the actuator applies when a command is lost (the exact program
-        needs the loop state to be the plant state).
+        needs ``'zero'``: the loop state is then the plant state).
     solver : str, optional
         Any installed cvxpy solver (default Clarabel).
     margin : float, optional
         Relative lower bound on the covariance ``Q_k``.
+    estimator_gain : array_like, optional
+        ``controller='estimator'``: ``L_k`` (default
+        :func:`control_ncs.estimator_gain` of ``P``).
+    initial_gain : array_like, optional
+        A first start of the local search, in the shape of ``K.gains``.
+    time_limit : float or None, optional
+        Seconds the local search may take (default 60; None: no limit).
     **solver_options
         Passed to the solver.
 
@@ -179,7 +239,8 @@ def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
     -------
     K : PeriodicGain
         ``K.result`` is an :class:`H2Result`; shape ``(N, m2, n)``, or
-        ``(N, M, m2, n)`` (gains on the previous mode) over bursty links.
+        ``(N, M, m2, n)`` (gains on the previous mode) over bursty links,
+        or one gain per sensor age over delayed links.
     CL : JumpStateSpace
         The closed loop ``w → z``.
     h2 : float
@@ -188,15 +249,15 @@ def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
     Raises
     ------
     ControlArgument
-        ``P`` is not a NetworkedStateSpace, the state is not measured,
-        a schedule hides a bursty link's state, or ``actuator`` is not
-        ``'zero'``.
+        ``P`` is not a NetworkedStateSpace, ``D21 ≠ 0``, or an unknown
+        ``controller`` or ``actuator``.
     SynthesisError
         ``'infeasible'`` (a proof: the modes in which every command is lost
         alone make every loop mean-square unstable, e.g. bursts too long
-        for the plant), the solver gave no gain (``'solver_failed'``), or
-        the gain does not make the loop mean-square stable
-        (``'not_mss'``).
+        for the plant), the solver gave no gain (``'solver_failed'``), the
+        gain does not make the loop mean-square stable (``'not_mss'``), or
+        the local search found no stabilising gain (``'not_found'``,
+        ``'time_limit'``: not a proof).
 
     References
     ----------
@@ -217,7 +278,35 @@ def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
     >>> K, CL, h2 = ncs.h2syn(P)
     >>> round(h2 ** 2, 5)
     5.76262
+
+    The same plant with the command held when lost: the loop state now
+    includes the held command, the gain is searched locally, and holding a
+    stale command costs more here:
+
+    >>> K, CL, h2 = ncs.h2syn(P, actuator='hold')
+    >>> K.result.route, round(h2 ** 2, 3)
+    ('local', 9.281)
     """
+    name, margin = _checked(P, actuator, solver, margin, solver_options)
+    controller = choice(controller, "controller",
+                        ("static", "predictor", "estimator"))
+    if time_limit is not None:
+        time_limit = positive_real(time_limit, "time_limit")
+    if _not_exact(P, controller, actuator, "h2syn") is not None:
+        given = [k for k, v in (("solver", solver),) if v is not None] + \
+            sorted(solver_options)
+        if given:
+            raise ControlArgument(
+                f"{given[0]}: this loop's gain is structured and is searched "
+                f"locally on the exact norm; solver options apply to the "
+                f"exact program (y = x at every step, no delays)")
+        return _local_h2syn(P, controller, actuator, estimator_gain,
+                            initial_gain, time_limit)
+    if initial_gain is not None or estimator_gain is not None:
+        raise ControlArgument(
+            f"{'initial_gain' if initial_gain is not None else 'estimator_gain'}"
+            f": the exact program of this loop needs no start and no "
+            f"estimator (they apply to the local search of structured gains)")
     plant, name, margin = _full_information(P, actuator, solver, margin,
                                             solver_options, "h2syn")
     model = h2_model(plant, margin)
@@ -228,6 +317,123 @@ def h2syn(P: NetworkedStateSpace, *, actuator: str = "zero",
     K.result = H2Result(h2, float(np.sqrt(max(model.problem.value, 0.0))),
                         rate, report)
     return K, CL, h2
+
+
+def _local_h2syn(P: NetworkedStateSpace, controller: str, actuator: str,
+                 estimator_gain: Any, initial_gain: Any,
+                 time_limit: float | None
+                 ) -> tuple[PeriodicGain, JumpStateSpace, float]:
+    """h2syn's local search (:mod:`control_ncs._h2_design`) on a structured
+    loop: its objective, starts and closed loop, and the exact figure."""
+    deadline = None if time_limit is None else \
+        time.perf_counter() + time_limit
+    delayed = P.sensor_delay is not None or P.actuator_delay is not None \
+        or P.input_delay is not None
+    if delayed:
+        objective, shape, close, starts = _delayed_problem(
+            P, controller, actuator)
+        if estimator_gain is not None:
+            raise ControlArgument("estimator_gain: over delayed links the "
+                                  "controller is 'static' or 'predictor'")
+    else:
+        objective, shape, close, starts, L = _plant_problem(
+            P, controller, actuator, estimator_gain)
+    loop = objective.loop
+    if initial_gain is not None:
+        G = np.asarray(initial_gain, float)
+        if G.shape != shape and G.shape != (1,) + shape[1:]:
+            raise ControlDimension(f"initial_gain: expected shape {shape}, "
+                                   f"got {G.shape}")
+        starts.insert(0, np.broadcast_to(G, shape).reshape(
+            loop.mask.shape).flat[loop.free].copy())
+    x = local_h2(objective, starts, deadline, "h2syn")
+    gains = loop.gains(x).reshape(shape)
+    CL = close(gains)
+    rate = ms_radius(CL)
+    if not rate < 1.0:
+        raise SynthesisError(
+            f"h2syn: the local search's gain does not make the loop "
+            f"mean-square stable (ms_radius {rate:.6g})", NOT_MSS,
+            dict(ms_radius=rate))
+    h2 = norm(CL, 2)
+    K = PeriodicGain(gains, controller, actuator)
+    if not delayed and controller == "estimator":
+        K.estimator_gain = L
+    K.result = H2Result(h2, math.nan, rate, None, "local")
+    return K, CL, h2
+
+
+def _delayed_problem(P: NetworkedStateSpace, controller: str,
+                     actuator: str) -> tuple:
+    """The H2 objective of the loop over delayed links (a gain per sensor
+    age, or the predictor's), its closing and its starts: the design
+    without the delays at every age, and zero."""
+    if controller not in ("static", "predictor"):
+        raise ControlArgument(f"controller: over delayed links expected "
+                              f"'static' or 'predictor', got {controller!r}")
+    from ._delay_design import _rate_loop, undelayed
+    from .delays import delayed_parts, gain_shape
+    from .strategies import feedback
+    loop = _rate_loop(P, controller, actuator)
+    parts = delayed_parts(P, controller, actuator)
+    N = parts.T.shape[0]
+
+    def phases(X: np.ndarray) -> np.ndarray:
+        return np.broadcast_to(X, (N,) + X.shape)
+
+    objective = H2Objective(loop, phases(parts.C0), phases(parts.LC),
+                            phases(parts.B), phases(parts.D), parts.pi)
+    shape = gain_shape(P, controller)
+    starts = []
+    try:
+        K0 = h2syn(undelayed(P), controller=controller, actuator=actuator,
+                   time_limit=10.0)[0].gains
+        starts.append(np.broadcast_to(K0[:1], shape).ravel().copy())
+    except (SynthesisError, ControlArgument):
+        pass
+    starts.append(np.zeros(loop.free.size))
+
+    def close(K: np.ndarray) -> JumpStateSpace:
+        return feedback(P, K, controller=controller, actuator=actuator)
+
+    return objective, shape, close, starts
+
+
+def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
+                   estimator_gain: Any) -> tuple:
+    """The H2 objective of a structured loop of the network's open loop
+    (:class:`~control_ncs.openloop.JumpPlant`), its closing and its starts:
+    the full-information design restricted to what the gain sees, the
+    mean-square LQ gain restricted, and zero."""
+    from .estimator import estimator_gain as default_estimator
+    from .refine import _Loop, _lq_gain, _restrict
+    L = None
+    if controller == "estimator":
+        L = estimator_gain if estimator_gain is not None else \
+            default_estimator(P)
+    elif estimator_gain is not None:
+        raise ControlArgument("estimator_gain: only with "
+                              "controller='estimator'")
+    plant = build(P, controller, actuator, estimator_gain=L)
+    plant.require_noise_free("h2syn")
+    loop = _Loop(plant, plant.probabilities, plant.transition)
+    objective = H2Objective(loop, plant.Cz, plant.Du, plant.Bw, plant.Dw,
+                            plant.probabilities)
+    starts = [_restrict(loop, _lq_gain(plant, plant.probabilities)),
+              np.zeros(loop.free.size)]
+    if controller == "static" and plant.shape["nx"] == P.nstates and \
+            np.array_equal(P.C2, np.eye(P.nstates)):
+        # the exact design with every sensor sending, if that is exact
+        full = P.with_network(sensor_schedule=np.ones(
+            P.sensor_schedule.pattern.shape[1], int))
+        if _not_exact(full, "static", "zero", "h2syn") is None:
+            try:
+                K0 = h2syn(full)[0].gains
+                if K0.ndim == 3 and K0.shape[0] == plant.period:
+                    starts.insert(0, _restrict(loop, K0))
+            except SynthesisError:
+                pass
+    return objective, plant.gain_shape(), plant.close, starts, L
 
 
 def hinfsyn(P: NetworkedStateSpace, *, actuator: str = "zero",

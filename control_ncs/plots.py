@@ -363,7 +363,9 @@ def schedule_search_plot(search: Any, count: int | None = None, *,
         ax.set_ylim(-0.6, len(labels) - 0.4)
         ax.invert_yaxis()
         ax.set_xlim(0, N)
-        ax.set_title(f"#{r + 1}: η = {s.eta:.4g}, ms_radius = "
+        figure = (f"H2 = {s.h2:.4g}" if s.h2 is not None
+                  else f"η = {s.eta:.4g}")
+        ax.set_title(f"#{r + 1}: {figure}, ms_radius = "
                      f"{s.ms_radius:.4g}", fontsize="small")
         lines[r, 0] = drawn
     # one labelled tick per phase, at the middle of its bar

@@ -57,7 +57,7 @@ MAX_SCHEDULES = 10**7
 # strategies registry: a new controller needs its own pruning first)
 _CONTROLLERS = ("static", "predictor")
 _ACTUATORS = ("zero", "hold")
-_OBJECTIVES = ("eta", "rate")
+_OBJECTIVES = ("eta", "rate", "h2")
 # what a design map optimises in each cell: passivesyn's certified η, or the
 # H2 norm / ℓ2-gain bound of h2syn / hinfsyn (the exact full-information
 # programs: static state feedback, zero actuator)
@@ -136,18 +136,28 @@ def _synthesise(P: NetworkedStateSpace, eta: float | None,
                           actuator, method, initial_gain)
 
 
-def _perform(P: NetworkedStateSpace, objective: str) -> tuple:
+def _perform(P: NetworkedStateSpace, objective: str,
+             controller: str = "static", actuator: str = "zero") -> tuple:
     """One cell of an H2 or H∞ map: ``(value, ms_radius, feasible, reason,
     gains, exact)`` from h2syn or hinfsyn, the value the exact analysis of
     the designed loop (never the solver's). Module level and in its own
     thread, as :func:`_synthesise`."""
-    return _in_own_thread(_perform_here, P, objective)
+    return _in_own_thread(_perform_here, P, objective, controller, actuator)
 
 
-def _perform_here(P: NetworkedStateSpace, objective: str) -> tuple:
-    design = h2syn if objective == "h2" else hinfsyn
+def _perform_here(P: NetworkedStateSpace, objective: str,
+                  controller: str = "static", actuator: str = "zero"
+                  ) -> tuple:
     try:
-        K, CL, value = design(P)
+        with warnings.catch_warnings():
+            # a search enumerates schedules that leave nodes silent on
+            # purpose; the warning is for schedules a user writes
+            warnings.simplefilter("ignore", ScheduleWarning)
+            if objective == "h2":
+                K, CL, value = h2syn(P, controller=controller,
+                                     actuator=actuator)
+            else:
+                K, CL, value = hinfsyn(P)
     except CertificationError as err:
         return math.nan, math.nan, False, err.reason, None, False
     return (float(value), float(_ms_radius(CL)), True, "certified", K.gains,
@@ -560,9 +570,11 @@ class RankedSchedule:
     sensor_schedule, actuator_schedule : tuple of int
         Index vectors (paper §2: node at each phase, 1-based, 0 = nobody).
     eta : float
-        Certified dissipation.
+        Certified dissipation (NaN when ranked by ``'h2'``).
     ms_radius : float
         Exact per-step mean-square rate of the certified loop.
+    h2 : float or None
+        The designed loop's exact H2 norm (``objective='h2'``; else None).
 
     Examples
     --------
@@ -577,6 +589,7 @@ class RankedSchedule:
     actuator_schedule: tuple
     eta: float
     ms_radius: float
+    h2: float | None = None
 
 
 @dataclass
@@ -593,6 +606,8 @@ class ScheduleSearch:
         Index vectors (1-based node, 0 = nobody).
     eta, ms_radius : ndarray, shape (count,)
         Certified ``η`` and exact per-step mean-square rate (NaN where none).
+    h2 : ndarray or None
+        ``objective='h2'``: the exact H2 norm of each designed loop.
     feasible : ndarray of bool
     reason : ndarray of object
         ``'certified'``, a pruning reason (:data:`PRUNE_REASONS`) or the
@@ -604,7 +619,7 @@ class ScheduleSearch:
         with a shared channel).
     relabellings : int
         Size of the relabelling group used (1: none).
-    objective : {'eta', 'rate'}
+    objective : {'eta', 'rate', 'h2'}
     top : int
         Length of :attr:`ranking`.
     shared_channel : bool
@@ -647,6 +662,7 @@ class ScheduleSearch:
     decay: float | None = None
     elapsed: float = 0.0
     order: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    h2: np.ndarray | None = None
 
     @property
     def explored(self) -> int:
@@ -667,9 +683,11 @@ class ScheduleSearch:
     @property
     def ranking(self) -> list:
         """The ``top`` best certified schedules, best first."""
+        h2 = self.h2
         return [RankedSchedule(tuple(self.sensor_schedules[i].tolist()),
                                tuple(self.actuator_schedules[i].tolist()),
-                               float(self.eta[i]), float(self.ms_radius[i]))
+                               float(self.eta[i]), float(self.ms_radius[i]),
+                               None if h2 is None else float(h2[i]))
                 for i in self.order[:self.top]]
 
     def __repr__(self) -> str:
@@ -693,9 +711,11 @@ class ScheduleSearch:
             lines.append("  no certified gain: " + ", ".join(
                 f"{a} {b}" for a, b in zip(r, c)))
         for rank, s in enumerate(self.ranking, 1):
+            figure = (f"h2 = {s.h2:.6g}" if s.h2 is not None
+                      else f"eta = {s.eta:.6g}")
             lines.append(f"  {rank:2d}. sensors {list(s.sensor_schedule)} "
                          f"actuators {list(s.actuator_schedule)}: "
-                         f"eta = {s.eta:.6g}, ms_radius = {s.ms_radius:.6g}")
+                         f"{figure}, ms_radius = {s.ms_radius:.6g}")
         return "\n".join(lines)
 
     def to_pandas(self) -> Any:
@@ -718,6 +738,7 @@ class ScheduleSearch:
             "actuator_schedule": [tuple(self.actuator_schedules[i].tolist())
                                   for i in idx],
             "eta": self.eta[idx], "ms_radius": self.ms_radius[idx],
+            **({"h2": self.h2[idx]} if self.h2 is not None else {}),
             "feasible": self.feasible[idx], "pruned": self.pruned[idx],
             "reason": self.reason[idx]})
 
@@ -792,12 +813,16 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         Only one message per phase (``s1[k] ≠ 0 ⇒ s2[k] = 0``).
     sensor_loss, actuator_loss : float in [0, 1), optional
         Loss probabilities (default: those of ``P``).
-    objective : {'eta', 'rate'}
+    objective : {'eta', 'rate', 'h2'}
         Rank by certified ``η`` (largest first) or by the exact per-step
         mean-square rate of the certified loop (smallest first). Both are
         figures of the one loop passivesyn returns: with ``eta=None`` the
         rate sits near the decay bound, so rank by ``'rate'`` with a fixed
-        ``eta``.
+        ``eta``. ``'h2'``: design every schedule with
+        :func:`control_ncs.h2syn` instead (a scheduled sensor makes the
+        gain structured: its local search on the exact norm) and rank by
+        the exact H2 norm (smallest first); takes no ``eta``, ``decay`` or
+        ``method``.
     eta : float, optional
         Dissipation asked of every schedule; None maximises it.
     decay : float in (0, 1], optional
@@ -856,7 +881,8 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     >>> res.ranking[0].sensor_schedule, res.ranking[0].actuator_schedule
     ((0, 1), (1, 0))
     """
-    P = _plant(P)
+    objective = choice(objective, "objective", _OBJECTIVES)
+    P = _plant(P, passivity=objective != "h2")
     N = positive_int(period, "period")
     shared = flag(shared_channel, "shared_channel")
     if (sensor_loss is None or actuator_loss is None) and not P.is_iid:
@@ -870,7 +896,15 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     a1 = P.sensor_loss if sensor_loss is None else sensor_loss
     a2 = P.actuator_loss if actuator_loss is None else actuator_loss
     a1, a2 = loss(a1, "sensor_loss"), loss(a2, "actuator_loss")
-    objective = choice(objective, "objective", _OBJECTIVES)
+    if objective == "h2":
+        given = [name for name, value, default in (
+            ("eta", eta, None), ("decay", decay, None),
+            ("method", method, "auto")) if value != default]
+        if given:
+            raise ControlArgument(
+                f"{given[0]}: objective='h2' designs every schedule with "
+                f"h2syn; it takes no {', '.join(given)} (passivesyn's "
+                f"options)")
     eta = finite_real(eta, "eta", allow_none=True)
     decay = None if decay is None else decay_bound(decay)
     controller = choice(controller, "controller", _CONTROLLERS)
@@ -925,18 +959,30 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
                                  sensor_loss=a1, actuator_loss=a2,
                                  shared_channel=shared),
                   eta, decay, controller, actuator) for i in todo]
-    # schedules are not neighbours of one another: the refinement of a
-    # cell the LMI leaves open starts from that cell's own LMI gain only
-    out = _cells(tasks, method, executor, progress, "schedule_search")
     eta_a = np.full(len(words), math.nan)
     rate = np.full(len(words), math.nan)
     feasible = np.zeros(len(words), dtype=bool)
-    for t, (e, r, ok, why, _, _) in zip(todo, out):
-        eta_a[t], rate[t], feasible[t], reason[t] = e, r, ok, why
+    h2 = None
+    if objective == "h2":
+        out = run_tasks(_perform, [(t[0], "h2", controller, actuator)
+                                   for t in tasks], executor, progress,
+                        "schedule_search")
+        h2 = np.full(len(words), math.nan)
+        for t, (v, r, ok, why, _, _) in zip(todo, out):
+            h2[t], rate[t], feasible[t], reason[t] = v, r, ok, why
+    else:
+        # schedules are not neighbours of one another: the refinement of a
+        # cell the LMI leaves open starts from that cell's own LMI gain
+        out = _cells(tasks, method, executor, progress, "schedule_search")
+        for t, (e, r, ok, why, _, _) in zip(todo, out):
+            eta_a[t], rate[t], feasible[t], reason[t] = e, r, ok, why
     good = np.flatnonzero(feasible)
     # ties are broken by the other figure, then by the canonical order
     if objective == "eta":
         keys = (good, rate[good], -eta_a[good])
+    elif objective == "h2":
+        assert h2 is not None
+        keys = (good, rate[good], h2[good])
     else:
         keys = (good, -eta_a[good], rate[good])
     order = good[np.lexsort(keys)]
@@ -946,4 +992,4 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         total=total, relabellings=len(group), objective=objective, top=top,
         shared_channel=shared, controller=controller, actuator=actuator,
         sensor_loss=a1, actuator_loss=a2, eta_requested=eta, decay=decay,
-        elapsed=time.perf_counter() - start, order=order)
+        elapsed=time.perf_counter() - start, order=order, h2=h2)

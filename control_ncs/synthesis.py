@@ -36,7 +36,8 @@ from .plant import NetworkedStateSpace
 from .strategies import build, require_state_measured
 from .exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
 from .verify import (level_floor)
-from ._delay_design import delayed_design, gain_shape, undelayed
+from ._delay_design import delayed_design, undelayed
+from .delays import gain_shape
 from ._lifting import unseen_modes
 from ._synthesis_result import _SHORTAGE_HELP, SynthesisResult
 from ._synthesis_routes import (_feedthrough, _open_loop_bound, _plant_arrays,

@@ -572,7 +572,8 @@ def test_delayed_design_rate_and_gradient_are_the_loops(controller, actuator):
     """The design's rate (the loop affine in the gains, mode by mode) is the
     exact ms_radius of feedback(P, K), and its Perron gradient matches
     central differences of that independent route."""
-    from control_ncs._delay_design import _rate_loop, gain_shape
+    from control_ncs._delay_design import _rate_loop
+    from control_ncs.delays import gain_shape
     A = np.array([[1.1, 0.3], [0.0, 0.8]])
     P = ncs.nss(A, np.array([[1.0, 1.0], [0.0, 0.5]]),
                 np.array([[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),

@@ -361,15 +361,22 @@ def test_h2syn_beats_every_other_gain_on_a_periodic_plant():
             assert ncs.norm(other) >= h2 * (1 - 1e-9)
 
 
-def test_h2syn_refuses_what_its_exact_program_does_not_cover():
-    with pytest.raises(ControlArgument, match="^actuator:"):
-        ncs.h2syn(_lq_plant(), actuator="hold")
+def test_h2syn_designs_locally_what_its_exact_program_does_not_cover():
+    """A held command and a schedule hiding a bursty link's state are
+    structured loops: searched locally, the figure still exact."""
+    K, CL, h2 = ncs.h2syn(_lq_plant(), actuator="hold")
+    assert K.result.route == "local"
+    assert h2 == ncs.norm(ncs.feedback(_lq_plant(), K, actuator="hold"))
     hidden = _lq_plant(loss=ncs.gilbert_elliott(fail=0.2, recover=0.5),
                        actuator_schedule=[1, 0])
-    with pytest.raises(ControlArgument, match="^P: .*hides its state"):
-        ncs.h2syn(hidden)
+    K, CL, h2 = ncs.h2syn(hidden)
+    assert K.result.route == "local" and h2 == ncs.norm(CL)
     with pytest.raises(ControlArgument, match="^P:"):
         ncs.h2syn(ct.ss([[1.0]], [[1.0]], [[1.0]], [[0.0]], True))
+    with pytest.raises(ControlArgument, match="^solver: .*locally"):
+        ncs.h2syn(_lq_plant(), actuator="hold", solver="CLARABEL")
+    with pytest.raises(ControlArgument, match="^hinfsyn|^actuator:"):
+        ncs.hinfsyn(_lq_plant(), actuator="hold")
 
 
 def test_dlqr_states_an_approximate_critical_probability_that_brackets():

@@ -1,0 +1,207 @@
+"""H2 design where no convex program is exact: a local search on the exact
+norm (:ref:`theory-performance`).
+
+The H2 programs of :mod:`control_ncs.performance_synthesis` are exact when
+the static gain sees the whole loop state. Where it does not — a sensor
+schedule, the predictor or the estimator (part of the loop state is the
+estimation error), a held command, a delayed link (the gain reads one past
+measurement) — the gain is structured and the problem is not convex. Here
+the free entries ``x`` of the gains are searched directly on the exact
+figure:
+
+``J(x) = ‖G‖₂² = (1/N) Σ_k ⟨G_k, Q_k⟩ + (1/N) Σ_k Σ_i π_ki tr(Dw Dwᵀ)``
+
+with ``Q`` the periodic stationary second moments of the loop
+(``Q_{k+1} = 𝒯_k(Q_k) + Σ π Bw Bwᵀ``, :func:`control_ncs.stability_covariances`'
+fixed point) and ``G_k`` the output weights ``Σ_i ω_ki Ccl_kiᵀ Ccl_ki``. Its
+gradient comes from one adjoint fixed point, ``V_k = 𝒯_k*(V_{k+1}) + G_k``:
+with ``W_ki`` the weights of ``V_{k+1}`` (``𝒯_k*(V)_i = Acl_kiᵀ W_ki
+Acl_ki``) and ``F_ki = K E_ki`` the feedback rows,
+
+``∂J/∂F_ki = (2/N) (Bu_kiᵀ W_ki Acl_ki Q_ki + ω_ki Du_kiᵀ Ccl_ki Q_ki)``,
+
+chained to the gains by the loop's structure (:mod:`control_ncs.refine`'s
+``_Loop`` and ``_StackLoop``). The search: the refinement's quasi-Newton
+method on the exact rate until the loop is mean-square stable, then on
+``log J``. The returned figure is :func:`control_ncs.norm` of the returned
+loop, built by :func:`control_ncs.feedback` (an independent route), never
+the search's value; the gain is a local optimum.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import scipy.linalg
+from scipy.sparse.linalg import LinearOperator, gmres
+
+from .exceptions import NOT_FOUND, TIME_LIMIT, SynthesisError
+from .refine import _bfgs, _Loop
+from .stability import (DENSE_MAX_STATES, phase_adjoint, phase_map,
+                        phase_matrix)
+
+__all__: list[str] = []
+
+#: Stage 1 (stabilise) stops below this rate, as the refinement's.
+TARGET_RATE = 0.9
+#: Quasi-Newton iterations per stage.
+ITERATIONS = 200
+
+
+class H2Objective:
+    """``J = ‖G‖₂²`` of a structured loop and its gradient in the gains.
+
+    Parameters
+    ----------
+    loop : refine._Loop or refine._StackLoop
+        The closed-loop state matrices ``A + Bu F(x)`` and the law.
+    Cz, Du, Bw, Dw : ndarray, shape (N, M, ...)
+        Per phase and mode; ``Ccl = Cz + Du F(x)``.
+    pi : ndarray, shape (N, M)
+        The mode law per phase (the stationary one for Markov modes).
+    """
+
+    def __init__(self, loop: _Loop, Cz: np.ndarray, Du: np.ndarray,
+                 Bw: np.ndarray, Dw: np.ndarray, pi: np.ndarray):
+        self.loop = loop
+        self.Cz, self.Du, self.Bw, self.Dw, self.pi = Cz, Du, Bw, Dw, pi
+        self.markov = loop.T is not None
+        N = loop.N
+        self.constant = sum(float(pi[k] @ np.einsum("mab,mab->m", Dw[k],
+                                                    Dw[k]))
+                            for k in range(N)) / N
+        BB = Bw @ Bw.transpose(0, 1, 3, 2)                 # (N, M, n, n)
+        T = loop.T
+        if T is not None:
+            self.forcing = [np.tensordot(T[k].T, pi[k][:, None, None]
+                                         * BB[k], axes=1) for k in range(N)]
+        else:
+            self.forcing = [np.tensordot(pi[k], BB[k], axes=1)
+                            for k in range(N)]
+        self.evaluations = 0
+
+    def _law(self, k: int) -> np.ndarray:
+        T = self.loop.T
+        return T[k] if T is not None else self.pi[k]
+
+    def step(self, Acl: np.ndarray, k: int, X: np.ndarray,
+             adjoint: bool) -> np.ndarray:
+        """Phase ``k`` of the second-moment map ``𝒯_k`` or its adjoint."""
+        kernel = phase_adjoint if adjoint else phase_map
+        return kernel(Acl[k], self._law(k), X, self.markov)
+
+    def _periodic(self, Acl: np.ndarray, adjoint: bool,
+                  rhs: list) -> np.ndarray:
+        """The periodic fixed point ``X_{k+1} = 𝒯_k(X_k) + rhs_k``
+        (forward) or ``X_k = 𝒯_k*(X_{k+1}) + rhs_k`` (adjoint); returns
+        ``X_0``: dense below the size where ``ms_radius`` turns
+        matrix-free, GMRES above."""
+        loop = self.loop
+        shape = loop._shape()
+        size = int(np.prod(shape))
+        order = list(reversed(range(loop.N))) if adjoint else \
+            list(range(loop.N))
+        acc = np.zeros(shape)
+        for k in order:
+            acc = self.step(Acl, k, acc, adjoint) + rhs[k]
+
+        def period(v: np.ndarray) -> np.ndarray:
+            X = v.reshape(shape)
+            for k in order:
+                X = self.step(Acl, k, X, adjoint)
+            return X.ravel()
+
+        if size <= DENSE_MAX_STATES ** 2:
+            Mono = np.eye(size)
+            for k in range(loop.N):
+                Mono = phase_matrix(Acl[k], self._law(k),
+                                    self.markov) @ Mono
+            if adjoint:
+                Mono = Mono.T
+            x = scipy.linalg.solve(np.eye(size) - Mono, acc.ravel())
+        else:
+            op = LinearOperator((size, size), dtype=float,
+                                matvec=lambda v: v - period(v))
+            x, info = gmres(op, acc.ravel(), rtol=1e-12, atol=0.0,
+                            restart=50, maxiter=200)
+            if info != 0:
+                raise ValueError("GMRES did not converge on the H2 fixed "
+                                 "point")
+        return x.reshape(shape)
+
+    def value(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        """``(log J, ∂ log J/∂x)``; ``(inf, 0)`` when the loop is not
+        mean-square stable."""
+        self.evaluations += 1
+        loop = self.loop
+        N = loop.N
+        rate, _ = loop.rate(x)
+        if not rate < 0.0:
+            return math.inf, np.zeros_like(x)
+        F = loop.rows(x)
+        Acl = loop.A + loop.Bu @ F
+        Ccl = self.Cz + self.Du @ F
+        if self.markov:
+            G = [Ccl[k].transpose(0, 2, 1) @ Ccl[k] for k in range(N)]
+        else:
+            G = [np.tensordot(self.pi[k], Ccl[k].transpose(0, 2, 1)
+                              @ Ccl[k], axes=1) for k in range(N)]
+        markov = self.markov
+        try:
+            Q0 = self._periodic(Acl, False, self.forcing)
+            V0 = self._periodic(Acl, True, G)
+        except (ValueError, np.linalg.LinAlgError):
+            return math.inf, np.zeros_like(x)
+        Qs = [Q0]
+        for k in range(N - 1):
+            Qs.append(self.step(Acl, k, Qs[-1], False) + self.forcing[k])
+        Vs: list[np.ndarray] = [V0] * (N + 1)
+        for k in reversed(range(1, N)):
+            Vs[k] = self.step(Acl, k, Vs[k + 1], True) + G[k]
+        J = sum(float(np.sum(G[k] * Qs[k])) for k in range(N)) / N \
+            + self.constant
+        if not (J > 0 and math.isfinite(J)):
+            return math.inf, np.zeros_like(x)
+        dF = []
+        for k in range(N):
+            W = loop._weights(k, Vs[k + 1])
+            Qk = Qs[k] if markov else np.broadcast_to(Qs[k], W.shape)
+            omega = np.ones(loop.M) if markov else self.pi[k]
+            dF.append(2.0 / N * (
+                loop.Bu[k].transpose(0, 2, 1) @ W @ Acl[k] @ Qk
+                + omega[:, None, None] * (self.Du[k].transpose(0, 2, 1)
+                                          @ Ccl[k] @ Qk)))
+        grad = loop.chain(np.array(dF)).flat[loop.free] / J
+        return math.log(J), np.asarray(grad)
+
+
+def local_h2(objective: H2Objective, starts: list[np.ndarray],
+             deadline: float | None, who: str) -> np.ndarray:
+    """The two stages (module docstring) from the best of ``starts`` by
+    rate; returns the free entries of the gain found."""
+    loop = objective.loop
+    target = math.log(TARGET_RATE)
+    scored = sorted(((loop.rate(x)[0], j, x) for j, x in enumerate(starts)),
+                    key=lambda s: (s[0], s[1]))
+    best = (scored[0][0], scored[0][2])
+    for _, _, x0 in scored:
+        if best[0] < 0.0:
+            break
+        if deadline is not None and time.perf_counter() > deadline:
+            break
+        x, f, _, _ = _bfgs(loop.rate, x0, target, deadline, ITERATIONS)
+        if f < best[0]:
+            best = (f, x)
+    if not best[0] < 0.0:
+        out = deadline is not None and time.perf_counter() > deadline
+        raise SynthesisError(
+            f"{who}: the local search found no gain that makes the loop "
+            f"mean-square stable (ms_radius {math.exp(best[0]):.6g} at "
+            f"best; a local method: not a proof that none exists)",
+            TIME_LIMIT if out else NOT_FOUND,
+            dict(ms_radius=math.exp(best[0])))
+    x, _, _, _ = _bfgs(objective.value, best[1], -math.inf, deadline,
+                       ITERATIONS)
+    return x
