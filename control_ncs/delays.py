@@ -5,22 +5,24 @@ Markov chain (:func:`control_ncs.modes.age_chain`). The loop is a Markov jump
 system on a state that remembers what the buffers may still deliver::
 
     X_k = [x_k; x_{k-1}; …; x_{k-Ds};  v_{k-1}; …; v_{k-Da};  u_{k-1}; …;
-           xc_k; ŷ_{k-1}]
+           xc_k; ŷ_{k-1}; w_{k-1}; …; w_{k-Ds}]
 
 (``Ds``, ``Da``: the sensor and actuator buffers; ``v`` the controller's
 commands; the applied inputs ``u`` kept as far as the predictor or a hold
 actuator needs them; an LTI controller's state ``xc`` and, when it holds
-a stale measurement, the last one it read), with the mode ``(a_k, b_k)``
-of the two ages,
+a stale measurement, the last one it read; with measurement noise,
+``y = C2 x + D21 w``, the past disturbances a buffered measurement
+carries), with the mode ``(a_k, b_k)`` of the two ages,
 independent chains (``T = T_a ⊗ T_b``). In mode ``(a, b)``:
 
 * the controller uses the freshest measurement, of age ``a``: the static
-  gain sends ``v_k = K_a y_{k-a}`` (one gain, or one per age read from the
+  gain sends ``v_k = K_a y_{k-a}``, ``y = C2 x + D21 w`` (one gain, or one
+  per age read from the
   time stamp); the predictor sends ``v_k = K x̂_k`` with
-  ``x̂_k = A^a x_{k-a} + Σ_{i=1}^{a} A^{i-1} B2 u_{k-i}`` (it knows the applied
+  ``x̂_k = A^a y_{k-a} + Σ_{i=1}^{a} A^{i-1} B2 u_{k-i}`` (it knows the applied
   inputs from acknowledgements); nothing when the measurement is stale;
   an LTI controller ``xc⁺ = Ac xc + Bc ŷ``, ``v = Cc xc + Dc ŷ`` reads
-  ``ŷ_k = C2 x_{k-a}``, and 0 or the last value it read (``sensor='hold'``)
+  ``ŷ_k = y_{k-a}``, and 0 or the last value it read (``sensor='hold'``)
   when the measurement is stale;
 * the actuator applies the freshest command, ``u_k = v_{k-b}``; zero, or the
   last applied input (``'hold'``), when the command is stale.
@@ -142,6 +144,11 @@ def delayed_parts(P: NetworkedStateSpace, controller: str, actuator: str
     ``S_i`` what it reads (zero when stale); ``B_i``, ``D_i`` do not
     depend on the gains.
     """
+    if np.any(np.asarray(P.D21) != 0):
+        raise ControlArgument(
+            "P: design over delayed links needs D21 = 0 (with measurement "
+            "noise the gain also acts on w); design for D21 = 0 and analyse "
+            "the loop with the noise: feedback(P, K)")
     CL, parts = _build(P, np.zeros(gain_shape(P, controller)), controller,
                        actuator, "zero")
     A0, L, S, g, C0, LC, B = (np.array(X) for X in zip(*parts))
@@ -164,11 +171,6 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
                               f"of {ACTUATORS}, got {actuator!r}")
     n, m1, m2 = P.nstates, P.B1.shape[1], P.B2.shape[1]
     p1, p2 = P.C1.shape[0], P.C2.shape[0]
-    if np.any(P.D21 != 0):
-        raise ControlArgument(
-            "P: over delayed links the measurement is buffered without "
-            "noise (D21 = 0); measurement noise over delayed links is not "
-            "modelled yet")
     if controller == "predictor" and not (
             P.C2.shape == (n, n) and np.array_equal(P.C2, np.eye(n))):
         raise ControlArgument(
@@ -196,11 +198,20 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
             "P: with sub-sample input delays z must not depend on u "
             "(D12 = 0): the input of step k is applied after the sample")
     taus = 1 if delay is None else delay.taus.size
-    # blocks of X: x (Ds + 1 copies), v (Da), u (Lu), xc (nc), ŷ_{k-1} (hy)
-    nX = n * (Ds + 1) + m2 * Da + m2 * Lu + nc + hy
+    # a measurement with noise (D21 ≠ 0) is buffered with its noise: the
+    # past disturbances w_{k-1..k-Ds} it may still carry join the state
+    D21 = np.asarray(P.D21, float)
+    Dw = Ds if np.any(D21 != 0) else 0
+    # blocks of X: x (Ds + 1 copies), v (Da), u (Lu), xc (nc), ŷ_{k-1} (hy),
+    # w (Dw)
+    nX = n * (Ds + 1) + m2 * Da + m2 * Lu + nc + hy + m1 * Dw
     ox, ov, ou = 0, n * (Ds + 1), n * (Ds + 1) + m2 * Da
     xcb = slice(ou + m2 * Lu, ou + m2 * Lu + nc)
-    yb = slice(xcb.stop, nX)
+    yb = slice(xcb.stop, xcb.stop + hy)
+    ow = yb.stop
+
+    def wb(j: int) -> slice:        # w_{k-j}, j >= 1
+        return slice(ow + m1 * (j - 1), ow + m1 * j)
 
     def xb(j: int) -> slice:        # x_{k-j}
         return slice(ox + n * j, ox + n * (j + 1))
@@ -216,19 +227,33 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
     C2 = np.asarray(P.C2, float)
     powers = [np.linalg.matrix_power(A, i) for i in range(Ds + 1)]
 
-    def read(a: int) -> np.ndarray:
-        """What a gain acts on at sensor age ``a``, as rows on X: ``C2
-        x_{k-a}`` (static) or the prediction ``x̂_k`` (predictor); zero
-        when the measurement is stale (nothing is sent)."""
-        S = np.zeros((width, nX))
+    def measured(a: int) -> tuple[np.ndarray, np.ndarray]:
+        """``y_{k-a} = C2 x_{k-a} + D21 w_{k-a}`` as rows on ``X`` and on
+        the current ``w_k`` (``a = 0``)."""
+        Y, Yw = np.zeros((p2, nX)), np.zeros((p2, m1))
+        Y[:, xb(a)] = C2
+        if a == 0:
+            Yw[:] = D21
+        elif Dw:
+            Y[:, wb(a)] = D21
+        return Y, Yw
+
+    def read(a: int) -> tuple[np.ndarray, np.ndarray]:
+        """What a gain acts on at sensor age ``a``, as rows on ``X`` and on
+        ``w_k``: ``y_{k-a}`` (static) or the prediction
+        ``x̂_k = A^a y_{k-a} + Σ A^{i-1} B2 u_{k-i}`` (predictor, ``y = x``
+        with its noise); zero when the measurement is stale (nothing is
+        sent)."""
+        S, Sw = np.zeros((width, nX)), np.zeros((width, m1))
         if a <= Ds:
+            Y, Yw = measured(a)
             if controller == "static":
-                S[:, xb(a)] = C2
+                S, Sw = Y, Yw
             else:
-                S[:, xb(a)] = powers[a]
+                S, Sw = powers[a] @ Y, powers[a] @ Yw
                 for i in range(1, a + 1):
                     S[:, ub(i)] += powers[i - 1] @ B2
-        return S
+        return S, Sw
 
     def assemble(b: int, c: int) -> tuple[np.ndarray, ...]:
         """Mode ``(·, b, τ_c)`` affine in the command ``v_k``:
@@ -255,6 +280,10 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
         Bm[xb(0)] = B1
         for j in range(1, Ds + 1):       # shift the measurements
             A0[xb(j), xb(j - 1)] = np.eye(n)
+        if Dw:                           # and the noise they carry
+            Bm[wb(1)] = np.eye(m1)
+            for j in range(2, Dw + 1):
+                A0[wb(j), wb(j - 1)] = np.eye(m1)
         if Da:
             L[vb(1)] = np.eye(m2)        # v_k joins the commands
             for j in range(2, Da + 1):
@@ -272,30 +301,33 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
     modes_A, modes_B, modes_C, modes_D, names = [], [], [], [], []
     parts: list[tuple] = []
     for a in sensor_ages:
-        if lti:         # the command v_k as a row block acting on X
-            Y = np.zeros((p2, nX))          # what the controller reads
-            if a <= Ds:
-                Y[:, xb(a)] = C2
-            elif hy:
+        if lti:         # the command v_k as rows acting on X and w_k
+            # what the controller reads: the measurement, or 0 / the last
+            # one it read when stale
+            Y, Yw = measured(a) if a <= Ds else (np.zeros((p2, nX)),
+                                                 np.zeros((p2, m1)))
+            if a > Ds and hy:
                 Y[:, yb] = np.eye(p2)
-            V = Dc @ Y
+            V, Vw = Dc @ Y, Dc @ Yw
             V[:, xcb] += Cc
         else:
-            S = read(a)
-            V = G[min(a, Ds)] @ S
+            S, Sw = read(a)
+            V, Vw = G[min(a, Ds)] @ S, G[min(a, Ds)] @ Sw
         for b in actuator_ages:
             for c in range(taus):
                 A0, L, Bm, C0, LC = assemble(b, c)
                 if lti:
                     A0[xcb] = Bc @ Y
                     A0[xcb, xcb] += Ac
+                    Bm[xcb] = Bc @ Yw
                     A0[yb] = Y[:hy]              # ŷ_k kept for a hold
+                    Bm[yb] = Yw[:hy]
                 else:
                     parts.append((A0, L, S, min(int(a), Ds), C0, LC, Bm))
                 modes_A.append(A0 + L @ V)
-                modes_B.append(Bm)
+                modes_B.append(Bm + L @ Vw)
                 modes_C.append(C0 + LC @ V)
-                modes_D.append(D11)
+                modes_D.append(D11 + LC @ Vw)
                 names.append((int(a), int(b)) if delay is None
                              else (int(a), int(b), float(delay.taus[c])))
     # (a, b) → (a⁺, b⁺), a-major, per phase; τ i.i.d., innermost
@@ -308,7 +340,9 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
               + [f"v{i}[k-{j}]" for j in range(1, Da + 1) for i in range(m2)]
               + [f"u{i}[k-{j}]" for j in range(1, Lu + 1) for i in range(m2)]
               + [f"xc[{i}]" for i in range(nc)]
-              + [f"y{i}_rcv[k-1]" for i in range(hy)])
+              + [f"y{i}_rcv[k-1]" for i in range(hy)]
+              + [f"{s}[k-{j}]" for j in range(1, Dw + 1)
+                 for s in P.disturbance_labels])
     # the same matrices at every phase; the schedule is in the chain
     Ak, Bk, Ck, Dk = (np.repeat(np.array([X]), N, axis=0)
                       for X in (modes_A, modes_B, modes_C, modes_D))

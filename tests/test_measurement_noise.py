@@ -88,8 +88,11 @@ def _protocol_power(P, seed, trials=3000, steps=400, burn=100, **loop):
     w = rng.standard_normal((trials, P.B1.shape[1], steps))
     out = simulate_protocol(
         P.A, P.B1, P.B2, P.C1, P.D11, P.D12,
-        np.ones((1, P.nmeas)), np.ones((1, P.ncon)), P.sensor_link,
-        P.actuator_link, loop.pop("gains", None), steps, inputs=w,
+        np.ones((1, P.nmeas)), np.ones((1, P.ncon)),
+        # a delayed link carries its loss in its delay law
+        0.0 if P.sensor_delay is not None else P.sensor_link,
+        0.0 if P.actuator_delay is not None else P.actuator_link,
+        loop.pop("gains", None), steps, inputs=w,
         trials=trials, rng=rng, C2=P.C2, D21=P.D21, **loop)
     power = (out["z"][:, :, burn:] ** 2).sum(axis=1).mean(axis=1)
     return power.mean(), power.std(ddof=1) / np.sqrt(trials)
@@ -144,10 +147,73 @@ def test_synthesis_refuses_a_noisy_measurement_and_says_what_to_do():
         ncs.h2syn(P)
     with pytest.raises(ControlArgument, match="^P: sweeps .*D21"):
         ncs.design_map(P, progress=False)
-    with pytest.raises(ControlArgument, match="D21"):
-        ncs.feedback(P.with_network(sensor_delay=[0.5, 0.5]), [[-1.0]])
     with pytest.raises(ValueError, match="^D: .*D22"):
         ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
                 [[1.0, 0.0], [0.0, 0.3]], True, nmeas=1, ncon=1)
     # the loop itself closes: analysis covers it
     assert ncs.is_mss(ncs.feedback(P, [[-1.0]]))
+
+
+# -- measurement noise over delayed links --------------------------------------
+def _noisy_scalar(**network):
+    """``x⁺ = 1.1 x + w1 + u``, ``y = x + 0.5 w2``, ``z = [x; u]``."""
+    return ncs.nss([[1.1]], [[1.0, 0.0, 1.0]], [[1.0], [0.0], [1.0]],
+                   [[0, 0, 0], [0, 0, 1.0], [0, 0.5, 0]], True, nmeas=1,
+                   ncon=1, **network)
+
+
+@pytest.mark.parametrize("actuator", ["zero", "hold"])
+def test_a_noisy_link_that_only_loses_is_the_bernoulli_loop(actuator):
+    """A delay law with all its mass at 0 is the Bernoulli link: the
+    buffered noisy measurement gives the loop of the noise read at once
+    (static gain) and of the noise the LTI controller hears, exactly."""
+    delayed = _noisy_scalar(sensor_delay=[0.7], actuator_delay=[0.9])
+    lossy = _noisy_scalar(sensor_loss=0.3, actuator_loss=0.1)
+    for kwargs in (dict(), dict(sensor="hold")):
+        if kwargs:
+            K = ct.ss([[0.5]], [[1.0]], [[-0.3]], [[-0.6]], True)
+        else:
+            K = [[-0.8]]
+        a = ncs.norm(ncs.feedback(delayed, K, actuator=actuator, **kwargs))
+        b = ncs.norm(ncs.feedback(lossy, K, actuator=actuator, **kwargs))
+        assert a == pytest.approx(b, rel=1e-10)
+
+
+def test_a_noisy_delayed_loop_without_delay_or_loss_is_python_controls():
+    G = ct.ss([[1.05]], [[1.0, 0.0, 0.5]], [[1.0], [-1.0]],
+              [[0.0, -1.0, 0.0], [0.0, 1.0, 0.0]], True)
+    P = ncs.nss(G, nmeas=1, ncon=1, sensor_delay=ncs.random_delay([1.0],
+                                                                   buffer=2))
+    CL = ncs.feedback(P, PI)
+    assert ncs.norm(CL) == pytest.approx(ct.norm(G.lft(PI, 1, 1), 2),
+                                         rel=1e-10)
+
+
+@pytest.mark.parametrize("controller", ["static", "lti"])
+def test_noisy_measurements_over_a_delayed_link_match_the_protocol(
+        controller):
+    """Packets carry y = C2 x + D21 w and arrive late: the buffered noise
+    (w_{k-a} in the loop state) against the time-stamped simulator."""
+    P = _noisy_scalar(sensor_delay=[0.5, 0.3, 0.1], actuator_delay=[0.9])
+    if controller == "static":
+        K = np.array([[[-0.8]], [[-0.6]], [[-0.4]]])
+        CL = ncs.feedback(P, K)
+        loop = dict(gains=K)
+    else:
+        C = ct.ss([[0.5]], [[1.0]], [[-0.3]], [[-0.6]], True)
+        CL = ncs.feedback(P, C)
+        loop = dict(controller="lti", gains=np.zeros((1, 1, 1)),
+                    controller_system=(C.A, C.B, C.C, C.D))
+    assert CL.nstates > 3                  # x, x[k-1], x[k-2], w[k-1], ...
+    exact = ncs.norm(CL) ** 2
+    mean, se = _protocol_power(P, 5, sensor_delay=P.sensor_delay,
+                               actuator_delay=P.actuator_delay, **loop)
+    assert abs(mean - exact) < 4 * se, (mean, se, exact)
+
+
+def test_designs_over_noisy_delayed_links_are_refused_clearly():
+    P = _noisy_scalar(sensor_delay=[0.5, 0.3, 0.1])
+    with pytest.raises(ControlArgument, match="^P: .*D21"):
+        ncs.passivesyn(P)
+    with pytest.raises(ControlArgument, match="^P: .*D21"):
+        ncs.h2syn(P)
