@@ -158,6 +158,10 @@ class GainResult(CertifiedResult):
     gamma_solver : float
         The solver's optimum (never the certified number).
     report : SolveReport
+    route : str or None
+        When :func:`control_ncs.hinfsyn` designed the loop: ``'program'``
+        (its exact convex program) or ``'local'`` (the local search of a
+        structured gain); None for an analysis.
 
     Examples
     --------
@@ -175,6 +179,7 @@ class GainResult(CertifiedResult):
     P_min: np.ndarray
     gamma_solver: float
     report: Any
+    route: str | None = None
 
     _repr_fields: ClassVar[tuple[str, ...]] = ("gamma", "lower")
 

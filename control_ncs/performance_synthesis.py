@@ -25,8 +25,11 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import choice, positive_real
 from ._h2_design import H2Objective, local_h2
+from ._hinf_design import GainObjective
+from .refine import _bfgs
 from ._results import CertifiedResult
-from .exceptions import NOT_MSS, SOLVER_FAILED, SynthesisError
+from .exceptions import (NOT_FOUND, NOT_MSS, SOLVER_FAILED,
+                         CertificationError, SynthesisError)
 from .gain import PeriodicGain, actuators
 from .jump import JumpStateSpace
 from .lmi import (DEFAULT_MARGIN, check_options, check_solver, gain_kinds,
@@ -38,6 +41,10 @@ from .strategies import build
 from ._synthesis_routes import _open_loop_bound
 
 __all__ = ["h2syn", "H2Result", "hinfsyn"]
+
+#: Quasi-Newton iterations of hinfsyn's local stage on the bounded real
+#: lemma (each solves the lemma's LMI once).
+HINF_ITERATIONS = 30
 
 
 @dataclass(repr=False)
@@ -293,20 +300,10 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
     if time_limit is not None:
         time_limit = positive_real(time_limit, "time_limit")
     if _not_exact(P, controller, actuator, "h2syn") is not None:
-        given = [k for k, v in (("solver", solver),) if v is not None] + \
-            sorted(solver_options)
-        if given:
-            raise ControlArgument(
-                f"{given[0]}: this loop's gain is structured and is searched "
-                f"locally on the exact norm; solver options apply to the "
-                f"exact program (y = x at every step, no delays)")
+        _no_solver_options(solver, solver_options)
         return _local_h2syn(P, controller, actuator, estimator_gain,
                             initial_gain, time_limit)
-    if initial_gain is not None or estimator_gain is not None:
-        raise ControlArgument(
-            f"{'initial_gain' if initial_gain is not None else 'estimator_gain'}"
-            f": the exact program of this loop needs no start and no "
-            f"estimator (they apply to the local search of structured gains)")
+    _exact_takes_no_start(initial_gain, estimator_gain)
     plant, name, margin = _full_information(P, actuator, solver, margin,
                                             solver_options, "h2syn")
     model = h2_model(plant, margin)
@@ -319,26 +316,63 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
     return K, CL, h2
 
 
+def _no_solver_options(solver: str | None, solver_options: dict) -> None:
+    """The local search takes no solver options: refuse them by name."""
+    given = [k for k, v in (("solver", solver),) if v is not None] + \
+        sorted(solver_options)
+    if given:
+        raise ControlArgument(
+            f"{given[0]}: this loop's gain is structured and is searched "
+            f"locally on exact figures; solver options apply to the exact "
+            f"program (y = x at every step, no delays)")
+
+
+def _exact_takes_no_start(initial_gain: Any, estimator_gain: Any) -> None:
+    """The exact program takes no start and no estimator gain."""
+    if initial_gain is not None or estimator_gain is not None:
+        name = "initial_gain" if initial_gain is not None else \
+            "estimator_gain"
+        raise ControlArgument(
+            f"{name}: the exact program of this loop needs no start and no "
+            f"estimator (they apply to the local search of structured "
+            f"gains)")
+
+
 def _local_h2syn(P: NetworkedStateSpace, controller: str, actuator: str,
                  estimator_gain: Any, initial_gain: Any,
                  time_limit: float | None
                  ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """h2syn's local search (:mod:`control_ncs._h2_design`) on a structured
-    loop: its objective, starts and closed loop, and the exact figure."""
+    loop; the figure is the exact norm of the loop it returns."""
+    K, CL, rate, _ = _local_design(P, controller, actuator, estimator_gain,
+                                   initial_gain, time_limit, "h2syn")
+    h2 = norm(CL, 2)
+    K.result = H2Result(h2, math.nan, rate, None, "local")
+    return K, CL, h2
+
+
+def _local_design(P: NetworkedStateSpace, controller: str, actuator: str,
+                  estimator_gain: Any, initial_gain: Any,
+                  time_limit: float | None, who: str) -> tuple:
+    """The structured loop's local search: on the exact H2 norm, and for
+    ``who='hinfsyn'`` then on the bounded real lemma's optimum
+    (:mod:`control_ncs._hinf_design`) from there. Returns ``(K, CL,
+    ms_radius, gamma_result)`` (the last for hinfsyn: the certified bound
+    of the better of the two loops, else None)."""
     deadline = None if time_limit is None else \
         time.perf_counter() + time_limit
     delayed = P.sensor_delay is not None or P.actuator_delay is not None \
         or P.input_delay is not None
     if delayed:
-        objective, shape, close, starts = _delayed_problem(
-            P, controller, actuator)
         if estimator_gain is not None:
             raise ControlArgument("estimator_gain: over delayed links the "
                                   "controller is 'static' or 'predictor'")
+        mats, loop, shape, close, starts = _delayed_problem(
+            P, controller, actuator)
+        L = None
     else:
-        objective, shape, close, starts, L = _plant_problem(
+        mats, loop, shape, close, starts, L = _plant_problem(
             P, controller, actuator, estimator_gain)
-    loop = objective.loop
     if initial_gain is not None:
         G = np.asarray(initial_gain, float)
         if G.shape != shape and G.shape != (1,) + shape[1:]:
@@ -346,28 +380,52 @@ def _local_h2syn(P: NetworkedStateSpace, controller: str, actuator: str,
                                    f"got {G.shape}")
         starts.insert(0, np.broadcast_to(G, shape).reshape(
             loop.mask.shape).flat[loop.free].copy())
-    x = local_h2(objective, starts, deadline, "h2syn")
+    x = local_h2(H2Objective(loop, *mats), starts, deadline, who)
+
+    def closed(x: np.ndarray) -> JumpStateSpace:
+        return close(loop.gains(x).reshape(shape))
+
+    certified = None
+    if who == "hinfsyn":
+        candidates = [x]
+        if deadline is None or time.perf_counter() < deadline:
+            gain = GainObjective(loop, *mats)
+            x2, _, _, _ = _bfgs(gain.value, x, -math.inf, deadline,
+                                HINF_ITERATIONS)
+            candidates.append(x2)
+        best = None
+        for xc in candidates:
+            try:
+                result = l2_gain(closed(xc))
+            except CertificationError:
+                continue
+            if best is None or result.gamma < best[1].gamma:
+                best = (xc, result)
+        if best is None:
+            raise SynthesisError(
+                "hinfsyn: the local search's loops have no certified l2 "
+                "gain", NOT_FOUND, {})
+        x, certified = best
     gains = loop.gains(x).reshape(shape)
     CL = close(gains)
     rate = ms_radius(CL)
     if not rate < 1.0:
         raise SynthesisError(
-            f"h2syn: the local search's gain does not make the loop "
+            f"{who}: the local search's gain does not make the loop "
             f"mean-square stable (ms_radius {rate:.6g})", NOT_MSS,
             dict(ms_radius=rate))
-    h2 = norm(CL, 2)
     K = PeriodicGain(gains, controller, actuator)
-    if not delayed and controller == "estimator":
+    if L is not None:
         K.estimator_gain = L
-    K.result = H2Result(h2, math.nan, rate, None, "local")
-    return K, CL, h2
+    return K, CL, rate, certified
 
 
 def _delayed_problem(P: NetworkedStateSpace, controller: str,
                      actuator: str) -> tuple:
-    """The H2 objective of the loop over delayed links (a gain per sensor
-    age, or the predictor's), its closing and its starts: the design
-    without the delays at every age, and zero."""
+    """The loop over delayed links (a gain per sensor age, or the
+    predictor's) for the local designs: its output and noise matrices, the
+    rate loop, the gains' shape, its closing and its starts (the design
+    without the delays at every age, and zero)."""
     if controller not in ("static", "predictor"):
         raise ControlArgument(f"controller: over delayed links expected "
                               f"'static' or 'predictor', got {controller!r}")
@@ -381,8 +439,8 @@ def _delayed_problem(P: NetworkedStateSpace, controller: str,
     def phases(X: np.ndarray) -> np.ndarray:
         return np.broadcast_to(X, (N,) + X.shape)
 
-    objective = H2Objective(loop, phases(parts.C0), phases(parts.LC),
-                            phases(parts.B), phases(parts.D), parts.pi)
+    mats = (phases(parts.C0), phases(parts.LC), phases(parts.B),
+            phases(parts.D), parts.pi)
     shape = gain_shape(P, controller)
     starts = []
     try:
@@ -396,15 +454,16 @@ def _delayed_problem(P: NetworkedStateSpace, controller: str,
     def close(K: np.ndarray) -> JumpStateSpace:
         return feedback(P, K, controller=controller, actuator=actuator)
 
-    return objective, shape, close, starts
+    return mats, loop, shape, close, starts
 
 
 def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
                    estimator_gain: Any) -> tuple:
-    """The H2 objective of a structured loop of the network's open loop
-    (:class:`~control_ncs.openloop.JumpPlant`), its closing and its starts:
-    the full-information design restricted to what the gain sees, the
-    mean-square LQ gain restricted, and zero."""
+    """A structured loop of the network's open loop
+    (:class:`~control_ncs.openloop.JumpPlant`) for the local designs: as
+    :func:`_delayed_problem`, with the starts the full-information design
+    restricted to what the gain sees, the mean-square LQ gain restricted,
+    and zero."""
     from .estimator import estimator_gain as default_estimator
     from .refine import _Loop, _lq_gain, _restrict
     L = None
@@ -417,8 +476,7 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
     plant = build(P, controller, actuator, estimator_gain=L)
     plant.require_noise_free("h2syn")
     loop = _Loop(plant, plant.probabilities, plant.transition)
-    objective = H2Objective(loop, plant.Cz, plant.Du, plant.Bw, plant.Dw,
-                            plant.probabilities)
+    mats = (plant.Cz, plant.Du, plant.Bw, plant.Dw, plant.probabilities)
     starts = [_restrict(loop, _lq_gain(plant, plant.probabilities)),
               np.zeros(loop.free.size)]
     if controller == "static" and plant.shape["nx"] == P.nstates and \
@@ -433,14 +491,16 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
                     starts.insert(0, _restrict(loop, K0))
             except SynthesisError:
                 pass
-    return objective, plant.gain_shape(), plant.close, starts, L
+    return mats, loop, plant.gain_shape(), plant.close, starts, L
 
 
-def hinfsyn(P: NetworkedStateSpace, *, actuator: str = "zero",
-            solver: str | None = None, margin: float = DEFAULT_MARGIN,
+def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
+            actuator: str = "zero", solver: str | None = None,
+            margin: float = DEFAULT_MARGIN, estimator_gain: Any = None,
+            initial_gain: Any = None, time_limit: float | None = 60.0,
             **solver_options: Any) -> tuple[PeriodicGain, JumpStateSpace,
                                             float]:
-    """ℓ2-gain (H∞) optimal periodic state feedback over the network.
+    """ℓ2-gain (H∞) optimal periodic feedback over the network.
 
     Like :func:`control.hinfsyn` (python-control's generalized-plant
     layout), for the periodic jump loop of the plant and its network: the
@@ -499,7 +559,28 @@ def hinfsyn(P: NetworkedStateSpace, *, actuator: str = "zero",
     >>> K, CL, gamma = ncs.hinfsyn(P)
     >>> bool(K.result.lower <= gamma), K.result.status
     (True, 'certified')
+
+    With the command held when lost the gain is structured and searched
+    locally; the bound is still certified on the returned loop:
+
+    >>> K, CL, gamma = ncs.hinfsyn(P, actuator='hold')
+    >>> K.result.route, K.result.status
+    ('local', 'certified')
     """
+    name, margin = _checked(P, actuator, solver, margin, solver_options)
+    controller = choice(controller, "controller",
+                        ("static", "predictor", "estimator"))
+    if time_limit is not None:
+        time_limit = positive_real(time_limit, "time_limit")
+    if _not_exact(P, controller, actuator, "hinfsyn") is not None:
+        _no_solver_options(solver, solver_options)
+        K, CL, _, certified = _local_design(
+            P, controller, actuator, estimator_gain, initial_gain,
+            time_limit, "hinfsyn")
+        certified.route = "local"
+        K.result = certified
+        return K, CL, certified.gamma
+    _exact_takes_no_start(initial_gain, estimator_gain)
     plant, name, margin = _full_information(P, actuator, solver, margin,
                                             solver_options, "hinfsyn")
     model = hinf_model(plant, margin)
@@ -507,5 +588,6 @@ def hinfsyn(P: NetworkedStateSpace, *, actuator: str = "zero",
                                              solver_options, "hinfsyn")
     result: GainResult = l2_gain(CL, solver=solver)
     K = PeriodicGain(gains, "static", actuator)
+    result.route = "program"
     K.result = result
     return K, CL, result.gamma

@@ -169,3 +169,58 @@ def test_the_local_route_refuses_what_does_not_apply():
         ncs.h2syn(P, initial_gain=[[[-1.0]]])
     with pytest.raises(ControlArgument, match="^controller:"):
         ncs.h2syn(P, controller="lti")
+
+
+# -- H∞ of structured gains ------------------------------------------------------
+@pytest.mark.parametrize("kind", ["delayed", "plant"])
+def test_the_l2_gain_objectives_gradient_is_its_difference_quotient(kind):
+    """The envelope-theorem gradient of the bounded real lemma's optimum
+    (from the LMI's duals) against central differences of that optimum;
+    the solver's accuracy bounds the agreement."""
+    from control_ncs._hinf_design import GainObjective
+    from control_ncs.performance_synthesis import (_delayed_problem,
+                                                   _plant_problem)
+    if kind == "delayed":
+        P = _two_state(sensor_delay=[0.5, 0.3, 0.1])
+        mats, loop, *_ = _delayed_problem(P, "static", "zero")
+        scale = 0.3
+    else:
+        P = _two_state(sensor_schedule=[1, 2], actuator_loss=0.2)
+        mats, loop, *_ = _plant_problem(P, "static", "zero", None)
+        scale = 0.1
+    objective = GainObjective(loop, *mats)
+    x = scale * np.random.default_rng(2).standard_normal(loop.free.size)
+    f, grad = objective.value(x)
+    assert math.isfinite(f) and np.max(np.abs(grad)) > 1e-2
+    h = 1e-4
+    central = np.array([(objective.value(x + h * e)[0]
+                         - objective.value(x - h * e)[0]) / (2 * h)
+                        for e in np.eye(x.size)])
+    assert np.max(np.abs(central - grad)) < 1e-3 * np.max(np.abs(grad))
+
+
+def test_hinfsyn_of_a_held_command_reaches_the_scans_minimum():
+    P = _lq_plant()
+    K, CL, gamma = ncs.hinfsyn(P, actuator="hold")
+    assert K.result.route == "local" and K.result.status == "certified"
+    assert gamma == ncs.l2_gain(ncs.feedback(P, K, actuator="hold")).gamma
+    def certified(k):
+        try:
+            return ncs.l2_gain(ncs.feedback(P, [[k]], actuator="hold")).gamma
+        except ncs.CertificationError:       # near the edge of stability
+            return math.inf
+
+    scan = min(certified(k) for k in np.linspace(-0.5, -0.2, 31))
+    assert gamma <= scan * (1 + 1e-4)
+    h2_gain = ncs.h2syn(P, actuator="hold")[0]
+    assert gamma <= ncs.l2_gain(ncs.feedback(P, h2_gain,
+                                             actuator="hold")).gamma
+
+
+def test_hinfsyn_over_a_delayed_link_certifies_a_gain_per_age():
+    P = _lq_plant(loss=0.0, sensor_delay=[0.5, 0.3, 0.1])
+    K, CL, gamma = ncs.hinfsyn(P)
+    assert K.gains.shape == (3, 1, 1) and K.result.route == "local"
+    assert gamma == ncs.l2_gain(ncs.feedback(P, K)).gamma
+    h2_gain = ncs.h2syn(P)[0]
+    assert gamma <= ncs.l2_gain(ncs.feedback(P, h2_gain)).gamma
