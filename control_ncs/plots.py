@@ -363,7 +363,8 @@ def schedule_search_plot(search: Any, count: int | None = None, *,
         ax.set_ylim(-0.6, len(labels) - 0.4)
         ax.invert_yaxis()
         ax.set_xlim(0, N)
-        figure = (f"H2 = {s.h2:.4g}" if s.h2 is not None
+        label = {"h2": "H2", "hinf": "ℓ2 gain"}.get(search.objective, "")
+        figure = (f"{label} = {s.value:.4g}" if s.value is not None
                   else f"η = {s.eta:.4g}")
         ax.set_title(f"#{r + 1}: {figure}, ms_radius = "
                      f"{s.ms_radius:.4g}", fontsize="small")

@@ -57,7 +57,7 @@ MAX_SCHEDULES = 10**7
 # strategies registry: a new controller needs its own pruning first)
 _CONTROLLERS = ("static", "predictor")
 _ACTUATORS = ("zero", "hold")
-_OBJECTIVES = ("eta", "rate", "h2")
+_OBJECTIVES = ("eta", "rate", "h2", "hinf")
 # what a design map optimises in each cell: passivesyn's certified η, or the
 # H2 norm / ℓ2-gain bound of h2syn / hinfsyn (the exact full-information
 # programs: static state feedback, zero actuator)
@@ -148,16 +148,14 @@ def _perform(P: NetworkedStateSpace, objective: str,
 def _perform_here(P: NetworkedStateSpace, objective: str,
                   controller: str = "static", actuator: str = "zero"
                   ) -> tuple:
+    design = h2syn if objective == "h2" else hinfsyn
     try:
         with warnings.catch_warnings():
             # a search enumerates schedules that leave nodes silent on
             # purpose; the warning is for schedules a user writes
             warnings.simplefilter("ignore", ScheduleWarning)
-            if objective == "h2":
-                K, CL, value = h2syn(P, controller=controller,
-                                     actuator=actuator)
-            else:
-                K, CL, value = hinfsyn(P)
+            K, CL, value = design(P, controller=controller,
+                                  actuator=actuator)
     except CertificationError as err:
         return math.nan, math.nan, False, err.reason, None, False
     return (float(value), float(_ms_radius(CL)), True, "certified", K.gains,
@@ -570,11 +568,12 @@ class RankedSchedule:
     sensor_schedule, actuator_schedule : tuple of int
         Index vectors (paper §2: node at each phase, 1-based, 0 = nobody).
     eta : float
-        Certified dissipation (NaN when ranked by ``'h2'``).
+        Certified dissipation (NaN when ranked by ``'h2'`` or ``'hinf'``).
     ms_radius : float
         Exact per-step mean-square rate of the certified loop.
-    h2 : float or None
-        The designed loop's exact H2 norm (``objective='h2'``; else None).
+    value : float or None
+        ``objective='h2'`` or ``'hinf'``: the designed loop's exact H2 norm
+        or certified ℓ2-gain bound; else None.
 
     Examples
     --------
@@ -589,7 +588,7 @@ class RankedSchedule:
     actuator_schedule: tuple
     eta: float
     ms_radius: float
-    h2: float | None = None
+    value: float | None = None
 
 
 @dataclass
@@ -606,8 +605,9 @@ class ScheduleSearch:
         Index vectors (1-based node, 0 = nobody).
     eta, ms_radius : ndarray, shape (count,)
         Certified ``η`` and exact per-step mean-square rate (NaN where none).
-    h2 : ndarray or None
-        ``objective='h2'``: the exact H2 norm of each designed loop.
+    value : ndarray or None
+        ``objective='h2'`` or ``'hinf'``: the exact H2 norm or certified
+        ℓ2-gain bound of each designed loop.
     feasible : ndarray of bool
     reason : ndarray of object
         ``'certified'``, a pruning reason (:data:`PRUNE_REASONS`) or the
@@ -662,7 +662,7 @@ class ScheduleSearch:
     decay: float | None = None
     elapsed: float = 0.0
     order: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
-    h2: np.ndarray | None = None
+    value: np.ndarray | None = None
 
     @property
     def explored(self) -> int:
@@ -683,11 +683,11 @@ class ScheduleSearch:
     @property
     def ranking(self) -> list:
         """The ``top`` best certified schedules, best first."""
-        h2 = self.h2
+        value = self.value
         return [RankedSchedule(tuple(self.sensor_schedules[i].tolist()),
                                tuple(self.actuator_schedules[i].tolist()),
                                float(self.eta[i]), float(self.ms_radius[i]),
-                               None if h2 is None else float(h2[i]))
+                               None if value is None else float(value[i]))
                 for i in self.order[:self.top]]
 
     def __repr__(self) -> str:
@@ -711,8 +711,8 @@ class ScheduleSearch:
             lines.append("  no certified gain: " + ", ".join(
                 f"{a} {b}" for a, b in zip(r, c)))
         for rank, s in enumerate(self.ranking, 1):
-            figure = (f"h2 = {s.h2:.6g}" if s.h2 is not None
-                      else f"eta = {s.eta:.6g}")
+            figure = (f"{self.objective} = {s.value:.6g}"
+                      if s.value is not None else f"eta = {s.eta:.6g}")
             lines.append(f"  {rank:2d}. sensors {list(s.sensor_schedule)} "
                          f"actuators {list(s.actuator_schedule)}: "
                          f"{figure}, ms_radius = {s.ms_radius:.6g}")
@@ -738,7 +738,8 @@ class ScheduleSearch:
             "actuator_schedule": [tuple(self.actuator_schedules[i].tolist())
                                   for i in idx],
             "eta": self.eta[idx], "ms_radius": self.ms_radius[idx],
-            **({"h2": self.h2[idx]} if self.h2 is not None else {}),
+            **({self.objective: self.value[idx]}
+               if self.value is not None else {}),
             "feasible": self.feasible[idx], "pruned": self.pruned[idx],
             "reason": self.reason[idx]})
 
@@ -813,16 +814,16 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         Only one message per phase (``s1[k] ≠ 0 ⇒ s2[k] = 0``).
     sensor_loss, actuator_loss : float in [0, 1), optional
         Loss probabilities (default: those of ``P``).
-    objective : {'eta', 'rate', 'h2'}
+    objective : {'eta', 'rate', 'h2', 'hinf'}
         Rank by certified ``η`` (largest first) or by the exact per-step
         mean-square rate of the certified loop (smallest first). Both are
         figures of the one loop passivesyn returns: with ``eta=None`` the
         rate sits near the decay bound, so rank by ``'rate'`` with a fixed
-        ``eta``. ``'h2'``: design every schedule with
-        :func:`control_ncs.h2syn` instead (a scheduled sensor makes the
-        gain structured: its local search on the exact norm) and rank by
-        the exact H2 norm (smallest first); takes no ``eta``, ``decay`` or
-        ``method``.
+        ``eta``. ``'h2'`` / ``'hinf'``: design every schedule with
+        :func:`control_ncs.h2syn` / :func:`control_ncs.hinfsyn` instead (a
+        scheduled sensor makes the gain structured: their local search)
+        and rank by the exact H2 norm / certified ℓ2-gain bound (smallest
+        first); these take no ``eta``, ``decay`` or ``method``.
     eta : float, optional
         Dissipation asked of every schedule; None maximises it.
     decay : float in (0, 1], optional
@@ -882,7 +883,8 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     ((0, 1), (1, 0))
     """
     objective = choice(objective, "objective", _OBJECTIVES)
-    P = _plant(P, passivity=objective != "h2")
+    performance = objective in ("h2", "hinf")
+    P = _plant(P, passivity=not performance)
     N = positive_int(period, "period")
     shared = flag(shared_channel, "shared_channel")
     if (sensor_loss is None or actuator_loss is None) and not P.is_iid:
@@ -896,14 +898,15 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     a1 = P.sensor_loss if sensor_loss is None else sensor_loss
     a2 = P.actuator_loss if actuator_loss is None else actuator_loss
     a1, a2 = loss(a1, "sensor_loss"), loss(a2, "actuator_loss")
-    if objective == "h2":
+    if performance:
         given = [name for name, value, default in (
             ("eta", eta, None), ("decay", decay, None),
             ("method", method, "auto")) if value != default]
         if given:
+            who = "h2syn" if objective == "h2" else "hinfsyn"
             raise ControlArgument(
-                f"{given[0]}: objective='h2' designs every schedule with "
-                f"h2syn; it takes no {', '.join(given)} (passivesyn's "
+                f"{given[0]}: objective={objective!r} designs every schedule "
+                f"with {who}; it takes no {', '.join(given)} (passivesyn's "
                 f"options)")
     eta = finite_real(eta, "eta", allow_none=True)
     decay = None if decay is None else decay_bound(decay)
@@ -962,14 +965,14 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     eta_a = np.full(len(words), math.nan)
     rate = np.full(len(words), math.nan)
     feasible = np.zeros(len(words), dtype=bool)
-    h2 = None
-    if objective == "h2":
-        out = run_tasks(_perform, [(t[0], "h2", controller, actuator)
+    value = None
+    if performance:
+        out = run_tasks(_perform, [(t[0], objective, controller, actuator)
                                    for t in tasks], executor, progress,
                         "schedule_search")
-        h2 = np.full(len(words), math.nan)
+        value = np.full(len(words), math.nan)
         for t, (v, r, ok, why, _, _) in zip(todo, out):
-            h2[t], rate[t], feasible[t], reason[t] = v, r, ok, why
+            value[t], rate[t], feasible[t], reason[t] = v, r, ok, why
     else:
         # schedules are not neighbours of one another: the refinement of a
         # cell the LMI leaves open starts from that cell's own LMI gain
@@ -980,9 +983,8 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     # ties are broken by the other figure, then by the canonical order
     if objective == "eta":
         keys = (good, rate[good], -eta_a[good])
-    elif objective == "h2":
-        assert h2 is not None
-        keys = (good, rate[good], h2[good])
+    elif value is not None:
+        keys = (good, rate[good], value[good])
     else:
         keys = (good, -eta_a[good], rate[good])
     order = good[np.lexsort(keys)]
@@ -992,4 +994,4 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         total=total, relabellings=len(group), objective=objective, top=top,
         shared_channel=shared, controller=controller, actuator=actuator,
         sensor_loss=a1, actuator_loss=a2, eta_requested=eta, decay=decay,
-        elapsed=time.perf_counter() - start, order=order, h2=h2)
+        elapsed=time.perf_counter() - start, order=order, value=value)

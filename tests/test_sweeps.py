@@ -623,7 +623,7 @@ def test_schedule_search_ranks_by_the_designed_h2_norm():
     res = ncs.schedule_search(P, 2, objective="h2", progress=False)
     ranked = res.ranking
     assert len(ranked) == int(res.feasible.sum()) > 2
-    values = [s.h2 for s in ranked]
+    values = [s.value for s in ranked]
     assert values == sorted(values)
     full = ncs.h2syn(P)[2]
     for s in ranked[:3]:
@@ -631,15 +631,30 @@ def test_schedule_search_ranks_by_the_designed_h2_norm():
                             actuator_schedule=list(s.actuator_schedule))
         K, CL, h2 = in_fresh_thread(ncs.h2syn, Ps)
         assert K.result.route == "local"
-        assert s.h2 == pytest.approx(h2, rel=1e-9)
+        assert s.value == pytest.approx(h2, rel=1e-9)
         assert h2 >= full * (1 - 1e-9)          # less information
     assert "h2 = " in res.summary() and "h2" in res.to_pandas()
 
 
+def test_schedule_search_ranks_by_the_certified_l2_gain():
+    P = _two_state_h2_plant()
+    res = ncs.schedule_search(P, 1, objective="hinf", progress=False)
+    assert len(res.ranking) == 1 and res.pruned_counts      # sensor 1 only
+    best = res.ranking[0]
+    Ps = P.with_network(sensor_schedule=list(best.sensor_schedule),
+                        actuator_schedule=list(best.actuator_schedule))
+    K, CL, gamma = in_fresh_thread(ncs.hinfsyn, Ps)
+    assert best.value == pytest.approx(gamma, rel=1e-6)
+    assert gamma >= ncs.hinfsyn(P)[2] * (1 - 1e-6)     # less information
+
+
+@pytest.mark.parametrize("objective", ["h2", "hinf"])
 @pytest.mark.parametrize("kwargs", [dict(eta=0.1), dict(decay=0.9),
                                     dict(method="lmi")])
-def test_schedule_search_by_h2_refuses_passivity_options(kwargs):
+def test_schedule_search_by_performance_refuses_passivity_options(
+        kwargs, objective):
     name = next(iter(kwargs))
-    with pytest.raises(ControlArgument, match=f"^{name}: objective='h2'"):
-        ncs.schedule_search(_two_state_h2_plant(), 2, objective="h2",
+    with pytest.raises(ControlArgument,
+                       match=f"^{name}: objective='{objective}'"):
+        ncs.schedule_search(_two_state_h2_plant(), 2, objective=objective,
                             progress=False, **kwargs)
