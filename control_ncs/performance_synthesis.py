@@ -482,8 +482,8 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
     if controller == "static" and plant.shape["nx"] == P.nstates and \
             np.array_equal(P.C2, np.eye(P.nstates)):
         # the exact design with every sensor sending, if that is exact
-        full = P.with_network(sensor_schedule=np.ones(
-            P.sensor_schedule.pattern.shape[1], int))
+        full = P.with_network(sensor_schedule=np.ones_like(
+            P.sensor_schedule.pattern, dtype=int))
         if _not_exact(full, "static", "zero", "h2syn") is None:
             try:
                 K0 = h2syn(full)[0].gains
