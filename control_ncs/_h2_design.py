@@ -61,26 +61,44 @@ class H2Objective:
         Per phase and mode; ``Ccl = Cz + Du F(x)``.
     pi : ndarray, shape (N, M)
         The mode law per phase (the stationary one for Markov modes).
+    Ew : ndarray, shape (N, nk, nw), optional
+        A static gain that also reads the noise, ``v = K (E ξ + Ew w)``
+        (measurement noise, ``D21 ≠ 0``): then ``Bcl = Bw + Bu K Ew`` and
+        ``Dcl = Dw + Du K Ew`` depend on the gain too (gains per phase,
+        :class:`refine._Loop`, only).
     """
 
     def __init__(self, loop: _Loop, Cz: np.ndarray, Du: np.ndarray,
-                 Bw: np.ndarray, Dw: np.ndarray, pi: np.ndarray):
+                 Bw: np.ndarray, Dw: np.ndarray, pi: np.ndarray,
+                 Ew: np.ndarray | None = None):
         self.loop = loop
         self.Cz, self.Du, self.Bw, self.Dw, self.pi = Cz, Du, Bw, Dw, pi
+        self.Ew = Ew
         self.markov = loop.T is not None
-        N = loop.N
-        self.constant = sum(float(pi[k] @ np.einsum("mab,mab->m", Dw[k],
-                                                    Dw[k]))
-                            for k in range(N)) / N
-        BB = Bw @ Bw.transpose(0, 1, 3, 2)                 # (N, M, n, n)
-        T = loop.T
-        if T is not None:
-            self.forcing = [np.tensordot(T[k].T, pi[k][:, None, None]
-                                         * BB[k], axes=1) for k in range(N)]
-        else:
-            self.forcing = [np.tensordot(pi[k], BB[k], axes=1)
-                            for k in range(N)]
         self.evaluations = 0
+
+    def _noise(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(Bcl, Dcl)``, per phase and mode: the noise's way in."""
+        if self.Ew is None:
+            return self.Bw, self.Dw
+        Fw = np.einsum("kuj,kjw->kuw", self.loop.gains(x), self.Ew)
+        return (self.Bw + self.loop.Bu @ Fw[:, None],
+                self.Dw + self.Du @ Fw[:, None])
+
+    def _forcing(self, Bcl: np.ndarray, Dcl: np.ndarray
+                 ) -> tuple[list, float]:
+        """What unit white noise adds to the moments per phase, and the
+        direct term ``(1/N) Σ π tr(Dcl Dclᵀ)``."""
+        pi, N, T = self.pi, self.loop.N, self.loop.T
+        BB = Bcl @ Bcl.transpose(0, 1, 3, 2)               # (N, M, n, n)
+        if T is not None:
+            forcing = [np.tensordot(T[k].T, pi[k][:, None, None] * BB[k],
+                                    axes=1) for k in range(N)]
+        else:
+            forcing = [np.tensordot(pi[k], BB[k], axes=1) for k in range(N)]
+        direct = sum(float(pi[k] @ np.einsum("mab,mab->m", Dcl[k], Dcl[k]))
+                     for k in range(N)) / N
+        return forcing, direct
 
     def _law(self, k: int) -> np.ndarray:
         T = self.loop.T
@@ -143,6 +161,8 @@ class H2Objective:
         F = loop.rows(x)
         Acl = loop.A + loop.Bu @ F
         Ccl = self.Cz + self.Du @ F
+        Bcl, Dcl = self._noise(x)
+        forcing, direct = self._forcing(Bcl, Dcl)
         if self.markov:
             G = [Ccl[k].transpose(0, 2, 1) @ Ccl[k] for k in range(N)]
         else:
@@ -150,18 +170,17 @@ class H2Objective:
                               @ Ccl[k], axes=1) for k in range(N)]
         markov = self.markov
         try:
-            Q0 = self._periodic(Acl, False, self.forcing)
+            Q0 = self._periodic(Acl, False, forcing)
             V0 = self._periodic(Acl, True, G)
         except (ValueError, np.linalg.LinAlgError):
             return math.inf, np.zeros_like(x)
         Qs = [Q0]
         for k in range(N - 1):
-            Qs.append(self.step(Acl, k, Qs[-1], False) + self.forcing[k])
+            Qs.append(self.step(Acl, k, Qs[-1], False) + forcing[k])
         Vs: list[np.ndarray] = [V0] * (N + 1)
         for k in reversed(range(1, N)):
             Vs[k] = self.step(Acl, k, Vs[k + 1], True) + G[k]
-        J = sum(float(np.sum(G[k] * Qs[k])) for k in range(N)) / N \
-            + self.constant
+        J = sum(float(np.sum(G[k] * Qs[k])) for k in range(N)) / N + direct
         if not (J > 0 and math.isfinite(J)):
             return math.inf, np.zeros_like(x)
         dF = []
@@ -173,7 +192,19 @@ class H2Objective:
                 loop.Bu[k].transpose(0, 2, 1) @ W @ Acl[k] @ Qk
                 + omega[:, None, None] * (self.Du[k].transpose(0, 2, 1)
                                           @ Ccl[k] @ Qk)))
-        grad = loop.chain(np.array(dF)).flat[loop.free] / J
+        dK = loop.chain(np.array(dF))
+        if self.Ew is not None:
+            # the noise's way in: ⟨V_{k+1}, d forcing_k⟩ and the direct term
+            for k in range(N):
+                W = loop._weights(k, Vs[k + 1])
+                scale = self.pi[k] if markov else np.ones(loop.M)
+                dFw = 2.0 / N * (
+                    scale[:, None, None] * (loop.Bu[k].transpose(0, 2, 1)
+                                            @ W @ Bcl[k])
+                    + self.pi[k][:, None, None] * (
+                        self.Du[k].transpose(0, 2, 1) @ Dcl[k]))
+                dK[k] += dFw.sum(axis=0) @ self.Ew[k].T
+        grad = dK.flat[loop.free] / J
         return math.log(J), np.asarray(grad)
 
 

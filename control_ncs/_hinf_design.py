@@ -12,7 +12,9 @@ dual of ``Θ_{k,ℓ} ≼ -εI``,
 ``∂γ²*/∂Ccl_ki = 2 t_i [H_ki Z_{k,ℓ}]_ξ``
 
 (``F = [Acl, Bw]``, ``H = [Ccl, Dw]``, ``t`` the row of ``ℓ``, ``[·]_ξ``
-the state columns), chained to the free entries by the loop's structure. A
+the state columns; the noise columns give ``∂γ²*/∂Bcl``, ``∂γ²*/∂Dcl``
+when the gain also reads the noise), chained to the free entries by the
+loop's structure. A
 guide for the search only: the returned figure is :func:`l2_gain`'s
 certified bound of the returned loop, never this objective.
 """
@@ -42,18 +44,24 @@ class GainObjective:
     pi : ndarray, shape (N, M)
         The mode law (i.i.d. modes; unused for Markov modes, whose law is
         the loop's chain).
+    Ew : ndarray, shape (N, nk, nw), optional
+        A static gain that also reads the noise (``D21 ≠ 0``), as for
+        :class:`control_ncs._h2_design.H2Objective`.
     """
 
     def __init__(self, loop: _Loop, Cz: np.ndarray, Du: np.ndarray,
-                 Bw: np.ndarray, Dw: np.ndarray, pi: np.ndarray):
+                 Bw: np.ndarray, Dw: np.ndarray, pi: np.ndarray,
+                 Ew: np.ndarray | None = None):
         self.loop = loop
         self.Cz, self.Du, self.Bw, self.Dw, self.pi = Cz, Du, Bw, Dw, pi
+        self.Ew = Ew
         self.evaluations = 0
 
-    def closed(self, Acl: np.ndarray, Ccl: np.ndarray) -> JumpStateSpace:
+    def closed(self, Acl: np.ndarray, Bcl: np.ndarray, Ccl: np.ndarray,
+               Dcl: np.ndarray) -> JumpStateSpace:
         """The loop with its modes exactly as the search's (not lumped)."""
         T = self.loop.T
-        return JumpStateSpace(Acl, self.Bw, Ccl, self.Dw,
+        return JumpStateSpace(Acl, Bcl, Ccl, Dcl,
                               None if T is not None else self.pi, True,
                               transition=T)
 
@@ -68,7 +76,12 @@ class GainObjective:
         F = loop.rows(x)
         Acl = loop.A + loop.Bu @ F
         Ccl = self.Cz + self.Du @ F
-        CL = self.closed(Acl, Ccl)
+        Bcl, Dcl = self.Bw, self.Dw
+        if self.Ew is not None:
+            Fw = np.einsum("kuj,kjw->kuw", loop.gains(x), self.Ew)
+            Bcl = self.Bw + loop.Bu @ Fw[:, None]
+            Dcl = self.Dw + self.Du @ Fw[:, None]
+        CL = self.closed(Acl, Bcl, Ccl, Dcl)
         model = quadratic_supply_model(CL, -1.0, 0.0, None, DEFAULT_MARGIN)
         report = solve(model.problem)
         level = model.level
@@ -86,6 +99,7 @@ class GainObjective:
         # the constraints are Θ_{k,ℓ} then P_{k,ℓ}, phase-major
         thetas = model.problem.constraints[0::2]
         dF = np.zeros(F.shape)
+        dFw = np.zeros(F.shape[:3] + (Bcl.shape[-1],))
         for k in range(N):
             for ell in range(L):
                 Z: Any = thetas[k * L + ell].dual_value
@@ -95,10 +109,17 @@ class GainObjective:
                 t = rows[k, ell]
                 for i in np.flatnonzero(t > 0):
                     Pn = P[(k + 1) % N][0 if iid else i]
-                    Fi = np.concatenate([Acl[k, i], self.Bw[k, i]], axis=1)
-                    Hi = np.concatenate([Ccl[k, i], self.Dw[k, i]], axis=1)
-                    gA = 2 * t[i] * (Pn @ Fi @ Z)[:, :n]
-                    gC = 2 * t[i] * (Hi @ Z)[:, :n]
-                    dF[k, i] += loop.Bu[k, i].T @ gA + self.Du[k, i].T @ gC
-        grad = loop.chain(dF).flat[loop.free] / g2
+                    Fi = np.concatenate([Acl[k, i], Bcl[k, i]], axis=1)
+                    Hi = np.concatenate([Ccl[k, i], Dcl[k, i]], axis=1)
+                    gF = 2 * t[i] * (Pn @ Fi @ Z)
+                    gH = 2 * t[i] * (Hi @ Z)
+                    dF[k, i] += loop.Bu[k, i].T @ gF[:, :n] \
+                        + self.Du[k, i].T @ gH[:, :n]
+                    dFw[k, i] += loop.Bu[k, i].T @ gF[:, n:] \
+                        + self.Du[k, i].T @ gH[:, n:]
+        dK = loop.chain(dF)
+        if self.Ew is not None:
+            for k in range(N):
+                dK[k] += dFw[k].sum(axis=0) @ self.Ew[k].T
+        grad = dK.flat[loop.free] / g2
         return math.log(g2), np.asarray(grad)

@@ -108,6 +108,9 @@ def _not_exact(P: NetworkedStateSpace, controller: str, actuator: str,
     whole state at every step, zero actuator, no delays, a bursty link's
     state revealed at every step)."""
     n = P.nstates
+    if np.any(np.asarray(P.D21) != 0):
+        return ("P", f"P: {who}'s exact program needs a gain on the state "
+                     f"alone; with D21 ≠ 0 it also reads the noise")
     if P.sensor_delay is not None or P.actuator_delay is not None or \
             P.input_delay is not None:
         return ("P", f"P: {who}'s exact program needs the state now; over "
@@ -440,7 +443,7 @@ def _delayed_problem(P: NetworkedStateSpace, controller: str,
         return np.broadcast_to(X, (N,) + X.shape)
 
     mats = (phases(parts.C0), phases(parts.LC), phases(parts.B),
-            phases(parts.D), parts.pi)
+            phases(parts.D), parts.pi, None)
     shape = gain_shape(P, controller)
     starts = []
     try:
@@ -474,9 +477,16 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
         raise ControlArgument("estimator_gain: only with "
                               "controller='estimator'")
     plant = build(P, controller, actuator, estimator_gain=L)
-    plant.require_noise_free("h2syn")
+    if plant.Gw is not None:
+        raise ControlArgument(
+            f"P: design with measurement noise (D21 ≠ 0) is written for the "
+            f"static gain, which reads the noise at once; with "
+            f"controller={controller!r} the noise arrives with the next "
+            f"step: design for D21 = 0 and analyse the loop with the noise, "
+            f"feedback(P, K, controller={controller!r})")
     loop = _Loop(plant, plant.probabilities, plant.transition)
-    mats = (plant.Cz, plant.Du, plant.Bw, plant.Dw, plant.probabilities)
+    mats = (plant.Cz, plant.Du, plant.Bw, plant.Dw, plant.probabilities,
+            plant.Ew)
     starts = [_restrict(loop, _lq_gain(plant, plant.probabilities)),
               np.zeros(loop.free.size)]
     if controller == "static" and plant.shape["nx"] == P.nstates and \

@@ -224,3 +224,34 @@ def test_hinfsyn_over_a_delayed_link_certifies_a_gain_per_age():
     assert gamma == ncs.l2_gain(ncs.feedback(P, K)).gamma
     h2_gain = ncs.h2syn(P)[0]
     assert gamma <= ncs.l2_gain(ncs.feedback(P, h2_gain)).gamma
+
+
+@pytest.mark.parametrize("which", ["h2", "hinf"])
+def test_gradients_through_a_noisy_measurement(which):
+    """y = x + D21 w on a scheduled plant: the noise enters through the
+    gain too (Bcl = Bw + Bu K Ew); both gradients against central
+    differences, the values against the loop's exact norm / l2 gain."""
+    from control_ncs._hinf_design import GainObjective
+    from control_ncs.performance_synthesis import _plant_problem
+    A = np.array([[0.9, 0.3], [0.0, 0.8]])
+    P = ncs.nss(A, np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 0.5]]),
+                np.array([[1.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
+                np.array([[0.2, 0, 0], [0, 0, 0.5], [0, 0.3, 0],
+                          [0.1, 0, 0]]), True, nmeas=2, ncon=1,
+                sensor_schedule=[1, 2], actuator_loss=0.2)
+    mats, loop, shape, close, *_ = _plant_problem(P, "static", "zero", None)
+    objective = (H2Objective if which == "h2" else GainObjective)(loop,
+                                                                 *mats)
+    x = 0.1 * np.random.default_rng(2).standard_normal(loop.free.size)
+    f, grad = objective.value(x)
+    CL = close(loop.gains(x))
+    exact = ncs.norm(CL) ** 2 if which == "h2" else \
+        ncs.l2_gain(CL).gamma ** 2
+    assert math.exp(f) == pytest.approx(exact, rel=1e-10 if which == "h2"
+                                        else 1e-4)
+    h = 1e-5 if which == "h2" else 1e-4
+    central = np.array([(objective.value(x + h * e)[0]
+                         - objective.value(x - h * e)[0]) / (2 * h)
+                        for e in np.eye(x.size)])
+    tol = 1e-6 if which == "h2" else 1e-3
+    assert np.max(np.abs(central - grad)) < tol * np.max(np.abs(grad))

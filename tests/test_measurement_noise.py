@@ -143,8 +143,6 @@ def test_synthesis_refuses_a_noisy_measurement_and_says_what_to_do():
                 [[1.0, 0.0], [0.5, 0.0]], True, nmeas=1, ncon=1)
     with pytest.raises(ControlArgument, match="^P: passivesyn .*D21"):
         ncs.passivesyn(P)
-    with pytest.raises(ControlArgument, match="^P: h2syn .*D21"):
-        ncs.h2syn(P)
     with pytest.raises(ControlArgument, match="^P: sweeps .*D21"):
         ncs.design_map(P, progress=False)
     with pytest.raises(ValueError, match="^D: .*D22"):
@@ -209,6 +207,44 @@ def test_noisy_measurements_over_a_delayed_link_match_the_protocol(
     mean, se = _protocol_power(P, 5, sensor_delay=P.sensor_delay,
                                actuator_delay=P.actuator_delay, **loop)
     assert abs(mean - exact) < 4 * se, (mean, se, exact)
+
+
+def test_h2syn_with_a_noisy_measurement_reaches_the_closed_forms_optimum():
+    """The static gain reads the noise: ``‖G‖₂² = S + q k² (S + d²)`` with
+    ``S = (1 + q k² d²) / (1 - α a² - q (a + k)²)``, minimised over ``k``
+    by a bounded scalar search; h2syn's local search on the exact norm
+    (its gradient through the noise's way in) reaches it."""
+    from scipy.optimize import minimize_scalar
+    a, d, loss = 1.1, 0.5, 0.3
+    P = ncs.nss([[a]], [[1.0, 0.0, 1.0]], [[1.0], [0.0], [1.0]],
+                [[0, 0, 0], [0, 0, 1.0], [0, d, 0]], True, nmeas=1, ncon=1,
+                actuator_loss=loss)
+    q = 1 - loss
+
+    def closed_form(k):
+        den = 1 - loss * a * a - q * (a + k) ** 2
+        if den <= 0:
+            return np.inf
+        S = (1 + q * (k * d) ** 2) / den
+        return S + q * k * k * (S + d * d)
+
+    best = minimize_scalar(closed_form, bounds=(-2.0, 0.0), method="bounded",
+                           options=dict(xatol=1e-12))
+    K, CL, h2 = ncs.h2syn(P)
+    assert K.result.route == "local"
+    assert h2 ** 2 == pytest.approx(best.fun, rel=1e-9)
+    assert K.gains[0, 0, 0] == pytest.approx(best.x, abs=1e-5)
+    K, CL, gamma = ncs.hinfsyn(P)
+    assert gamma == ncs.l2_gain(ncs.feedback(P, K)).gamma
+    assert gamma <= ncs.l2_gain(ncs.feedback(P, [[best.x]])).gamma
+
+
+def test_noisy_design_is_written_for_the_static_gain():
+    P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
+                [[1.0, 0.0], [0.5, 0.0]], True, nmeas=1, ncon=1)
+    with pytest.raises(ControlArgument, match="^P: design with measurement "
+                                              "noise .*static gain"):
+        ncs.h2syn(P, controller="predictor")
 
 
 def test_designs_over_noisy_delayed_links_are_refused_clearly():
