@@ -36,6 +36,7 @@ SECTIONS = [
     ("bench_performance", "performance_section"),
     ("bench_delays", "delays_section"),
     ("bench_delays", "delayed_design_section"),
+    ("bench_structured", "structured_design_section"),
 ]
 
 

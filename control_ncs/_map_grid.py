@@ -1,11 +1,12 @@
-"""The grid a design map runs over: loss probabilities, burst lengths, and
-the plant of each cell (:func:`control_ncs.design_map`).
+"""The grid a design map runs over: loss probabilities, burst lengths,
+delay laws, and the plant of each cell (:func:`control_ncs.design_map`).
 
 A cell's plant is the map's plant with its links replaced: a loss grid sets
 a link's stationary loss (a bursty link keeps its mean burst length, so a
 map over a bursty link stays bursty), and a burst grid makes the link a
 Gilbert–Elliott chain of that loss and that mean burst length
-(:ref:`theory-markov`).
+(:ref:`theory-markov`); a grid of delay laws gives the sensor link each
+law, scaled to the cell's loss (:ref:`theory-delays`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 from control.exception import ControlArgument
 
 from ._checks import finite_real
-from .network import GilbertElliott, gilbert_elliott
+from .network import GilbertElliott, RandomDelay, gilbert_elliott, random_delay
 from .plant import NetworkedStateSpace
 
 __all__: list[str] = []
@@ -91,21 +92,73 @@ def at_loss(link: Any, value: float, burst: float | None = None) -> Any:
             f"bursts of {burst:g} steps ({err})") from None
 
 
+def delay_grid(values: Any, name: str) -> list[RandomDelay]:
+    """A 1-D grid of delay laws (pmfs or :func:`random_delay` links)."""
+    if isinstance(values, RandomDelay):
+        values = [values]
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__len__") \
+            or len(values) == 0:
+        raise ValueError(f"{name}: expected a non-empty list of delay laws "
+                         f"(pmfs, or random_delay links), got {values!r}")
+    out = []
+    for i, v in enumerate(values):
+        try:
+            out.append(v if isinstance(v, RandomDelay) else random_delay(v))
+        except (ValueError, TypeError) as err:
+            raise ValueError(f"{name}[{i}]: {err}") from None
+    return out
+
+
+def mean_delay(link: RandomDelay) -> float:
+    """The mean delay of a delivered packet, ``Σ c q_c / Σ q_c``."""
+    q = np.asarray(link.pmf, float)
+    return float(np.arange(q.size) @ q / q.sum())
+
+
+def at_delay(link: RandomDelay, value: float) -> RandomDelay:
+    """The delay law scaled to the loss ``value`` (its shape and buffer
+    kept): ``q (1 - value) / Σ q``."""
+    q = np.asarray(link.pmf, float)
+    return random_delay(q * (1.0 - value) / q.sum(), link.buffer)
+
+
 def map_cells(P: NetworkedStateSpace, sensor_loss: Any, actuator_loss: Any,
-              sensor_burst: Any, actuator_burst: Any
+              sensor_burst: Any, actuator_burst: Any,
+              sensor_delay: Any = None
               ) -> tuple[tuple[str, str], tuple[np.ndarray, np.ndarray],
                          list[NetworkedStateSpace]]:
     """``(axes, values, cells)`` of a map, cells row-major.
 
-    Without a burst grid the axes are the two links' losses. With one
-    (``sensor_burst`` or ``actuator_burst``) they are that link's loss and
-    mean burst length, and the other link takes its one given loss.
+    Without a burst or delay grid the axes are the two links' losses. With
+    a burst grid (``sensor_burst`` or ``actuator_burst``) they are that
+    link's loss and mean burst length; with ``sensor_delay`` (delay laws)
+    the sensor link's loss and the laws, valued by their mean delay, each
+    law scaled to the cell's loss. The other link takes its one given
+    loss.
     """
     a1 = loss_grid(sensor_loss, "sensor_loss")
     a2 = loss_grid(actuator_loss, "actuator_loss")
     bursts = {link: grid for link, grid in
               (("sensor", sensor_burst), ("actuator", actuator_burst))
               if grid is not None}
+    if sensor_delay is not None:
+        if bursts:
+            raise ControlArgument(
+                f"sensor_delay, {next(iter(bursts))}_burst: a map has two "
+                f"axes; give one grid besides the loss")
+        laws = delay_grid(sensor_delay, "sensor_delay")
+        if a2.size != 1:
+            raise ControlArgument(
+                f"actuator_loss: with sensor_delay the map's axes are "
+                f"sensor_loss and sensor_delay; give one actuator loss, got "
+                f"{a2.size}")
+        kept = at_loss(P.actuator_link, float(a2[0]))
+        cells = [P.with_network(sensor_loss=0.0,
+                                sensor_delay=at_delay(law, x),
+                                actuator_loss=kept)
+                 for x in a1 for law in laws]
+        return (("sensor_loss", "sensor_delay"),
+                (a1, np.array([mean_delay(law) for law in laws])), cells)
     if not bursts:
         return (("sensor_loss", "actuator_loss"), (a1, a2),
                 [P.with_network(sensor_loss=at_loss(P.sensor_link, x),

@@ -154,8 +154,9 @@ def delayed_parts(P: NetworkedStateSpace, controller: str, actuator: str
     A0, L, S, g, C0, LC, B = (np.array(X) for X in zip(*parts))
     if controller == "predictor":
         g = np.zeros_like(g)
-    T = CL.modes.transition
-    assert T is not None                # delayed loops have Markov modes
+    # the chain (a delay law that never delays nor loses gives i.i.d.
+    # modes: their chain has equal rows)
+    T = CL.modes.transitions()
     return DelayedParts(A0, L, S, g, T, C0, LC, B,
                         np.array(CL.modes.D[0]), CL.modes.probabilities)
 

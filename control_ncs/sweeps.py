@@ -40,8 +40,7 @@ from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
                          _letter_maps, _loop_closes, _orbit_count, _prune,
                          _relabellings)
-from .lmi import DEFAULT_MARGIN
-from .performance_synthesis import _full_information, h2syn, hinfsyn
+from .performance_synthesis import h2syn, hinfsyn
 from .stability import ms_radius as _ms_radius
 from .synthesis import METHODS, passivesyn
 
@@ -162,9 +161,18 @@ def _perform_here(P: NetworkedStateSpace, objective: str,
             True)
 
 
+def _delayed(P: NetworkedStateSpace) -> bool:
+    """Whether a cell's plant has delayed links (passivesyn's local search
+    over them takes no method and no start from other cells)."""
+    return P.sensor_delay is not None or P.actuator_delay is not None or \
+        P.input_delay is not None
+
+
 def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
                      decay: float | None, controller: str, actuator: str,
                      method: str = "lmi", initial_gain: Any = None) -> tuple:
+    options = {} if _delayed(P) else dict(method=method,
+                                          initial_gain=initial_gain)
     try:
         with warnings.catch_warnings():
             # a map shows negative levels as they are; one warning per cell
@@ -172,12 +180,14 @@ def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
             warnings.simplefilter("ignore", NotPassiveWarning)
             K, _, eta_c = passivesyn(P, eta, decay=decay,
                                      controller=controller,
-                                     actuator=actuator, method=method,
-                                     initial_gain=initial_gain)
+                                     actuator=actuator, **options)
     except SynthesisError as err:
         return math.nan, math.nan, False, err.reason, None, False
     gains = K.gains if K.gains.ndim == 3 else None    # per phase: a start
     # the certificate's ms_radius is the exact one of the returned loop
+    if _delayed(P):     # the local search's analysis certificate
+        return (float(eta_c), float(K.result.certificate.ms_radius), True,
+                "certified", None, False)
     return (float(eta_c), float(K.result.ms_radius), True, "certified",
             gains, K.result.exact)
 
@@ -203,9 +213,11 @@ def _cells(tasks: list, method: str, executor: Executor | None,
                progress, desc)
     if method != "auto":
         return out
+    # a delayed cell already ran its local search (the LMI does not apply)
     todo = [i for i, r in enumerate(out)
-            if (r[2] and not r[5])
-            or (not r[2] and r[3] not in PROOFS + (TIME_LIMIT,))]
+            if not _delayed(tasks[i][0]) and (
+                (r[2] and not r[5])
+                or (not r[2] and r[3] not in PROOFS + (TIME_LIMIT,)))]
     starts = []
     for i in todo:
         near = [i] + (neighbours(i) if neighbours is not None else [])
@@ -379,7 +391,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
                actuator: str = "zero", executor: Executor | None = None,
                progress: bool | None = None, method: str = "auto",
                objective: str = "eta", sensor_burst: Any = None,
-               actuator_burst: Any = None) -> DesignMap:
+               actuator_burst: Any = None,
+               sensor_delay: Any = None) -> DesignMap:
     """Verified synthesis over a grid of loss probabilities.
 
     Cell ``[i, j]`` is ``passivesyn(P.with_network(sensor_loss=a1[i],
@@ -399,7 +412,11 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     that link's stationary loss and its mean burst length instead: cell
     ``[i, j]`` is the link ``gilbert_elliott(loss=a[i], burst=b[j])``, the
     other link at its one given loss. A burst of ``1/(1 - a)`` steps is the
-    Bernoulli link of loss ``a``.
+    Bernoulli link of loss ``a``. With ``sensor_delay``, a list of delay
+    laws (pmfs or :func:`control_ncs.random_delay` links), the axes are the
+    sensor link's loss and its delay law, valued by its mean delay (of a
+    delivered packet): cell ``[i, j]`` is law ``j`` scaled to the loss
+    ``a[i]`` (its shape and buffer kept).
 
     Parameters
     ----------
@@ -433,14 +450,19 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         cell, each from its own LMI start (slowest).
     objective : {'eta', 'h2', 'hinf'}
         What each cell designs for: passivity with the largest certified
-        ``η`` (default), the least H2 norm, or the least ℓ2 gain. The
-        H2 and H∞ programs are exact for static state feedback (``y = x``
-        at every step) with a zero actuator, over Bernoulli or bursty links
-        (gains on the previous link state), and take
-        none of ``eta``, ``decay``, ``method`` or other controllers.
+        ``η`` (default), the least H2 norm, or the least ℓ2 gain, each cell
+        by :func:`control_ncs.h2syn` / :func:`control_ncs.hinfsyn` with
+        ``controller`` and ``actuator`` (their exact programs for static
+        state feedback with a zero actuator, their local searches for
+        structured gains: schedules, predictor, hold, delayed links); these
+        take none of ``eta``, ``decay`` or ``method``.
     sensor_burst, actuator_burst : sequence of float >= 1, optional
         A grid of mean burst lengths (steps) of one link: the map's second
         axis (the other link's loss grid must then have one value).
+    sensor_delay : sequence of array_like or RandomDelay, optional
+        A grid of delay laws of the sensor link: the map's second axis (the
+        actuator's loss grid must then have one value). Designs over
+        delayed links are local searches on exact figures.
 
     Returns
     -------
@@ -485,7 +507,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     objective = choice(objective, "objective", _MAP_OBJECTIVES)
     P = _plant(P, passivity=objective == "eta")
     axes, (a1, a2), cells = map_cells(P, sensor_loss, actuator_loss,
-                                      sensor_burst, actuator_burst)
+                                      sensor_burst, actuator_burst,
+                                      sensor_delay)
     eta = finite_real(eta, "eta", allow_none=True)
     decay = None if decay is None else decay_bound(decay)
     controller = choice(controller, "controller", _CONTROLLERS)
@@ -506,8 +529,9 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     start = time.perf_counter()
     shape = (a1.size, a2.size)
     if objective != "eta":
-        out = run_tasks(_perform, [(c, objective) for c in cells], executor,
-                        progress, "design_map")
+        out = run_tasks(_perform, [(c, objective, controller, actuator)
+                                   for c in cells], executor, progress,
+                        "design_map")
         reason = np.empty(shape, dtype=object)
         reason.ravel()[:] = [r[3] for r in out]
         return DesignMap(
@@ -541,22 +565,16 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
 def _performance_options(P: NetworkedStateSpace, objective: str,
                          eta: Any, decay: Any, controller: str,
                          actuator: str, method: str) -> None:
-    """The options an H2 or H∞ map refuses, and the checks of h2syn /
-    hinfsyn on ``P`` (state measured at every step, a bursty link's state
-    revealed at every step), said
-    before any cell runs."""
+    """The options an H2 or H∞ map refuses (passivesyn's), said before any
+    cell runs."""
     given = [name for name, value, default in (
         ("eta", eta, None), ("decay", decay, None),
-        ("controller", controller, "static"), ("actuator", actuator, "zero"),
         ("method", method, "auto")) if value != default]
     if given:
         raise ControlArgument(
-            f"{given[0]}: objective={objective!r} designs static state "
-            f"feedback with a zero actuator by its exact program (h2syn / "
-            f"hinfsyn); it takes no {', '.join(given)} (those are "
+            f"{given[0]}: objective={objective!r} designs each cell with "
+            f"h2syn / hinfsyn; it takes no {', '.join(given)} (those are "
             f"passivesyn's options, objective='eta')")
-    _full_information(P, actuator, None, DEFAULT_MARGIN, {},
-                      f"design_map(objective={objective!r})")
 
 
 @dataclass(frozen=True)

@@ -603,8 +603,7 @@ def test_hinf_design_map_cells_are_hinfsyn_and_run_anywhere_alike():
 
 @pytest.mark.parametrize("kwargs, match", [
     (dict(eta=0.1), "^eta:"), (dict(decay=0.9), "^decay:"),
-    (dict(controller="predictor"), "^controller:"),
-    (dict(actuator="hold"), "^actuator:"), (dict(method="lmi"), "^method:"),
+    (dict(method="lmi"), "^method:"),
     (dict(objective="h3"), "^objective:")])
 def test_performance_design_map_refuses_passivity_options(kwargs, match):
     with pytest.raises(ControlArgument, match=match):
@@ -612,16 +611,44 @@ def test_performance_design_map_refuses_passivity_options(kwargs, match):
                        **{"objective": "h2", **kwargs})
 
 
-def test_performance_design_map_needs_the_state_at_every_step():
+def test_performance_design_map_designs_structured_gains_locally():
+    """A sensor schedule or a held command: every cell is h2syn's local
+    design with the map's controller and actuator."""
     scheduled = _two_state_plant().with_network(sensor_schedule=[1, 2])
-    with pytest.raises(ControlArgument, match="^P: .*every step"):
-        ncs.design_map(scheduled, objective="h2", progress=False)
-    hidden = _two_state_plant().with_network(
-        actuator_loss=ncs.gilbert_elliott(fail=0.2, recover=0.5),
-        actuator_schedule=[1, 0])
-    with pytest.raises(ControlArgument, match="hides its state"):
-        ncs.design_map(hidden, actuator_loss=[0.2], objective="hinf",
-                       progress=False)
+    dm = ncs.design_map(scheduled, [0.0], [0.1, 0.3], objective="h2",
+                        progress=False)
+    for j, loss in enumerate((0.1, 0.3)):
+        h2 = ncs.h2syn(scheduled.with_network(actuator_loss=loss))[2]
+        assert dm.value[0, j] == pytest.approx(h2, rel=1e-9)
+    held = ncs.design_map(_two_state_plant(), [0.0], [0.2], objective="h2",
+                          actuator="hold", progress=False)
+    assert held.value[0, 0] == pytest.approx(ncs.h2syn(
+        _two_state_plant().with_network(actuator_loss=0.2),
+        actuator="hold")[2], rel=1e-9)
+
+
+def test_a_map_over_delay_laws_prices_each_delay():
+    """Axes (sensor loss, delay law valued by its mean delay): the law with
+    all its mass at 0 is the Bernoulli link, where the exact program and
+    the local search over the delayed link agree; longer delays cost."""
+    P = _two_state_plant()
+    laws = [[1.0], [0.5, 0.5], [0.2, 0.3, 0.5]]
+    dm = ncs.design_map(P, sensor_loss=[0.0, 0.2], sensor_delay=laws,
+                        objective="h2", progress=False)
+    assert dm.axes == ("sensor_loss", "sensor_delay")
+    np.testing.assert_allclose(dm.values[1], [0.0, 0.5, 1.3])
+    for i, loss in enumerate((0.0, 0.2)):
+        exact = ncs.h2syn(P.with_network(sensor_loss=loss))[2]
+        assert dm.value[i, 0] == pytest.approx(exact, rel=1e-7)
+        assert np.all(np.diff(dm.value[i]) > 0)
+    late = P.with_network(sensor_delay=[0.4, 0.4])
+    assert dm.value[1, 1] == pytest.approx(ncs.h2syn(late)[2], rel=1e-9)
+    with pytest.raises(ControlArgument, match="^actuator_loss: with sensor_"):
+        ncs.design_map(P, [0.0], [0.0, 0.1], sensor_delay=laws,
+                       objective="h2", progress=False)
+    with pytest.raises(ValueError, match=r"^sensor_delay\[1\]:"):
+        ncs.design_map(P, [0.0], sensor_delay=[[1.0], [0.7, 0.7]],
+                       objective="h2", progress=False)
 
 
 def test_critical_loss_of_an_h2_spec_matches_the_closed_form():
