@@ -19,30 +19,27 @@ from __future__ import annotations
 
 import importlib
 import math
-import threading
 import time
 import warnings
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import control as ct
 from control.exception import ControlArgument, ControlDimension
 
-from .exceptions import (PROOFS, TIME_LIMIT, CertificationError,
-                         NotPassiveWarning, ScheduleWarning, SynthesisError)
+from .exceptions import (ScheduleWarning)
 from .plant import NetworkedStateSpace
 from ._checks import (choice, decay_bound, finite_real, flag,
                       positive_int)
 from ._map_grid import loss, map_cells
+from ._sweep_cells import design_cells, perform
 from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
                          _letter_maps, _loop_closes, _orbit_count, _prune,
                          _relabellings)
-from .performance_synthesis import h2syn, hinfsyn
-from .stability import ms_radius as _ms_radius
-from .synthesis import METHODS, passivesyn
+from .synthesis import METHODS
 
 __all__ = ["design_map", "DesignMap", "schedule_search", "ScheduleSearch",
            "RankedSchedule"]
@@ -90,146 +87,6 @@ def _plant(P: Any, passivity: bool = True) -> NetworkedStateSpace:
             f"P: passivity needs w and z of equal, nonzero size (m1 = p1), "
             f"got {m1} disturbance inputs and {p1} performance outputs")
     return P
-
-
-# -- running tasks --------------------------------------------------------------
-
-def _in_own_thread(func: Callable, *args: Any) -> Any:
-    """``func(*args)`` in a thread of its own, its exception re-raised here.
-
-    The compiled LMIs are cached per thread (``lmi/_core.py``), and a solve
-    through a freshly compiled problem and one through a cached compilation
-    differ in the last bits (measured: 4e-11 relative in η). A new thread
-    starts with an empty cache, so every cell is computed the same way
-    whichever worker runs it and whatever it ran before: the results do not
-    depend on the executor.
-    """
-    box: dict = {}
-
-    def target() -> None:
-        try:
-            box["value"] = func(*args)
-        except BaseException as err:  # re-raised in the caller's thread
-            box["error"] = err
-
-    worker = threading.Thread(target=target, name="control_ncs-sweep",
-                              daemon=True)
-    worker.start()
-    worker.join()
-    if "error" in box:
-        raise box["error"]
-    return box["value"]
-
-
-def _synthesise(P: NetworkedStateSpace, eta: float | None,
-                decay: float | None, controller: str, actuator: str,
-                method: str = "lmi", initial_gain: Any = None) -> tuple:
-    """One cell: ``(eta, ms_radius, feasible, reason, gains, exact)`` from
-    passivesyn (``gains`` None where nothing is certified; ``exact``: the
-    certified level is the best of its kind).
-
-    Module level, so that a process pool or a Dask worker can unpickle it;
-    run in its own thread (:func:`_in_own_thread`).
-    """
-    return _in_own_thread(_synthesise_here, P, eta, decay, controller,
-                          actuator, method, initial_gain)
-
-
-def _perform(P: NetworkedStateSpace, objective: str,
-             controller: str = "static", actuator: str = "zero") -> tuple:
-    """One cell of an H2 or H∞ map: ``(value, ms_radius, feasible, reason,
-    gains, exact)`` from h2syn or hinfsyn, the value the exact analysis of
-    the designed loop (never the solver's). Module level and in its own
-    thread, as :func:`_synthesise`."""
-    return _in_own_thread(_perform_here, P, objective, controller, actuator)
-
-
-def _perform_here(P: NetworkedStateSpace, objective: str,
-                  controller: str = "static", actuator: str = "zero"
-                  ) -> tuple:
-    design = h2syn if objective == "h2" else hinfsyn
-    try:
-        with warnings.catch_warnings():
-            # a search enumerates schedules that leave nodes silent on
-            # purpose; the warning is for schedules a user writes
-            warnings.simplefilter("ignore", ScheduleWarning)
-            K, CL, value = design(P, controller=controller,
-                                  actuator=actuator)
-    except CertificationError as err:
-        return math.nan, math.nan, False, err.reason, None, False
-    return (float(value), float(_ms_radius(CL)), True, "certified", K.gains,
-            True)
-
-
-def _delayed(P: NetworkedStateSpace) -> bool:
-    """Whether a cell's plant has delayed links (passivesyn's local search
-    over them takes no method and no start from other cells)."""
-    return P.sensor_delay is not None or P.actuator_delay is not None or \
-        P.input_delay is not None
-
-
-def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
-                     decay: float | None, controller: str, actuator: str,
-                     method: str = "lmi", initial_gain: Any = None) -> tuple:
-    options = {} if _delayed(P) else dict(method=method,
-                                          initial_gain=initial_gain)
-    try:
-        with warnings.catch_warnings():
-            # a map shows negative levels as they are; one warning per cell
-            # would only repeat the colour scale
-            warnings.simplefilter("ignore", NotPassiveWarning)
-            K, _, eta_c = passivesyn(P, eta, decay=decay,
-                                     controller=controller,
-                                     actuator=actuator, **options)
-    except SynthesisError as err:
-        return math.nan, math.nan, False, err.reason, None, False
-    gains = K.gains if K.gains.ndim == 3 else None    # per phase: a start
-    # the certificate's ms_radius is the exact one of the returned loop
-    if _delayed(P):     # the local search's analysis certificate
-        return (float(eta_c), float(K.result.certificate.ms_radius), True,
-                "certified", None, False)
-    return (float(eta_c), float(K.result.ms_radius), True, "certified",
-            gains, K.result.exact)
-
-
-def _cells(tasks: list, method: str, executor: Executor | None,
-           progress: bool, desc: str, neighbours: Callable | None = None
-           ) -> list:
-    """Every cell designed with ``method``.
-
-    ``'auto'`` in two passes, so that a sweep costs little more than its
-    LMIs: every cell by the LMI first (exact where it can be, fast
-    everywhere); then every cell where the LMI is only sufficient and no
-    proof settled it is refined, started from its own certified LMI gain,
-    else from the certified gain of its nearest certified neighbour
-    (``neighbours(i)``: cell indices, nearest first), so that the LMI is
-    not solved twice; a cell without any start runs passivesyn's own
-    'auto'. The better certified level of the two passes is kept. The
-    second pass reads only the first pass's results, so the result does not
-    depend on the executor or on the order in which cells finish.
-    """
-    first = "lmi" if method == "auto" else method
-    out = run_tasks(_synthesise, [t + (first,) for t in tasks], executor,
-               progress, desc)
-    if method != "auto":
-        return out
-    # a delayed cell already ran its local search (the LMI does not apply)
-    todo = [i for i, r in enumerate(out)
-            if not _delayed(tasks[i][0]) and (
-                (r[2] and not r[5])
-                or (not r[2] and r[3] not in PROOFS + (TIME_LIMIT,)))]
-    starts = []
-    for i in todo:
-        near = [i] + (neighbours(i) if neighbours is not None else [])
-        starts.append(next((out[j][4] for j in near
-                            if out[j][2] and out[j][4] is not None), None))
-    again = run_tasks(_synthesise, [tasks[i] + ("auto", s)
-                               for i, s in zip(todo, starts)],
-                 executor, progress, desc)
-    for i, r in zip(todo, again):
-        if r[2] and (not out[i][2] or r[0] > out[i][0]):
-            out[i] = r
-    return out
 
 
 # -- design maps ----------------------------------------------------------------
@@ -529,7 +386,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     start = time.perf_counter()
     shape = (a1.size, a2.size)
     if objective != "eta":
-        out = run_tasks(_perform, [(c, objective, controller, actuator)
+        out = run_tasks(perform, [(c, objective, controller, actuator)
                                    for c in cells], executor, progress,
                         "design_map")
         reason = np.empty(shape, dtype=object)
@@ -550,7 +407,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
                  if (u, v) != (i, j)]
         return [c for _, c in sorted(cells)]
 
-    out = _cells(tasks, method, executor, progress, "design_map", neighbours)
+    out = design_cells(tasks, method, executor, progress, "design_map",
+                       neighbours)
     reason = np.empty(shape, dtype=object)
     reason.ravel()[:] = [r[3] for r in out]
     return DesignMap(
@@ -985,7 +843,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     feasible = np.zeros(len(words), dtype=bool)
     value = None
     if performance:
-        out = run_tasks(_perform, [(t[0], objective, controller, actuator)
+        out = run_tasks(perform, [(t[0], objective, controller, actuator)
                                    for t in tasks], executor, progress,
                         "schedule_search")
         value = np.full(len(words), math.nan)
@@ -994,7 +852,8 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     else:
         # schedules are not neighbours of one another: the refinement of a
         # cell the LMI leaves open starts from that cell's own LMI gain
-        out = _cells(tasks, method, executor, progress, "schedule_search")
+        out = design_cells(tasks, method, executor, progress,
+                           "schedule_search")
         for t, (e, r, ok, why, _, _) in zip(todo, out):
             eta_a[t], rate[t], feasible[t], reason[t] = e, r, ok, why
     good = np.flatnonzero(feasible)

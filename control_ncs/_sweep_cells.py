@@ -1,0 +1,165 @@
+"""One cell of a sweep: a design run in a thread of its own, by passivesyn,
+h2syn or hinfsyn, reported as plain numbers (:mod:`control_ncs.sweeps`).
+
+Each cell is a module-level function, so that a process pool (or a Dask
+cluster) can pickle it; :func:`design_cells` runs a list of them in the two passes
+of ``method='auto'``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import warnings
+from concurrent.futures import Executor
+from typing import Any, Callable
+
+from .exceptions import (PROOFS, TIME_LIMIT, CertificationError,
+                         NotPassiveWarning, ScheduleWarning, SynthesisError)
+from .performance_synthesis import h2syn, hinfsyn
+from .plant import NetworkedStateSpace
+from .stability import ms_radius as _ms_radius
+from .synthesis import passivesyn
+from ._tasks import run_tasks
+
+__all__: list[str] = []
+
+
+def in_own_thread(func: Callable, *args: Any) -> Any:
+    """``func(*args)`` in a thread of its own, its exception re-raised here.
+
+    The compiled LMIs are cached per thread (``lmi/_core.py``), and a solve
+    through a freshly compiled problem and one through a cached compilation
+    differ in the last bits (measured: 4e-11 relative in η). A new thread
+    starts with an empty cache, so every cell is computed the same way
+    whichever worker runs it and whatever it ran before: the results do not
+    depend on the executor.
+    """
+    box: dict = {}
+
+    def target() -> None:
+        try:
+            box["value"] = func(*args)
+        except BaseException as err:  # re-raised in the caller's thread
+            box["error"] = err
+
+    worker = threading.Thread(target=target, name="control_ncs-sweep",
+                              daemon=True)
+    worker.start()
+    worker.join()
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
+
+
+def synthesise(P: NetworkedStateSpace, eta: float | None,
+                decay: float | None, controller: str, actuator: str,
+                method: str = "lmi", initial_gain: Any = None) -> tuple:
+    """One cell: ``(eta, ms_radius, feasible, reason, gains, exact)`` from
+    passivesyn (``gains`` None where nothing is certified; ``exact``: the
+    certified level is the best of its kind).
+
+    Module level, so that a process pool or a Dask worker can unpickle it;
+    run in its own thread (:func:`in_own_thread`).
+    """
+    return in_own_thread(_synthesise_here, P, eta, decay, controller,
+                          actuator, method, initial_gain)
+
+
+def perform(P: NetworkedStateSpace, objective: str,
+             controller: str = "static", actuator: str = "zero") -> tuple:
+    """One cell of an H2 or H∞ map: ``(value, ms_radius, feasible, reason,
+    gains, exact)`` from h2syn or hinfsyn, the value the exact analysis of
+    the designed loop (never the solver's). Module level and in its own
+    thread, as :func:`synthesise`."""
+    return in_own_thread(_perform_here, P, objective, controller, actuator)
+
+
+def _perform_here(P: NetworkedStateSpace, objective: str,
+                  controller: str = "static", actuator: str = "zero"
+                  ) -> tuple:
+    design = h2syn if objective == "h2" else hinfsyn
+    try:
+        with warnings.catch_warnings():
+            # a search enumerates schedules that leave nodes silent on
+            # purpose; the warning is for schedules a user writes
+            warnings.simplefilter("ignore", ScheduleWarning)
+            K, CL, value = design(P, controller=controller,
+                                  actuator=actuator)
+    except CertificationError as err:
+        return math.nan, math.nan, False, err.reason, None, False
+    return (float(value), float(_ms_radius(CL)), True, "certified", K.gains,
+            True)
+
+
+def _delayed(P: NetworkedStateSpace) -> bool:
+    """Whether a cell's plant has delayed links (passivesyn's local search
+    over them takes no method and no start from other cells)."""
+    return P.sensor_delay is not None or P.actuator_delay is not None or \
+        P.input_delay is not None
+
+
+def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
+                     decay: float | None, controller: str, actuator: str,
+                     method: str = "lmi", initial_gain: Any = None) -> tuple:
+    options = {} if _delayed(P) else dict(method=method,
+                                          initial_gain=initial_gain)
+    try:
+        with warnings.catch_warnings():
+            # a map shows negative levels as they are; one warning per cell
+            # would only repeat the colour scale
+            warnings.simplefilter("ignore", NotPassiveWarning)
+            K, _, eta_c = passivesyn(P, eta, decay=decay,
+                                     controller=controller,
+                                     actuator=actuator, **options)
+    except SynthesisError as err:
+        return math.nan, math.nan, False, err.reason, None, False
+    gains = K.gains if K.gains.ndim == 3 else None    # per phase: a start
+    # the certificate's ms_radius is the exact one of the returned loop
+    if _delayed(P):     # the local search's analysis certificate
+        return (float(eta_c), float(K.result.certificate.ms_radius), True,
+                "certified", None, False)
+    return (float(eta_c), float(K.result.ms_radius), True, "certified",
+            gains, K.result.exact)
+
+
+def design_cells(tasks: list, method: str, executor: Executor | None,
+           progress: bool, desc: str, neighbours: Callable | None = None
+           ) -> list:
+    """Every cell designed with ``method``.
+
+    ``'auto'`` in two passes, so that a sweep costs little more than its
+    LMIs: every cell by the LMI first (exact where it can be, fast
+    everywhere); then every cell where the LMI is only sufficient and no
+    proof settled it is refined, started from its own certified LMI gain,
+    else from the certified gain of its nearest certified neighbour
+    (``neighbours(i)``: cell indices, nearest first), so that the LMI is
+    not solved twice; a cell without any start runs passivesyn's own
+    'auto'. The better certified level of the two passes is kept. The
+    second pass reads only the first pass's results, so the result does not
+    depend on the executor or on the order in which cells finish.
+    """
+    first = "lmi" if method == "auto" else method
+    out = run_tasks(synthesise, [t + (first,) for t in tasks], executor,
+               progress, desc)
+    if method != "auto":
+        return out
+    # a delayed cell already ran its local search (the LMI does not apply)
+    todo = [i for i, r in enumerate(out)
+            if not _delayed(tasks[i][0]) and (
+                (r[2] and not r[5])
+                or (not r[2] and r[3] not in PROOFS + (TIME_LIMIT,)))]
+    starts = []
+    for i in todo:
+        near = [i] + (neighbours(i) if neighbours is not None else [])
+        starts.append(next((out[j][4] for j in near
+                            if out[j][2] and out[j][4] is not None), None))
+    again = run_tasks(synthesise, [tasks[i] + ("auto", s)
+                               for i, s in zip(todo, starts)],
+                 executor, progress, desc)
+    for i, r in zip(todo, again):
+        if r[2] and (not out[i][2] or r[0] > out[i][0]):
+            out[i] = r
+    return out
+
+
