@@ -470,7 +470,12 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     state-feedback loop over its actuator link, see the critical arrival
     probability :func:`control_ncs.dlqr` states; ``K=None`` returns that
     loss (``1 - ν_c``: exact when ``B2`` is square and invertible, from a
-    bisection otherwise).
+    bisection otherwise). ``K=None`` with a spec measures the best design
+    at each loss instead of one gain's loop: :func:`control_ncs.h2syn` or
+    :func:`control_ncs.hinfsyn` (their exact programs where the gain sees
+    the whole state, the global optimum; their local searches otherwise)
+    or :func:`control_ncs.passivesyn` for ``eta``, with ``**kwargs`` as
+    their ``controller`` and ``actuator``.
 
     Parameters
     ----------
@@ -479,23 +484,21 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     K : array_like or PeriodicGain, optional
         The gain, as for :func:`control_ncs.feedback`. None: the loss beyond
         which no state feedback over the actuator link stabilises the loop
-        (period 1, ``y = x``).
+        (period 1, ``y = x``), or, with a spec, the best design's.
     link : {'actuator', 'sensor'}, optional
         Which link's loss varies.
     tol : float, optional
         Width of the final bracket.
     h2 : float, optional
         A bound on the loop's H2 norm (a spec): return the loss at which
-        the norm reaches it. Needs a gain ``K``; the best gain's H2 norm at
-        each loss is :func:`control_ncs.design_map` with
-        ``objective='h2'``.
+        the norm reaches it.
     hinf : float, optional
         A bound on the loop's ℓ2 gain (H∞ norm), certified at each loss
-        tried. Needs a gain ``K``.
+        tried.
     eta : float, optional
         A passivity level (the output-feedback index ``η`` of
-        :ref:`theory-passivity`), certified at each loss tried. Needs a gain
-        ``K``. At most one of ``h2``, ``hinf`` and ``eta``.
+        :ref:`theory-passivity`), certified at each loss tried. At most one
+        of ``h2``, ``hinf`` and ``eta``.
     **kwargs
         Passed to :func:`control_ncs.feedback` (``controller``,
         ``actuator``).
@@ -542,6 +545,12 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
 
     >>> round(ncs.critical_loss(P, [[-2.0]], hinf=3.0, tol=1e-4), 3)
     0.167
+
+    The best gain at each loss (h2syn, here its exact program: deadbeat)
+    keeps the H2 norm below 2 up to the same loss, 3/16:
+
+    >>> round(ncs.critical_loss(P, h2=2.0), 5)
+    0.1875
     """
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
@@ -556,12 +565,7 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     h2 = None if h2 is None else positive_real(h2, "h2")
     hinf = None if hinf is None else positive_real(hinf, "hinf")
     eta = None if eta is None else finite_real(eta, "eta")
-    if specs and K is None:
-        raise ControlArgument(
-            f"K: critical_loss({specs[0]}=...) measures a given gain's loop; "
-            f"the best gain's figure at each loss is design_map(P, ..., "
-            f"objective='{specs[0]}')")
-    if K is None:
+    if K is None and not specs:
         if link != "actuator" or P.period != 1 or not np.array_equal(
                 P.C2, np.eye(P.nstates)):
             raise ControlArgument(
@@ -575,6 +579,8 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
 
     def stable(alpha: float) -> bool:
         Pa = P.with_network(**{f"{link}_loss": alpha})
+        if K is None:
+            return _best_meets(Pa, h2, hinf, eta, kwargs)
         CL = feedback(Pa, K, **kwargs)
         if h2 is not None:
             return norm(CL, print_warning=False) < h2
@@ -614,6 +620,27 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
                 f"K: the loop is not {what} at loss {hi:.6g} but is again "
                 f"at {alpha:.6g}; no single critical loss exists")
     return float(hi)
+
+
+def _best_meets(P: NetworkedStateSpace, h2: float | None,
+                hinf: float | None, eta: float | None, options: dict
+                ) -> bool:
+    """Whether the best design of ``P`` meets the spec (certified)."""
+    import warnings
+    from .exceptions import NotPassiveWarning
+    from .performance_synthesis import h2syn, hinfsyn
+    from .synthesis import passivesyn
+    try:
+        if h2 is not None:
+            return h2syn(P, **options)[2] < h2
+        if hinf is not None:
+            return hinfsyn(P, **options)[2] < hinf
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NotPassiveWarning)
+            return eta is not None and \
+                passivesyn(P, None, **options)[2] >= eta
+    except CertificationError:          # no certified design there
+        return False
 
 
 @dataclass(repr=False)
