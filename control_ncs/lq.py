@@ -9,7 +9,9 @@ Schenato et al. (2007),
 
 ``ν`` the probability that a command arrives. The optimal gain is the
 loss-free formula at this ``S``; it exists only above a critical arrival
-probability (for a scalar plant ``ν > 1 - 1/a²``).
+probability (for a scalar plant ``ν > 1 - 1/a²``). Over a bursty
+(Gilbert–Elliott) link the cost-to-go depends on the previous link state,
+and the equations are coupled (:func:`_bursty`).
 """
 
 from __future__ import annotations
@@ -79,25 +81,30 @@ def critical_arrival(A: np.ndarray, B: np.ndarray, Q: np.ndarray,
     return hi, False
 
 
-def _plant(args: tuple, arrival: Any) -> tuple[np.ndarray, np.ndarray, float]:
-    """``(A, B, ν)`` from ``(sys,)`` or ``(A, B)``, and the arrival law."""
+def _plant(args: tuple, arrival: Any) -> tuple[np.ndarray, np.ndarray, Any]:
+    """``(A, B, ν)`` from ``(sys,)`` or ``(A, B)``, and the arrival law:
+    a probability, or a bursty actuator link (:class:`GilbertElliott`)."""
     if len(args) == 1:
         sys = args[0]
         if isinstance(sys, NetworkedStateSpace):
             if arrival is not None:
                 raise ControlArgument("arrival: a NetworkedStateSpace carries "
                                       "its actuator link; do not give arrival")
-            if sys.period != 1 or isinstance(sys.actuator_link,
-                                             GilbertElliott) \
+            delayed = sys.sensor_delay is not None or \
+                sys.actuator_delay is not None or sys.input_delay is not None
+            if sys.period != 1 or delayed \
                     or isinstance(sys.sensor_link, GilbertElliott) \
                     or sys.sensor_loss:
                 raise ControlArgument(
-                    "sys: dlqr solves the loss-free-sensor, Bernoulli-"
-                    "actuator LQ problem (period 1, sensor_loss=0, no bursts);"
-                    " for schedules, sensor losses or bursts design with "
-                    "passivesyn or refine_gain")
-            return (np.asarray(sys.A, float), np.asarray(sys.B2, float),
-                    1.0 - float(sys.actuator_loss))
+                    "sys: dlqr solves LQ over a lossy actuator link with the "
+                    "state measured (period 1, sensor_loss=0, no delays); "
+                    "for schedules, sensor losses or delays design with "
+                    "h2syn (z = [Q^½ x; R^½ u]) or passivesyn")
+            link = sys.actuator_link
+            A, B = np.asarray(sys.A, float), np.asarray(sys.B2, float)
+            if isinstance(link, GilbertElliott) and not link.is_bernoulli:
+                return A, B, link
+            return A, B, 1.0 - float(sys.actuator_loss)
         if not isinstance(sys, ct.StateSpace):
             raise ControlArgument(f"sys: expected a discrete-time StateSpace "
                                   f"or (A, B), got {type(sys).__name__}")
@@ -146,13 +153,18 @@ def dlqr(*args: Any, arrival: float | None = None, **kwargs: Any
     Returns
     -------
     K : ndarray
-        The gain, ``u = -K x``.
+        The gain, ``u = -K x``. Over a bursty link, one per previous link
+        state (lost, delivered), shape ``(2, m, n)``: the controller knows
+        from the acknowledgement whether its last command arrived.
     S : ndarray
         The solution of the modified Riccati equation (cost ``x₀ᵀSx₀``;
         with unit process noise ``B1`` the stationary cost is
-        ``tr(B1ᵀ S B1)``).
+        ``tr(B1ᵀ S B1)``). Over a bursty link the coupled equations' ``S_ℓ``
+        per previous link state, shape ``(2, n, n)`` (stationary cost
+        ``Σ_ℓ π_ℓ tr(B1ᵀ S_ℓ B1)``).
     E : ndarray
-        Eigenvalues of the mean closed loop ``A - ν B K``.
+        Eigenvalues of the mean closed loop ``A - ν B K``; over a bursty
+        link those of ``A - B K_ℓ`` (commands arriving), shape ``(2, n)``.
 
     Raises
     ------
@@ -189,6 +201,8 @@ def dlqr(*args: Any, arrival: float | None = None, **kwargs: Any
         raise ValueError("Q: expected a positive semidefinite weight")
     if np.linalg.eigvalsh(R)[0] <= 0:
         raise ValueError("R: expected a positive definite weight")
+    if isinstance(nu, GilbertElliott):
+        return _bursty(A, B, Q, R, nu)
     S = _iterate(A, B, Q, R, nu)
     if S is None:
         critical, exact = critical_arrival(A, B, Q, R)
@@ -211,3 +225,62 @@ def dlqr(*args: Any, arrival: float | None = None, **kwargs: Any
                          "mean-square stable (the Riccati solution is not the "
                          "stabilising one)")
     return K, S, np.linalg.eigvals(A - nu * B @ K)
+
+
+def _bursty(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
+            link: GilbertElliott
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """TCP-like LQ over a Gilbert–Elliott actuator link: the coupled
+    Riccati equations of the previous link state ``ℓ`` (0 lost, 1
+    delivered), by value iteration from ``S_ℓ = Q``,
+
+    ``S_ℓ = Q + Aᵀ S̄_ℓ A - g_ℓᵀ H_ℓ⁻¹ g_ℓ``, ``S̄_ℓ = Σ_i T[ℓ, i] S_i``,
+    ``H_ℓ = Σ_i T[ℓ, i] θ_i (R + Bᵀ S_i B)``, ``g_ℓ = Σ_i T[ℓ, i] θ_i Bᵀ
+    S_i A``, ``K_ℓ = H_ℓ⁻¹ g_ℓ`` (:ref:`theory-performance`)."""
+    T = np.asarray(link.transition, float)
+    theta = np.array([0.0, 1.0])
+    n = A.shape[0]
+    S = np.array([Q, Q])
+    scale = max(1.0, float(np.linalg.norm(Q)), float(np.linalg.norm(R)))
+    K = np.zeros((2, B.shape[1], n))
+    for _ in range(MAX_ITERATIONS):
+        new = np.empty_like(S)
+        for ell in range(2):
+            t = T[ell] * theta
+            H = sum(t[i] * (R + B.T @ S[i] @ B) for i in range(2))
+            g = sum(t[i] * B.T @ S[i] @ A for i in range(2))
+            K[ell] = np.linalg.solve(H, g)
+            Sbar = T[ell, 0] * S[0] + T[ell, 1] * S[1]
+            new[ell] = Q + A.T @ Sbar @ A - g.T @ K[ell]
+        new = 0.5 * (new + new.transpose(0, 2, 1))
+        if not np.all(np.isfinite(new)) or np.linalg.norm(new) > \
+                DIVERGED * scale:
+            raise ValueError(
+                f"sys: over this bursty link (fail {link.fail:g}, recover "
+                f"{link.recover:g}) the coupled Riccati iteration diverges: "
+                f"the expected cost is unbounded for every controller (the "
+                f"link stays down too long for the plant); shorter bursts "
+                f"or fewer losses are needed")
+        done = np.linalg.norm(new - S) <= CONVERGED * max(
+            1.0, float(np.linalg.norm(new)))
+        S = new
+        if done:
+            break
+    else:
+        raise ValueError("dlqr: the coupled Riccati iteration did not "
+                         "converge")
+    # the loop with gains on the previous link state must be mean-square
+    # stable: Markov modes (ℓ, i), x⁺ = (A - θ_i B K_ℓ) x
+    modes = [A - theta[i] * B @ K[ell] for ell in range(2) for i in range(2)]
+    chain = np.kron(np.ones((2, 1)), np.eye(2))     # (ℓ, i) → (i, ·)
+    pair_T = np.array([[T[i, j] if chain[a, i] else 0.0
+                        for i in range(2) for j in range(2)]
+                       for a in range(4)])
+    loop = jss(np.array(modes), np.zeros((n, 1)), np.zeros((1, n)),
+               np.zeros((1, 1)), None, transition=pair_T)
+    if not ms_radius(loop) < 1.0:
+        raise ValueError("dlqr: the gains do not make the bursty loop "
+                         "mean-square stable (the Riccati solution is not "
+                         "the stabilising one)")
+    return K, S, np.array([np.linalg.eigvals(A - B @ K[ell])
+                           for ell in range(2)])

@@ -265,6 +265,32 @@ def test_dlqr_refuses_what_it_does_not_solve():
         ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]], arrival=1.5)
 
 
+def test_dlqr_over_a_bursty_link_solves_the_coupled_riccati_equations():
+    """Gains on the previous link state: the scalar value iteration of the
+    tests, and h2syn's convex program on a two-state plant (z = [x; θu],
+    unit noise on the state: cost Σ π_ℓ tr S_ℓ)."""
+    link = ncs.gilbert_elliott(fail=0.2, recover=0.6)
+    pi = np.array([0.2, 0.6]) / 0.8                    # (lost, delivered)
+    K, S, E = ncs.dlqr(_lq_plant(loss=link), [[1.0]], [[1.0]])
+    assert K.shape == (2, 1, 1) and S.shape == (2, 1, 1) and E.shape == (2, 1)
+    assert pi @ S[:, 0, 0] == pytest.approx(
+        _bursty_lq_cost(1.2, 1.0, 0.2, 0.6), rel=1e-10)
+    A, B = np.array([[1.1, 0.3], [0.0, 0.9]]), np.array([[0.0], [1.0]])
+    P = ncs.nss(A, np.hstack([np.eye(2), B]),
+                np.vstack([np.eye(2), np.zeros((1, 2)), np.eye(2)]),
+                np.vstack([np.zeros((2, 3)), [[0, 0, 1.0]],
+                           np.zeros((2, 3))]), True, nmeas=2, ncon=1,
+                actuator_loss=link)
+    K, S, _ = ncs.dlqr(P, np.eye(2), [[1.0]])
+    Kh, _, h2 = ncs.h2syn(P)
+    assert sum(pi[ell] * np.trace(S[ell]) for ell in range(2)) == \
+        pytest.approx(h2 ** 2, rel=1e-9)
+    np.testing.assert_allclose(-K[1], Kh.gains[0, -1], rtol=1e-5)
+    with pytest.raises(ValueError, match="^sys: .*diverges"):
+        ncs.dlqr(_lq_plant(loss=ncs.gilbert_elliott(fail=0.3, recover=0.3)),
+                 [[1.0]], [[1.0]])
+
+
 # -- H2 synthesis -----------------------------------------------------------------
 def _lq_plant(loss=0.5, **network):
     """x⁺ = 1.2 x + θ u + w, z = [x; θu], y = x."""
