@@ -24,6 +24,11 @@ independent chains (``T = T_a ⊗ T_b``). In mode ``(a, b)``:
   an LTI controller ``xc⁺ = Ac xc + Bc ŷ``, ``v = Cc xc + Dc ŷ`` reads
   ``ŷ_k = y_{k-a}``, and 0 or the last value it read (``sensor='hold'``)
   when the measurement is stale;
+  the estimator keeps its estimates of the last ``Ds + 1`` steps and,
+  when the freshest measurement is new (fresher than the one used the step
+  before), corrects the estimate of its step and carries the correction to
+  the present, ``x̂'_{k-j} = x̂_{k-j} + A^{a-j} L (y_{k-a} - C2 x̂_{k-a})``,
+  then sends ``v_k = K x̂'_k`` (its mode is the pair of consecutive ages);
 * the actuator applies the freshest command, ``u_k = v_{k-b}``; zero, or the
   last applied input (``'hold'``), when the command is stale.
 
@@ -46,7 +51,7 @@ from .plant import NetworkedStateSpace
 
 __all__: list[str] = []
 
-CONTROLLERS = ("static", "predictor", "lti")
+CONTROLLERS = ("static", "predictor", "estimator", "lti")
 ACTUATORS = ("zero", "hold")
 
 
@@ -82,7 +87,8 @@ def _gains(K: Any, count: int, shape: tuple[int, int]) -> np.ndarray:
 
 
 def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
-                 actuator: str, sensor: str = "zero") -> JumpStateSpace:
+                 actuator: str, sensor: str = "zero",
+                 estimator_gain: Any = None) -> JumpStateSpace:
     """The closed loop of ``P`` over its delayed links (module docstring).
 
     Parameters
@@ -93,10 +99,12 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
         The gain ``(ncon, nmeas)`` (predictor: ``(ncon, n)``), or one per
         sensor age, ``(Ds + 1, …)``; for ``controller='lti'`` the
         controller, discrete-time with the plant's ``dt``.
-    controller : {'static', 'predictor', 'lti'}
+    controller : {'static', 'predictor', 'estimator', 'lti'}
     actuator : {'zero', 'hold'}
     sensor : {'zero', 'hold'}
         LTI controller: what it reads when the measurement is stale.
+    estimator_gain : array_like, shape (n, nmeas), optional
+        The estimator's ``L`` (``controller='estimator'``).
 
     Returns
     -------
@@ -105,7 +113,7 @@ def delayed_loop(P: NetworkedStateSpace, K: Any, controller: str,
         stale), ``b`` the actuator age, and ``τ`` the input delay when the
         plant has one (``(a, b, τ)``); ``info['delay_modes']`` names them.
     """
-    return _build(P, K, controller, actuator, sensor)[0]
+    return _build(P, K, controller, actuator, sensor, estimator_gain)[0]
 
 
 def gain_shape(P: NetworkedStateSpace, controller: str) -> tuple[int, ...]:
@@ -162,7 +170,8 @@ def delayed_parts(P: NetworkedStateSpace, controller: str, actuator: str
 
 
 def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
-           sensor: str) -> tuple[JumpStateSpace, list[tuple]]:
+           sensor: str, estimator_gain: Any = None
+           ) -> tuple[JumpStateSpace, list[tuple]]:
     """:func:`delayed_loop` and, for gains, its affine parts per mode."""
     if controller not in CONTROLLERS:
         raise ControlArgument(f"controller: over delayed links expected one "
@@ -182,12 +191,24 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
                                  P.sensor_schedule.pattern.any(axis=1), N)
     Da, Ta, actuator_ages = _chain(P.actuator_delay,
                                    P.actuator_schedule.pattern.any(axis=1), N)
-    width = n if controller == "predictor" else p2
+    estimator = controller == "estimator"
+    width = n if controller in ("predictor", "estimator") else p2
     lti = controller == "lti"
+    if estimator:
+        Lg = real_array(estimator_gain, "estimator_gain", ndim=(2,))
+        if Lg.shape != (n, p2):
+            raise ControlDimension(
+                f"estimator_gain: over delayed links one gain L of shape "
+                f"{(n, p2)} (n, nmeas), got {Lg.shape}")
+        if P.input_delay is not None:
+            raise ControlArgument(
+                "controller: the estimator's model over sub-sample input "
+                "delays is not written; use 'static', 'predictor' or an LTI "
+                "controller")
     if lti:             # v = Cc xc + Dc ŷ, xc⁺ = Ac xc + Bc ŷ
         Ac, Bc, Cc, Dc = (np.asarray(M, float) for M in (K.A, K.B, K.C, K.D))
     else:
-        G = _gains(K, Ds + 1, (m2, width))
+        G = _gains(K, 1 if estimator else Ds + 1, (m2, width))
     nc = Ac.shape[0] if lti else 0
     hy = p2 if lti and sensor == "hold" else 0
     # how many applied inputs are kept: the predictor's window and the hold
@@ -205,14 +226,20 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
     Dw = Ds if np.any(D21 != 0) else 0
     # blocks of X: x (Ds + 1 copies), v (Da), u (Lu), xc (nc), ŷ_{k-1} (hy),
     # w (Dw)
-    nX = n * (Ds + 1) + m2 * Da + m2 * Lu + nc + hy + m1 * Dw
+    # the estimator keeps its estimates x̂_k, …, x̂_{k-Ds} (corrected so far)
+    ne = n * (Ds + 1) if estimator else 0
+    nX = n * (Ds + 1) + m2 * Da + m2 * Lu + nc + hy + m1 * Dw + ne
     ox, ov, ou = 0, n * (Ds + 1), n * (Ds + 1) + m2 * Da
     xcb = slice(ou + m2 * Lu, ou + m2 * Lu + nc)
     yb = slice(xcb.stop, xcb.stop + hy)
     ow = yb.stop
+    oe = ow + m1 * Dw
 
     def wb(j: int) -> slice:        # w_{k-j}, j >= 1
         return slice(ow + m1 * (j - 1), ow + m1 * j)
+
+    def eb(j: int) -> slice:        # x̂_{k-j}, j >= 0
+        return slice(oe + n * j, oe + n * (j + 1))
 
     def xb(j: int) -> slice:        # x_{k-j}
         return slice(ox + n * j, ox + n * (j + 1))
@@ -297,12 +324,45 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
         C0 = np.zeros((p1, nX))
         C0[:, xb(0)] = C1
         C0 += D12 @ U0
+        if estimator:       # x̂_{k+1} = A x̂'_k + B2 u_k (u known by ack)
+            A0[eb(0)] = B2 @ U0
+            L[eb(0)] = fresh * B2
         return A0, L, Bm, C0, fresh * D12
+
+    def corrected(ap: int, a: int) -> tuple[list, list]:
+        """The estimates after a new measurement of age ``a`` (new: fresher
+        than the one used the step before, of age ``ap``): ``x̂'_{k-j} =
+        x̂_{k-j} + A^{a-j} L (y_{k-a} - C2 x̂_{k-a})`` for ``j ≤ a``, the
+        correction propagated to the present; as rows on ``X`` and ``w_k``
+        per ``j``."""
+        rows = []
+        for j in range(Ds + 1):
+            R = np.zeros((n, nX))
+            R[:, eb(j)] = np.eye(n)
+            rows.append([R, np.zeros((n, m1))])
+        if a <= Ds and a <= ap:
+            Y, Yw = measured(a)
+            Y = Y.copy()
+            Y[:, eb(a)] -= C2              # the innovation y - C2 x̂
+            for j in range(a + 1):
+                gain = powers[a - j] @ Lg
+                rows[j][0] = rows[j][0] + gain @ Y
+                rows[j][1] = rows[j][1] + gain @ Yw
+        return [r[0] for r in rows], [r[1] for r in rows]
 
     modes_A, modes_B, modes_C, modes_D, names = [], [], [], [], []
     parts: list[tuple] = []
-    for a in sensor_ages:
-        if lti:         # the command v_k as rows acting on X and w_k
+    # the estimator's mode is the pair (previous age, age): whether the
+    # freshest measurement is new depends on both
+    sensor_modes: list[tuple[int | None, int]] = (
+        [(int(ap), int(a)) for ap in sensor_ages for a in sensor_ages]
+        if estimator else [(None, int(a)) for a in sensor_ages])
+    for ap, a in sensor_modes:
+        if ap is not None:
+            Xh, Xhw = corrected(ap, a)
+            S, Sw = Xh[0], Xhw[0]
+            V, Vw = G[0] @ S, G[0] @ Sw
+        elif lti:       # the command v_k as rows acting on X and w_k
             # what the controller reads: the measurement, or 0 / the last
             # one it read when stale
             Y, Yw = measured(a) if a <= Ds else (np.zeros((p2, nX)),
@@ -323,14 +383,31 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
                     Bm[xcb] = Bc @ Yw
                     A0[yb] = Y[:hy]              # ŷ_k kept for a hold
                     Bm[yb] = Yw[:hy]
+                elif estimator:
+                    A0[eb(0)] += A @ Xh[0]
+                    Bm[eb(0)] += A @ Xhw[0]
+                    for j in range(1, Ds + 1):   # shift the estimates
+                        A0[eb(j)] = Xh[j - 1]
+                        Bm[eb(j)] = Xhw[j - 1]
+                    parts.append((A0, L, S, 0, C0, LC, Bm))
                 else:
                     parts.append((A0, L, S, min(int(a), Ds), C0, LC, Bm))
                 modes_A.append(A0 + L @ V)
                 modes_B.append(Bm + L @ Vw)
                 modes_C.append(C0 + LC @ V)
                 modes_D.append(D11 + LC @ Vw)
-                names.append((int(a), int(b)) if delay is None
-                             else (int(a), int(b), float(delay.taus[c])))
+                age = (int(a),) if ap is None else (int(ap), int(a))
+                names.append(age + (int(b),) if delay is None
+                             else age + (int(b), float(delay.taus[c])))
+    if estimator:       # (a⁻, a) → (a, a⁺) with the age chain's law
+        count = len(sensor_ages)
+        pairs = np.zeros((N, count * count, count * count))
+        for k in range(N):
+            for s0 in range(count):
+                for s1 in range(count):
+                    pairs[k, s0 * count + s1,
+                          s1 * count:(s1 + 1) * count] = Ts[k][s1]
+        Ts = pairs
     # (a, b) → (a⁺, b⁺), a-major, per phase; τ i.i.d., innermost
     T = np.array([np.kron(Ts[k], Ta[k]) for k in range(N)])
     if delay is not None:
@@ -343,7 +420,9 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
               + [f"xc[{i}]" for i in range(nc)]
               + [f"y{i}_rcv[k-1]" for i in range(hy)]
               + [f"{s}[k-{j}]" for j in range(1, Dw + 1)
-                 for s in P.disturbance_labels])
+                 for s in P.disturbance_labels]
+              + [f"{s}_hat[k-{j}]" if j else f"{s}_hat" for j in range(
+                  Ds + 1 if estimator else 0) for s in P.state_labels])
     # the same matrices at every phase; the schedule is in the chain
     Ak, Bk, Ck, Dk = (np.repeat(np.array([X]), N, axis=0)
                       for X in (modes_A, modes_B, modes_C, modes_D))

@@ -528,16 +528,26 @@ def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
     Parameters
     ----------
     P : NetworkedStateSpace
-        With ``y = x`` (``C2 = I``); Bernoulli or bursty links, as for
-        :func:`h2syn`.
-    actuator : {'zero'}, optional
-        What the actuator applies when a command is lost.
+        The plant with its network, as for :func:`h2syn`: the exact program
+        needs ``y = x`` at every step; otherwise the local search runs.
+    controller : {'static', 'predictor', 'estimator'}, optional
+        As for :func:`h2syn`.
+    actuator : {'zero', 'hold'}, optional
+        What the actuator applies when a command is lost (the exact program
+        needs ``'zero'``).
     solver : str, optional
-        Any installed cvxpy solver (default Clarabel).
+        Any installed cvxpy solver (default Clarabel; exact program only).
     margin : float, optional
-        Relative strictness margin of the LMI.
+        Relative strictness margin of the LMI (exact program only).
+    estimator_gain : array_like, optional
+        ``controller='estimator'``: ``L_k`` (default
+        :func:`control_ncs.estimator_gain` of ``P``).
+    initial_gain : array_like, optional
+        A first start of the local search, in the shape of ``K.gains``.
+    time_limit : float or None, optional
+        Seconds the local search may take (default 60; None: no limit).
     **solver_options
-        Passed to the solver.
+        Passed to the solver (exact program only).
 
     Returns
     -------

@@ -618,8 +618,8 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         measurements) and ``ncon`` outputs (the controls it sends); it runs
         at every step. Over delayed links (:ref:`theory-delays`): a static
         gain, or one per age of the measurement ``(Ds + 1, m2, nmeas)``,
-        the predictor's gain, or an LTI controller reading the freshest
-        measurement; the estimator is refused there.
+        the predictor's or the estimator's gain ``(m2, n)``, or an LTI
+        controller reading the freshest measurement.
     controller : {'static', 'predictor', 'estimator', 'lti'}, optional
         Default: ``'lti'`` for a system ``K``, else the gain's own kind,
         else ``'estimator'`` when an estimator gain is given, else
@@ -705,15 +705,25 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
             choice(sensor or "zero", "sensor", ("zero", "hold"))
             return delayed_loop(P, Kss, "lti", str(actuator or "zero"),
                                 str(sensor or "zero"))
-        if estimator_gain is not None or sensor is not None:
+        if sensor is not None:
+            raise ControlArgument("sensor: only an LTI controller (K a "
+                                  "control.StateSpace or TransferFunction) "
+                                  "takes a sensor strategy")
+        L = estimator_gain if estimator_gain is not None else \
+            getattr(K, "estimator_gain", None)
+        kind = str(controller or getattr(K, "controller", None) or
+                   ("estimator" if L is not None else "static"))
+        if kind == "estimator" and L is None:
             raise ControlArgument(
-                "K: over delayed links the loop is closed with a static gain "
-                "(one, or one per age), controller='predictor' or an LTI "
-                "controller; the estimator controller is not supported there "
-                "yet")
-        return delayed_loop(
-            P, K, str(controller or getattr(K, "controller", "static")),
-            str(actuator or getattr(K, "actuator", "zero")))
+                "estimator_gain: controller='estimator' needs the estimator "
+                "gain L (n, nmeas), e.g. ncs.estimator_gain of the plant "
+                "without its delays, or control.dlqe's")
+        if kind != "estimator" and estimator_gain is not None:
+            raise ControlArgument("estimator_gain: only controller="
+                                  "'estimator' takes an estimator gain")
+        return delayed_loop(P, K, kind,
+                            str(actuator or getattr(K, "actuator", "zero")),
+                            estimator_gain=L if kind == "estimator" else None)
     if isinstance(K, (ct.StateSpace, ct.TransferFunction)):
         return _feedback_lti(P, K, controller, actuator, sensor,
                              estimator_gain)
