@@ -50,21 +50,24 @@ TARGET_RATE = 0.9
 ITERATIONS = 200
 
 
-class H2Objective:
-    """``J = ‖G‖₂²`` of a structured loop and its gradient in the gains.
+class StructuredLoop:
+    """A structured loop's matrices as functions of the gains' free
+    entries: ``Acl = A + Bu F``, ``Ccl = Cz + Du F`` (``F = K E`` per mode)
+    and, when the gain also reads the noise (``Ew``), ``Bcl = Bw + Bu K
+    Ew``, ``Dcl = Dw + Du K Ew``. The objectives of the local H2 and H∞
+    designs share it.
 
     Parameters
     ----------
     loop : refine._Loop or refine._StackLoop
         The closed-loop state matrices ``A + Bu F(x)`` and the law.
     Cz, Du, Bw, Dw : ndarray, shape (N, M, ...)
-        Per phase and mode; ``Ccl = Cz + Du F(x)``.
+        Per phase and mode.
     pi : ndarray, shape (N, M)
         The mode law per phase (the stationary one for Markov modes).
     Ew : ndarray, shape (N, nk, nw), optional
         A static gain that also reads the noise, ``v = K (E ξ + Ew w)``
-        (measurement noise, ``D21 ≠ 0``): then ``Bcl = Bw + Bu K Ew`` and
-        ``Dcl = Dw + Du K Ew`` depend on the gain too (gains per phase,
+        (measurement noise, ``D21 ≠ 0``; gains per phase,
         :class:`refine._Loop`, only).
     """
 
@@ -77,13 +80,22 @@ class H2Objective:
         self.markov = loop.T is not None
         self.evaluations = 0
 
-    def _noise(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(Bcl, Dcl)``, per phase and mode: the noise's way in."""
+    def matrices(self, x: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``(F, Acl, Bcl, Ccl, Dcl)`` per phase and mode."""
+        loop = self.loop
+        F = loop.rows(x)
+        Acl = loop.A + loop.Bu @ F
+        Ccl = self.Cz + self.Du @ F
         if self.Ew is None:
-            return self.Bw, self.Dw
-        Fw = np.einsum("kuj,kjw->kuw", self.loop.gains(x), self.Ew)
-        return (self.Bw + self.loop.Bu @ Fw[:, None],
+            return F, Acl, self.Bw, Ccl, self.Dw
+        Fw = np.einsum("kuj,kjw->kuw", loop.gains(x), self.Ew)
+        return (F, Acl, self.Bw + loop.Bu @ Fw[:, None], Ccl,
                 self.Dw + self.Du @ Fw[:, None])
+
+
+class H2Objective(StructuredLoop):
+    """``J = ‖G‖₂²`` of a structured loop and its gradient in the gains
+    (parameters as :class:`StructuredLoop`)."""
 
     def _forcing(self, Bcl: np.ndarray, Dcl: np.ndarray
                  ) -> tuple[list, float]:
@@ -158,10 +170,7 @@ class H2Objective:
         rate, _ = loop.rate(x)
         if not rate < 0.0:
             return math.inf, np.zeros_like(x)
-        F = loop.rows(x)
-        Acl = loop.A + loop.Bu @ F
-        Ccl = self.Cz + self.Du @ F
-        Bcl, Dcl = self._noise(x)
+        F, Acl, Bcl, Ccl, Dcl = self.matrices(x)
         forcing, direct = self._forcing(Bcl, Dcl)
         if self.markov:
             G = [Ccl[k].transpose(0, 2, 1) @ Ccl[k] for k in range(N)]

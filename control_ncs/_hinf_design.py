@@ -28,34 +28,15 @@ import numpy as np
 
 from .jump import JumpStateSpace
 from .lmi import DEFAULT_MARGIN, quadratic_supply_model, solve
-from .refine import _Loop
+from ._h2_design import StructuredLoop
 from .verify import supply_rows
 
 __all__: list[str] = []
 
 
-class GainObjective:
-    """``log γ²*`` of a structured loop and its gradient in the gains.
-
-    Parameters
-    ----------
-    loop : refine._Loop or refine._StackLoop
-    Cz, Du, Bw, Dw : ndarray, shape (N, M, ...)
-    pi : ndarray, shape (N, M)
-        The mode law (i.i.d. modes; unused for Markov modes, whose law is
-        the loop's chain).
-    Ew : ndarray, shape (N, nk, nw), optional
-        A static gain that also reads the noise (``D21 ≠ 0``), as for
-        :class:`control_ncs._h2_design.H2Objective`.
-    """
-
-    def __init__(self, loop: _Loop, Cz: np.ndarray, Du: np.ndarray,
-                 Bw: np.ndarray, Dw: np.ndarray, pi: np.ndarray,
-                 Ew: np.ndarray | None = None):
-        self.loop = loop
-        self.Cz, self.Du, self.Bw, self.Dw, self.pi = Cz, Du, Bw, Dw, pi
-        self.Ew = Ew
-        self.evaluations = 0
+class GainObjective(StructuredLoop):
+    """``log γ²*`` of a structured loop and its gradient in the gains
+    (parameters as :class:`control_ncs._h2_design.StructuredLoop`)."""
 
     def closed(self, Acl: np.ndarray, Bcl: np.ndarray, Ccl: np.ndarray,
                Dcl: np.ndarray) -> JumpStateSpace:
@@ -73,14 +54,7 @@ class GainObjective:
         rate, _ = loop.rate(x)
         if not rate < 0.0:
             return math.inf, np.zeros_like(x)
-        F = loop.rows(x)
-        Acl = loop.A + loop.Bu @ F
-        Ccl = self.Cz + self.Du @ F
-        Bcl, Dcl = self.Bw, self.Dw
-        if self.Ew is not None:
-            Fw = np.einsum("kuj,kjw->kuw", loop.gains(x), self.Ew)
-            Bcl = self.Bw + loop.Bu @ Fw[:, None]
-            Dcl = self.Dw + self.Du @ Fw[:, None]
+        F, Acl, Bcl, Ccl, Dcl = self.matrices(x)
         CL = self.closed(Acl, Bcl, Ccl, Dcl)
         model = quadratic_supply_model(CL, -1.0, 0.0, None, DEFAULT_MARGIN)
         report = solve(model.problem)

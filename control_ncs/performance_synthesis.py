@@ -297,16 +297,12 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
     >>> K.result.route, round(h2 ** 2, 3)
     ('local', 9.281)
     """
-    name, margin = _checked(P, actuator, solver, margin, solver_options)
-    controller = choice(controller, "controller",
-                        ("static", "predictor", "estimator"))
-    if time_limit is not None:
-        time_limit = positive_real(time_limit, "time_limit")
-    if _not_exact(P, controller, actuator, "h2syn") is not None:
-        _no_solver_options(solver, solver_options)
+    local, controller, time_limit = _route(
+        P, controller, actuator, solver, margin, solver_options,
+        estimator_gain, initial_gain, time_limit, "h2syn")
+    if local:
         return _local_h2syn(P, controller, actuator, estimator_gain,
                             initial_gain, time_limit)
-    _exact_takes_no_start(initial_gain, estimator_gain)
     plant, name, margin = _full_information(P, actuator, solver, margin,
                                             solver_options, "h2syn")
     model = h2_model(plant, margin)
@@ -317,6 +313,26 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
     K.result = H2Result(h2, float(np.sqrt(max(model.problem.value, 0.0))),
                         rate, report)
     return K, CL, h2
+
+
+def _route(P: Any, controller: str, actuator: str, solver: str | None,
+           margin: Any, solver_options: dict, estimator_gain: Any,
+           initial_gain: Any, time_limit: Any, who: str
+           ) -> tuple[bool, str, float | None]:
+    """The checks h2syn and hinfsyn make first, and their route:
+    ``(local, controller, time_limit)``, ``local`` when the exact program
+    does not cover the loop (each route refuses the other's options)."""
+    _checked(P, actuator, solver, margin, solver_options)
+    controller = choice(controller, "controller",
+                        ("static", "predictor", "estimator"))
+    if time_limit is not None:
+        time_limit = positive_real(time_limit, "time_limit")
+    local = _not_exact(P, controller, actuator, who) is not None
+    if local:
+        _no_solver_options(solver, solver_options)
+    else:
+        _exact_takes_no_start(initial_gain, estimator_gain)
+    return local, controller, time_limit
 
 
 def _no_solver_options(solver: str | None, solver_options: dict) -> None:
@@ -535,19 +551,11 @@ def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
     actuator : {'zero', 'hold'}, optional
         What the actuator applies when a command is lost (the exact program
         needs ``'zero'``).
-    solver : str, optional
-        Any installed cvxpy solver (default Clarabel; exact program only).
-    margin : float, optional
-        Relative strictness margin of the LMI (exact program only).
-    estimator_gain : array_like, optional
-        ``controller='estimator'``: ``L_k`` (default
-        :func:`control_ncs.estimator_gain` of ``P``).
-    initial_gain : array_like, optional
-        A first start of the local search, in the shape of ``K.gains``.
-    time_limit : float or None, optional
-        Seconds the local search may take (default 60; None: no limit).
-    **solver_options
-        Passed to the solver (exact program only).
+    solver, margin, **solver_options
+        As for :func:`h2syn` (the exact program only; ``margin`` is the
+        bounded real lemma's relative strictness margin).
+    estimator_gain, initial_gain, time_limit
+        As for :func:`h2syn` (the local search).
 
     Returns
     -------
@@ -587,20 +595,16 @@ def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
     >>> K.result.route, K.result.status
     ('local', 'certified')
     """
-    name, margin = _checked(P, actuator, solver, margin, solver_options)
-    controller = choice(controller, "controller",
-                        ("static", "predictor", "estimator"))
-    if time_limit is not None:
-        time_limit = positive_real(time_limit, "time_limit")
-    if _not_exact(P, controller, actuator, "hinfsyn") is not None:
-        _no_solver_options(solver, solver_options)
+    local, controller, time_limit = _route(
+        P, controller, actuator, solver, margin, solver_options,
+        estimator_gain, initial_gain, time_limit, "hinfsyn")
+    if local:
         K, CL, _, certified = _local_design(
             P, controller, actuator, estimator_gain, initial_gain,
             time_limit, "hinfsyn")
         certified.route = "local"
         K.result = certified
         return K, CL, certified.gamma
-    _exact_takes_no_start(initial_gain, estimator_gain)
     plant, name, margin = _full_information(P, actuator, solver, margin,
                                             solver_options, "hinfsyn")
     model = hinf_model(plant, margin)
