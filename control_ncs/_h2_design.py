@@ -219,8 +219,9 @@ class H2Objective(StructuredLoop):
 
 def local_h2(objective: H2Objective, starts: list[np.ndarray],
              deadline: float | None, who: str) -> np.ndarray:
-    """The two stages (module docstring) from the best of ``starts`` by
-    rate; returns the free entries of the gain found."""
+    """The two stages (module docstring): stage 1 from the starts by rate
+    until one is stable, stage 2 from the stable point of least norm;
+    returns the free entries of the gain found."""
     loop = objective.loop
     target = math.log(TARGET_RATE)
     scored = sorted(((loop.rate(x)[0], j, x) for j, x in enumerate(starts)),
@@ -234,6 +235,12 @@ def local_h2(objective: H2Objective, starts: list[np.ndarray],
         x, f, _, _ = _bfgs(loop.rate, x0, target, deadline, ITERATIONS)
         if f < best[0]:
             best = (f, x)
+    if best[0] < 0.0:
+        # stage 2 from the stable point of least norm among the starts
+        # (a given start included) and stage 1's result
+        stable = [x0 for f0, _, x0 in scored if f0 < 0.0] + [best[1]]
+        values = [objective.value(x0)[0] for x0 in stable]
+        best = (best[0], stable[int(np.argmin(values))])
     if not best[0] < 0.0:
         out = deadline is not None and time.perf_counter() > deadline
         raise SynthesisError(

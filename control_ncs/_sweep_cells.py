@@ -88,8 +88,9 @@ def _perform_here(P: NetworkedStateSpace, objective: str,
                                   actuator=actuator)
     except CertificationError as err:
         return math.nan, math.nan, False, err.reason, None, False
+    # "exact": the program's global optimum, not a local search's
     return (float(value), float(_ms_radius(CL)), True, "certified", K.gains,
-            True)
+            K.result.route == "program")
 
 
 def _delayed(P: NetworkedStateSpace) -> bool:

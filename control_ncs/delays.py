@@ -125,6 +125,16 @@ def gain_shape(P: NetworkedStateSpace, controller: str) -> tuple[int, ...]:
     return (ages, m2, p2)
 
 
+def start_from(gains: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """A design without delays as a start over delayed links, in ``shape``
+    (:func:`gain_shape`): its first phase (and previous mode), on what the
+    delayed gain reads (a held command's columns, which come after, are
+    dropped), at every age."""
+    K = np.asarray(gains, float)
+    K = K[:, 0] if K.ndim == 4 else K
+    return np.broadcast_to(K[:1, :, :shape[-1]], shape).copy()
+
+
 class DelayedParts(NamedTuple):
     """The delayed loop, mode by mode, affine in the gains
     (:func:`delayed_parts`)."""

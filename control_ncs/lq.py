@@ -120,6 +120,12 @@ def _plant(args: tuple, arrival: Any) -> tuple[np.ndarray, np.ndarray, Any]:
                               f"got {len(args) + 2} positional arguments")
     if A.shape[0] != A.shape[1]:
         raise ControlDimension(f"A: expected a square matrix, got {A.shape}")
+    if arrival is not None and not isinstance(arrival, (int, float,
+                                                         np.number)):
+        raise ValueError(
+            f"arrival: expected a probability in (0, 1], got "
+            f"{type(arrival).__name__}; a bursty link is given as "
+            f"nss(..., actuator_loss=gilbert_elliott(...))")
     nu = 1.0 if arrival is None else float(arrival)
     if not 0.0 < nu <= 1.0 or isinstance(arrival, bool):
         raise ValueError(f"arrival: expected a probability in (0, 1], got "
@@ -141,12 +147,14 @@ def dlqr(*args: Any, arrival: float | None = None, **kwargs: Any
     *args
         ``(sys, Q, R)`` or ``(A, B, Q, R)``. ``sys``: a discrete-time
         ``StateSpace`` (its ``A``, ``B``), or a ``NetworkedStateSpace``
-        whose actuator link gives ``arrival = 1 - actuator_loss`` (period
-        1, Bernoulli, no sensor loss) and whose ``B2`` is ``B``. ``Q``,
-        ``R``: state and input weights, ``Q ⪰ 0``, ``R ≻ 0``.
+        whose actuator link gives the law of the arrivals (period 1, no
+        sensor loss, no delays): Bernoulli, ``arrival = 1 -
+        actuator_loss``, or bursty (Gilbert–Elliott); its ``B2`` is ``B``.
+        ``Q``, ``R``: state and input weights, ``Q ⪰ 0``, ``R ≻ 0``.
     arrival : float, optional
         Probability that a command arrives, in (0, 1] (default 1: the
-        loss-free :func:`control.dlqr`).
+        loss-free :func:`control.dlqr`). A bursty link is given through a
+        ``NetworkedStateSpace``.
     **kwargs
         Reserved: any keyword raises ``TypeError``.
 
@@ -155,7 +163,10 @@ def dlqr(*args: Any, arrival: float | None = None, **kwargs: Any
     K : ndarray
         The gain, ``u = -K x``. Over a bursty link, one per previous link
         state (lost, delivered), shape ``(2, m, n)``: the controller knows
-        from the acknowledgement whether its last command arrived.
+        from the acknowledgement whether its last command arrived. With one
+        actuator link the two are equal (only a command that arrives acts,
+        so the state ``ℓ`` scales ``H_ℓ`` and ``g_ℓ`` alike); the cost
+        ``S_ℓ`` is what the knowledge changes.
     S : ndarray
         The solution of the modified Riccati equation (cost ``x₀ᵀSx₀``;
         with unit process noise ``B1`` the stationary cost is

@@ -616,6 +616,12 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
                     f"certified within the l2 gain {hinf:g}"
                     if hinf is not None else
                     f"certified at the passivity level {eta:g}")
+            if K is None:
+                raise ValueError(
+                    f"P: the best design found is not {what} at loss "
+                    f"{hi:.6g} but is again at {alpha:.6g}; no single "
+                    f"critical loss exists (local searches, where they run, "
+                    f"may also end at different optima)")
             raise ValueError(
                 f"K: the loop is not {what} at loss {hi:.6g} but is again "
                 f"at {alpha:.6g}; no single critical loss exists")

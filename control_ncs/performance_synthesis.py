@@ -222,9 +222,10 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
     Parameters
     ----------
     P : NetworkedStateSpace
-        The plant with its network, ``D21 = 0``. The exact program needs
-        ``y = x`` at every step (a bursty link's state revealed at every
-        step); otherwise the local search runs.
+        The plant with its network. The exact program needs ``y = x`` at
+        every step (a bursty link's state revealed at every step) and
+        ``D21 = 0``; otherwise the local search runs (with ``D21 ≠ 0`` for
+        the static gain only, which reads the noise at once).
     controller : {'static', 'predictor', 'estimator'}, optional
         As for :func:`control_ncs.feedback`; over delayed links
         ``'static'`` (a gain per sensor age) or ``'predictor'``.
@@ -259,15 +260,18 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
     Raises
     ------
     ControlArgument
-        ``P`` is not a NetworkedStateSpace, ``D21 ≠ 0``, or an unknown
-        ``controller`` or ``actuator``.
+        ``P`` is not a NetworkedStateSpace, ``D21 ≠ 0`` with a controller
+        other than the static gain or over delayed links, an unknown
+        ``controller`` or ``actuator``, or options of the other route
+        (``solver``, ``margin`` or solver options for the local search;
+        ``initial_gain`` or ``estimator_gain`` for the exact program).
     SynthesisError
-        ``'infeasible'`` (a proof: the modes in which every command is lost
-        alone make every loop mean-square unstable, e.g. bursts too long
-        for the plant), the solver gave no gain (``'solver_failed'``), the
-        gain does not make the loop mean-square stable (``'not_mss'``), or
-        the local search found no stabilising gain (``'not_found'``,
-        ``'time_limit'``: not a proof).
+        Exact program: ``'infeasible'`` (a proof: the modes in which every
+        command is lost alone make every loop mean-square unstable, e.g.
+        bursts too long for the plant), the solver gave no gain
+        (``'solver_failed'``), or the gain does not make the loop
+        mean-square stable (``'not_mss'``). Local search: no stabilising
+        gain found (``'not_found'``, ``'time_limit'``: not a proof).
 
     References
     ----------
@@ -323,6 +327,7 @@ def _route(P: Any, controller: str, actuator: str, solver: str | None,
     ``(local, controller, time_limit)``, ``local`` when the exact program
     does not cover the loop (each route refuses the other's options)."""
     _checked(P, actuator, solver, margin, solver_options)
+    given_margin = margin != DEFAULT_MARGIN
     controller = choice(controller, "controller",
                         ("static", "predictor", "estimator"))
     if time_limit is not None:
@@ -330,6 +335,11 @@ def _route(P: Any, controller: str, actuator: str, solver: str | None,
     local = _not_exact(P, controller, actuator, who) is not None
     if local:
         _no_solver_options(solver, solver_options)
+        if given_margin:
+            raise ControlArgument(
+                "margin: this loop's gain is structured and is searched "
+                "locally on exact figures; margin applies to the exact "
+                "program")
     else:
         _exact_takes_no_start(initial_gain, estimator_gain)
     return local, controller, time_limit
@@ -449,7 +459,7 @@ def _delayed_problem(P: NetworkedStateSpace, controller: str,
         raise ControlArgument(f"controller: over delayed links expected "
                               f"'static' or 'predictor', got {controller!r}")
     from ._delay_design import _rate_loop, undelayed
-    from .delays import delayed_parts, gain_shape
+    from .delays import delayed_parts, gain_shape, start_from
     from .strategies import feedback
     loop = _rate_loop(P, controller, actuator)
     parts = delayed_parts(P, controller, actuator)
@@ -465,7 +475,7 @@ def _delayed_problem(P: NetworkedStateSpace, controller: str,
     try:
         K0 = h2syn(undelayed(P), controller=controller, actuator=actuator,
                    time_limit=10.0)[0].gains
-        starts.append(np.broadcast_to(K0[:1], shape).ravel().copy())
+        starts.append(start_from(K0, shape).ravel())
     except (SynthesisError, ControlArgument):
         pass
     starts.append(np.zeros(loop.free.size))
@@ -506,7 +516,7 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
     starts = [_restrict(loop, _lq_gain(plant, plant.probabilities)),
               np.zeros(loop.free.size)]
     if controller == "static" and plant.shape["nx"] == P.nstates and \
-            np.array_equal(P.C2, np.eye(P.nstates)):
+            not P.shared_channel and np.array_equal(P.C2, np.eye(P.nstates)):
         # the exact design with every sensor sending, if that is exact
         full = P.with_network(sensor_schedule=np.ones_like(
             P.sensor_schedule.pattern, dtype=int))
@@ -569,9 +579,10 @@ def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
     ControlArgument
         As :func:`h2syn`.
     SynthesisError
-        ``'infeasible'`` (a proof, as for :func:`h2syn`), no gain from the
-        solver (``'solver_failed'``), or the gain leaves the loop not
-        mean-square stable (``'not_mss'``).
+        As :func:`h2syn`: exact program ``'infeasible'`` (a proof),
+        ``'solver_failed'``, ``'not_mss'``; local search ``'not_found'`` or
+        ``'time_limit'`` (no stabilising gain, or no certified bound of its
+        loops: not a proof).
     CertificationError
         The designed loop's gain could not be certified (see
         :func:`control_ncs.l2_gain`).

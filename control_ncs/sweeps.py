@@ -55,8 +55,8 @@ _CONTROLLERS = ("static", "predictor")
 _ACTUATORS = ("zero", "hold")
 _OBJECTIVES = ("eta", "rate", "h2", "hinf")
 # what a design map optimises in each cell: passivesyn's certified η, or the
-# H2 norm / ℓ2-gain bound of h2syn / hinfsyn (the exact full-information
-# programs: static state feedback, zero actuator)
+# H2 norm / ℓ2-gain bound of h2syn / hinfsyn (their exact programs, or their
+# local searches for structured gains)
 _MAP_OBJECTIVES = {"eta": "certified η (passivesyn)",
                    "h2": "exact H2 norm (h2syn)",
                    "hinf": "certified ℓ2-gain bound (hinfsyn)"}
@@ -381,8 +381,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
             "schedules a sensor and an actuator together (theory: static-gain loop). Use "
             "controller='predictor'.")
     if objective != "eta":
-        _performance_options(cells[-1], objective, eta, decay, controller,
-                             actuator, method)
+        _performance_options(objective, eta, decay, method)
     start = time.perf_counter()
     shape = (a1.size, a2.size)
     if objective != "eta":
@@ -420,9 +419,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         actuator=actuator, elapsed=time.perf_counter() - start)
 
 
-def _performance_options(P: NetworkedStateSpace, objective: str,
-                         eta: Any, decay: Any, controller: str,
-                         actuator: str, method: str) -> None:
+def _performance_options(objective: str, eta: Any, decay: Any,
+                         method: str) -> None:
     """The options an H2 or H∞ map refuses (passivesyn's), said before any
     cell runs."""
     given = [name for name, value, default in (
@@ -495,7 +493,7 @@ class ScheduleSearch:
         with a shared channel).
     relabellings : int
         Size of the relabelling group used (1: none).
-    objective : {'eta', 'rate', 'h2'}
+    objective : {'eta', 'rate', 'h2', 'hinf'}
     top : int
         Length of :attr:`ranking`.
     shared_channel : bool

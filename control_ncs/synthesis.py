@@ -37,7 +37,7 @@ from .strategies import build, require_state_measured
 from .exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
 from .verify import (level_floor)
 from ._delay_design import delayed_design, undelayed
-from .delays import gain_shape
+from .delays import gain_shape, start_from
 from ._lifting import unseen_modes
 from ._synthesis_result import _SHORTAGE_HELP, SynthesisResult
 from ._synthesis_routes import (_feedthrough, _open_loop_bound, _plant_arrays,
@@ -143,9 +143,9 @@ def _over_delays(P: NetworkedStateSpace, eta: Any, decay: Any,
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                start = passivesyn(undelayed(P), decay=decay,
-                                   controller=controller,
-                                   actuator=actuator)[0].gains[:1]
+                start = start_from(passivesyn(
+                    undelayed(P), decay=decay, controller=controller,
+                    actuator=actuator)[0].gains, shape)
         except (SynthesisError, ValueError):
             start = np.zeros(shape)
     return delayed_design(P, eta, decay, controller, actuator, deadline,

@@ -255,3 +255,19 @@ def test_gradients_through_a_noisy_measurement(which):
                         for e in np.eye(x.size)])
     tol = 1e-6 if which == "h2" else 1e-3
     assert np.max(np.abs(central - grad)) < tol * np.max(np.abs(grad))
+
+
+def test_the_local_search_uses_a_given_start_and_the_other_routes_options():
+    """A given start that is already the optimum is kept (stage 2 starts
+    from the stable point of least norm); the held predictor over a delayed
+    link starts from the design without delays on what it reads; margin
+    belongs to the exact program."""
+    P = _lq_plant()
+    best = ncs.h2syn(P, actuator="hold")[2]
+    again = ncs.h2syn(P, actuator="hold", initial_gain=[[[-0.36516363]]])
+    assert again[2] <= best * (1 + 1e-9)
+    delayed = _lq_plant(loss=0.0, sensor_delay=[0.5, 0.3, 0.1])
+    K, CL, h2 = ncs.h2syn(delayed, controller="predictor", actuator="hold")
+    assert K.gains.shape == (1, 1, 1) and math.isfinite(h2)
+    with pytest.raises(ControlArgument, match="^margin: .*locally"):
+        ncs.h2syn(P, actuator="hold", margin=1e-3)
