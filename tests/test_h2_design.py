@@ -219,7 +219,9 @@ def test_hinfsyn_of_a_held_command_reaches_the_scans_minimum():
 
 def test_hinfsyn_over_a_delayed_link_certifies_a_gain_per_age():
     P = _lq_plant(loss=0.0, sensor_delay=[0.5, 0.3, 0.1])
-    K, CL, gamma = ncs.hinfsyn(P)
+    # a short search: what is returned is the better of the H2 start and
+    # where the search stopped, certified either way
+    K, CL, gamma = ncs.hinfsyn(P, time_limit=2.0)
     assert K.gains.shape == (3, 1, 1) and K.result.route == "local"
     assert gamma == ncs.l2_gain(ncs.feedback(P, K)).gamma
     h2_gain = ncs.h2syn(P)[0]
