@@ -39,8 +39,8 @@ from scipy.sparse.linalg import LinearOperator, gmres
 
 from .exceptions import NOT_FOUND, TIME_LIMIT, SynthesisError
 from .refine import _bfgs, _Loop
-from .stability import (DENSE_MAX_STATES, phase_adjoint, phase_map,
-                        phase_matrix)
+from .stability import (DENSE_MAX_STATES, phase_adjoint, phase_forcing,
+                        phase_map, phase_matrix)
 
 __all__: list[str] = []
 
@@ -102,12 +102,8 @@ class H2Objective(StructuredLoop):
         """What unit white noise adds to the moments per phase, and the
         direct term ``(1/N) Σ π tr(Dcl Dclᵀ)``."""
         pi, N, T = self.pi, self.loop.N, self.loop.T
-        BB = Bcl @ Bcl.transpose(0, 1, 3, 2)               # (N, M, n, n)
-        if T is not None:
-            forcing = [np.tensordot(T[k].T, pi[k][:, None, None] * BB[k],
-                                    axes=1) for k in range(N)]
-        else:
-            forcing = [np.tensordot(pi[k], BB[k], axes=1) for k in range(N)]
+        forcing = [phase_forcing(Bcl[k], pi[k], None if T is None else T[k])
+                   for k in range(N)]
         direct = sum(float(pi[k] @ np.einsum("mab,mab->m", Dcl[k], Dcl[k]))
                      for k in range(N)) / N
         return forcing, direct

@@ -345,17 +345,22 @@ def is_mss(sys: Any, **kwargs: Any) -> bool:
 
 
 # -- the forced second moment: the H2 norm ------------------------------------
-def _forcing(sys: JumpStateSpace, k: int) -> np.ndarray:
-    """What white unit noise adds to the second moment at phase ``k``:
-    ``Σ_i p_ki B_ki B_kiᵀ`` (i.i.d.), or per next mode ``j``
-    ``Σ_i T_k[i, j] π_ki B_ki B_kiᵀ`` (Markov, ``π`` the stationary
-    marginals)."""
-    B, p = sys.modes.B[k], sys.modes.probabilities[k]
+def phase_forcing(B: np.ndarray, p: np.ndarray,
+                  T: np.ndarray | None) -> np.ndarray:
+    """What white unit noise adds to the second moment in one phase, on
+    per-mode arrays ``B`` (M, n, m): ``Σ_i p_i B_i B_iᵀ`` (i.i.d.), or per
+    next mode ``j`` ``Σ_i T[i, j] π_i B_i B_iᵀ`` (Markov, ``p = π`` the
+    stationary marginals, ``T`` the phase's transitions)."""
     BB = B @ B.transpose(0, 2, 1)                      # (M, n, n)
-    if sys.modes.is_iid:
+    if T is None:
         return np.tensordot(p, BB, axes=1)
-    T = sys.modes.transitions()[k]
     return np.tensordot(T.T, p[:, None, None] * BB, axes=1)
+
+
+def _forcing(sys: JumpStateSpace, k: int) -> np.ndarray:
+    """:func:`phase_forcing` of phase ``k`` of ``sys``."""
+    T = None if sys.modes.is_iid else sys.modes.transitions()[k]
+    return phase_forcing(sys.modes.B[k], sys.modes.probabilities[k], T)
 
 
 def stationary_covariances(sys: Any, *, method: str = "auto",
