@@ -254,7 +254,8 @@ def _bursty(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
     S = np.array([Q, Q])
     scale = max(1.0, float(np.linalg.norm(Q)), float(np.linalg.norm(R)))
     K = np.zeros((2, B.shape[1], n))
-    for _ in range(MAX_ITERATIONS):
+    def step(S: np.ndarray) -> np.ndarray:
+        """One step of the coupled equations (and the gains ``K``)."""
         new = np.empty_like(S)
         for ell in range(2):
             t = T[ell] * theta
@@ -263,7 +264,10 @@ def _bursty(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
             K[ell] = np.linalg.solve(H, g)
             Sbar = T[ell, 0] * S[0] + T[ell, 1] * S[1]
             new[ell] = Q + A.T @ Sbar @ A - g.T @ K[ell]
-        new = 0.5 * (new + new.transpose(0, 2, 1))
+        return 0.5 * (new + new.transpose(0, 2, 1))
+
+    for _ in range(MAX_ITERATIONS):
+        new = step(S)
         if not np.all(np.isfinite(new)) or np.linalg.norm(new) > \
                 DIVERGED * scale:
             raise ValueError(
@@ -280,6 +284,10 @@ def _bursty(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
     else:
         raise ValueError("dlqr: the coupled Riccati iteration did not "
                          "converge")
+    residual = step(S) - S                  # also sets K from S
+    if np.linalg.norm(residual) > 1e-9 * max(1.0, float(np.linalg.norm(S))):
+        raise ValueError(f"dlqr: the coupled Riccati residual "
+                         f"{np.linalg.norm(residual):.3g} fails the check")
     # the loop with gains on the previous link state must be mean-square
     # stable: Markov modes (ℓ, i), x⁺ = (A - θ_i B K_ℓ) x
     modes = [A - theta[i] * B @ K[ell] for ell in range(2) for i in range(2)]
