@@ -22,9 +22,6 @@ from .plant import NetworkedStateSpace
 
 __all__: list[str] = []
 
-LINKS = ("sensor", "actuator")
-
-
 def loss(value: Any, name: str) -> float:
     """A loss probability in ``[0, 1)`` (1: nothing arrives, no loop)."""
     try:
