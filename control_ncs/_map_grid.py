@@ -22,6 +22,7 @@ from .plant import NetworkedStateSpace
 
 __all__: list[str] = []
 
+
 def loss(value: Any, name: str) -> float:
     """A loss probability in ``[0, 1)`` (1: nothing arrives, no loop)."""
     try:
