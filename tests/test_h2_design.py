@@ -259,15 +259,25 @@ def test_gradients_through_a_noisy_measurement(which):
     assert np.max(np.abs(central - grad)) < tol * np.max(np.abs(grad))
 
 
-def test_the_local_search_uses_a_given_start_and_the_other_routes_options():
-    """A given start that is already the optimum is kept (stage 2 starts
-    from the stable point of least norm); the held predictor over a delayed
-    link starts from the design without delays on what it reads; margin
-    belongs to the exact program."""
+def test_the_local_search_uses_a_given_start_and_the_other_routes_options(
+        monkeypatch):
+    """Stage 2 starts from the stable start of least norm, not from the one
+    of least rate (held command: the rate is least near k = -0.3, the norm
+    near -0.365; with no iterations the search returns its stage-2 start);
+    the held predictor over a delayed link starts from the design without
+    delays on what it reads; margin belongs to the exact program."""
+    import control_ncs._h2_design as h2d
+    from control_ncs.performance_synthesis import _plant_problem
     P = _lq_plant()
-    best = ncs.h2syn(P, actuator="hold")[2]
-    again = ncs.h2syn(P, actuator="hold", initial_gain=[[[-0.36516363]]])
-    assert again[2] <= best * (1 + 1e-9)
+    mats, loop, *_ = _plant_problem(P, "static", "hold", None)
+    objective = H2Objective(loop, *mats)
+    good, fast = np.array([-0.365]), np.array([-0.3])
+    assert loop.rate(fast)[0] < loop.rate(good)[0]
+    assert objective.value(good)[0] < objective.value(fast)[0]
+    monkeypatch.setattr(h2d, "ITERATIONS", 0)
+    assert np.array_equal(h2d.local_h2(objective, [fast, good], None, "t"),
+                          good)
+    monkeypatch.undo()
     delayed = _lq_plant(loss=0.0, sensor_delay=[0.5, 0.3, 0.1])
     K, CL, h2 = ncs.h2syn(delayed, controller="predictor", actuator="hold")
     assert K.gains.shape == (1, 1, 1) and math.isfinite(h2)
