@@ -48,9 +48,11 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     (:func:`l2_gain`'s certified bound) or the passivity level at least
     ``eta`` (:func:`control_ncs.passivity_certificate`); the returned loss
     is where the certificate stops: the spec is *proven* just below it, and
-    not certified at it (the bounded real and passivity LMIs are exact for
-    a fixed loop, so the two differ by the certificates' tolerance, about
-    1e-4 relative in the gain, not by a gap of the method). For the loss
+    not certified at it, which is not a proof that it fails there (the
+    bounded real lemma is exact for a fixed loop, so for the ℓ2 gain the
+    two differ by the certificate's tolerance, about 1e-4 relative in the
+    gain; on the scalar loops of the tests both specs land within 1e-5 of
+    their closed forms). For the loss
     beyond which *no* gain stabilises a
     state-feedback loop over its actuator link, see the critical arrival
     probability :func:`control_ncs.dlqr` states; ``K=None`` returns that
