@@ -15,7 +15,7 @@ reference simulator (``protocol``) export nothing here.
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from . import (connect, critical, estimator, exceptions, gain, jump, lq,
+from . import (connect, critical, estimator, exceptions, gain, jump, loop, lq,
                meancov, modes, network, openloop, passivity, performance,
                performance_synthesis, plant, plots, refine, responses,
                stability, strategies, sweeps, synthesis, verify)
@@ -27,6 +27,7 @@ from .exceptions import *  # noqa: F403
 from .gain import *  # noqa: F403
 from .performance_synthesis import *  # noqa: F403
 from .jump import *  # noqa: F403
+from .loop import *  # noqa: F403
 from .lq import *  # noqa: F403
 from .meancov import *  # noqa: F403
 from .modes import *  # noqa: F403
@@ -45,7 +46,7 @@ from .synthesis import *  # noqa: F403
 from .verify import *  # noqa: F403
 
 __all__ = [name for module in (
-    network, modes, jump, openloop, plant, gain, strategies, stability,
+    network, modes, jump, openloop, plant, gain, strategies, loop, stability,
     meancov, exceptions, verify, passivity, performance, lq,
     performance_synthesis, synthesis, refine, estimator, responses, plots,
     connect, sweeps, critical)

@@ -21,7 +21,7 @@ Acl_ki``) and ``F_ki = K E_ki`` the feedback rows,
 ``∂J/∂F_ki = (2/N) (Bu_kiᵀ W_ki Acl_ki Q_ki + ω_ki Du_kiᵀ Ccl_ki Q_ki)``,
 
 chained to the gains by the loop's structure (:mod:`control_ncs.refine`'s
-``_Loop`` and ``_StackLoop``). The search: the refinement's quasi-Newton
+``_Loop``). The search: the refinement's quasi-Newton
 method on the exact rate until the loop is mean-square stable, then on
 ``log J``. The returned figure is :func:`control_ncs.norm` of the returned
 loop, built by :func:`control_ncs.feedback` (an independent route), never
@@ -59,16 +59,15 @@ class StructuredLoop:
 
     Parameters
     ----------
-    loop : refine._Loop or refine._StackLoop
+    loop : refine._Loop
         The closed-loop state matrices ``A + Bu F(x)`` and the law.
     Cz, Du, Bw, Dw : ndarray, shape (N, M, ...)
         Per phase and mode.
     pi : ndarray, shape (N, M)
         The mode law per phase (the stationary one for Markov modes).
-    Ew : ndarray, shape (N, nk, nw), optional
+    Ew : ndarray, shape (N, M, nk, nw), optional
         A static gain that also reads the noise, ``v = K (E ξ + Ew w)``
-        (measurement noise, ``D21 ≠ 0``; gains per phase,
-        :class:`refine._Loop`, only).
+        (measurement noise, ``D21 ≠ 0``), per phase and mode.
     """
 
     def __init__(self, loop: _Loop, Cz: np.ndarray, Du: np.ndarray,
@@ -88,9 +87,8 @@ class StructuredLoop:
         Ccl = self.Cz + self.Du @ F
         if self.Ew is None:
             return F, Acl, self.Bw, Ccl, self.Dw
-        Fw = np.einsum("kuj,kjw->kuw", loop.gains(x), self.Ew)
-        return (F, Acl, self.Bw + loop.Bu @ Fw[:, None], Ccl,
-                self.Dw + self.Du @ Fw[:, None])
+        Fw = np.einsum("kuj,kmjw->kmuw", loop.gains(x), self.Ew)
+        return (F, Acl, self.Bw + loop.Bu @ Fw, Ccl, self.Dw + self.Du @ Fw)
 
 
 class H2Objective(StructuredLoop):
@@ -208,7 +206,7 @@ class H2Objective(StructuredLoop):
                                             @ W @ Bcl[k])
                     + self.pi[k][:, None, None] * (
                         self.Du[k].transpose(0, 2, 1) @ Dcl[k]))
-                dK[k] += dFw.sum(axis=0) @ self.Ew[k].T
+                dK[k] += np.einsum("muw,mjw->uj", dFw, self.Ew[k])
         grad = dK.flat[loop.free] / J
         return math.log(J), np.asarray(grad)
 

@@ -94,6 +94,6 @@ class GainObjective(StructuredLoop):
         dK = loop.chain(dF)
         if self.Ew is not None:
             for k in range(N):
-                dK[k] += dFw[k].sum(axis=0) @ self.Ew[k].T
+                dK[k] += np.einsum("muw,mjw->uj", dFw[k], self.Ew[k])
         grad = dK.flat[loop.free] / g2
         return math.log(g2), np.asarray(grad)

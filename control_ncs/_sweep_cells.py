@@ -19,6 +19,7 @@ from .exceptions import (PROOFS, TIME_LIMIT, CertificationError,
 from .performance_synthesis import h2syn, hinfsyn
 from .plant import NetworkedStateSpace
 from .stability import ms_radius as _ms_radius
+from .strategies import build
 from .synthesis import passivesyn
 from ._tasks import run_tasks
 
@@ -93,18 +94,23 @@ def _perform_here(P: NetworkedStateSpace, objective: str,
             K.result.route == "program")
 
 
-def _delayed(P: NetworkedStateSpace) -> bool:
-    """Whether a cell's plant has delayed links (passivesyn's local search
-    over them takes no method and no start from other cells)."""
-    return P.sensor_delay is not None or P.actuator_delay is not None or \
-        P.input_delay is not None
+def _local_only(P: NetworkedStateSpace, controller: str,
+                actuator: str) -> bool:
+    """Whether a cell's loop reads a different measurement in each mode
+    (:attr:`JumpPlant.reads_per_mode`): no synthesis LMI expresses it, so
+    passivesyn searches it locally, with no method and no start from other
+    cells."""
+    try:
+        return build(P, controller, actuator).reads_per_mode
+    except (ValueError, TypeError):     # passivesyn itself will say why
+        return False
 
 
 def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
                      decay: float | None, controller: str, actuator: str,
                      method: str = "lmi", initial_gain: Any = None) -> tuple:
-    options = {} if _delayed(P) else dict(method=method,
-                                          initial_gain=initial_gain)
+    local = _local_only(P, controller, actuator)
+    options = {} if local else dict(method=method, initial_gain=initial_gain)
     try:
         with warnings.catch_warnings():
             # a map shows negative levels as they are; one warning per cell
@@ -117,9 +123,9 @@ def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
         return math.nan, math.nan, False, err.reason, None, False
     gains = K.gains if K.gains.ndim == 3 else None    # per phase: a start
     # the certificate's ms_radius is the exact one of the returned loop
-    if _delayed(P):     # the local search's analysis certificate
-        return (float(eta_c), float(K.result.certificate.ms_radius), True,
-                "certified", None, False)
+    if local:           # the local search's certificate; no LMI to share
+        return (float(eta_c), float(K.result.ms_radius), True, "certified",
+                None, False)
     return (float(eta_c), float(K.result.ms_radius), True, "certified",
             gains, K.result.exact)
 
@@ -145,9 +151,9 @@ def design_cells(tasks: list, method: str, executor: Executor | None,
                progress, desc)
     if method != "auto":
         return out
-    # a delayed cell already ran its local search (the LMI does not apply)
+    # a cell read per mode already ran its local search (no LMI applies)
     todo = [i for i, r in enumerate(out)
-            if not _delayed(tasks[i][0]) and (
+            if not _local_only(tasks[i][0], tasks[i][3], tasks[i][4]) and (
                 (r[2] and not r[5])
                 or (not r[2] and r[3] not in PROOFS + (TIME_LIMIT,)))]
     starts = []

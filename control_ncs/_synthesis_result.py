@@ -65,9 +65,12 @@ class SynthesisResult(Result):
     form : {'merged', 'paper'}
         The LMI's form; ``'merged'`` for the Riccati route (``form`` is
         ignored there: modes are always merged).
-    structure : {'full', 'block', 'extended'}
+    structure : {'full', 'block', 'extended', 'per_mode'}
         Which LMI certified the gain: ``'full'`` is exact (feasible iff a
-        certified gain exists); ``'block'`` and ``'extended'`` are sufficient.
+        certified gain exists); ``'block'`` and ``'extended'`` are sufficient;
+        ``'per_mode'``: a gain that reads a different block in each mode (a
+        gain per age of a buffered measurement), which no LMI expresses,
+        certified by the analysis of its loop (``method='refine'``).
     gain_kind : {'phase', 'mode'}
         Which kind of gain was certified: ``K_k`` per phase, or
         ``K_{k,ℓ}`` per phase and previous network mode (Markov links,
@@ -100,7 +103,8 @@ class SynthesisResult(Result):
         first start when it had one).
     start : str or None
         Refinement only: the starting point that led to the gain
-        (``'lmi'``, ``'full'``, ``'zero'``, ``'continuation'``,
+        (``'lmi'``, ``'projected'`` (the full-information gain projected on
+        what the gain reads), ``'full'``, ``'zero'``, ``'continuation'``,
         ``'restart'``).
     refinement : RefineResult or None
         Refinement only: how far it moved the gain (``ms_radius_before``,

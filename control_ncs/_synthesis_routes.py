@@ -95,10 +95,12 @@ def _plant_arrays(plant: JumpPlant) -> None:
         if got != (N, M) + tail:
             raise ControlDimension(f"P: JumpPlant.{name} must have shape "
                                    f"{(N, M) + tail}, got {got}")
-    if plant.E.shape != (N, nk, nx) or min(nx, nu) == 0:
+    if plant.E.shape not in ((N, nk, nx), (N, M, nk, nx)) or \
+            min(nx, nu) == 0:
         raise ControlDimension(
             f"P: JumpPlant.E must have shape (N, nk, nx) = {(N, nk, nx)} "
-            f"with nx, nu > 0, got E {plant.E.shape}, nu = {nu}")
+            f"(or (N, M, nk, nx) per mode) with nx, nu > 0, got E "
+            f"{plant.E.shape}, nu = {nu}")
     p = plant.probabilities
     if not (np.all(np.isfinite(p)) and np.all(p >= 0)
             and np.allclose(p.sum(axis=1), 1.0)):
@@ -153,7 +155,8 @@ def _refine_route(plant: JumpPlant, eta: float | None, decay: float,
             dict(ms_radius_without_control=rate, states=states.tolist(),
                  bound=min(1.0, decay ** 2), proof="autonomous subsystem"))
     given = found = None
-    if lmi_start is not None and plant.shape["nx"] <= LMI_START_MAX_STATES:
+    if lmi_start is not None and plant.shape["nx"] <= LMI_START_MAX_STATES \
+            and not plant.reads_per_mode:
         left = None if deadline is None else deadline - time.perf_counter()
         share = None if left is None else 0.5 * left
         try:
@@ -191,16 +194,19 @@ def _refine_route(plant: JumpPlant, eta: float | None, decay: float,
     assert cert is not None  # verified
     X = np.linalg.inv(cert.P)
     X = 0.5 * (X + np.swapaxes(X, -1, -2))
+    E = np.abs(plant.readings()[0]).max(axis=1)     # all the gain reads
     if X.ndim == 4:
         # Markov links: storage per phase and previous mode, P_{k,ℓ}
-        Y = np.einsum("kuj,kjx,klxy->kluy", res.gains, plant.E, X)
+        Y = np.einsum("kuj,kjx,klxy->kluy", res.gains, E, X)
     else:
-        Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
+        Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, E, X)
     s = plant.shape
     report = SolveReport("optimal", "REFINE", 0.0, res.time, res.time,
                          res.iterations, res.eta)
     if found is not None:
         structure = found[0].result.structure
+    elif plant.reads_per_mode:
+        structure = "per_mode"
     else:
         structure = "extended" if any(
             plant.known_coordinates(k).size < s["nx"]
@@ -372,7 +378,8 @@ def _open_loop_bound(plant: JumpPlant, decay: float,
     # the gain-independent part as a jump system of its own: the modes a
     # gain acts in contribute nothing to it (zero matrices), the law of the
     # modes is the plant's, so the one second-moment kernel measures it
-    acts = np.array([[bool(np.any(plant.E[k]) and np.any(plant.Bu[k, i]))
+    E = plant.readings()[0]
+    acts = np.array([[bool(np.any(E[k, i]) and np.any(plant.Bu[k, i]))
                       for i in range(plant.probabilities.shape[1])]
                      for k in range(plant.period)])
     A = np.where(acts[:, :, None, None], 0.0, plant.A)

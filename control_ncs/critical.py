@@ -25,7 +25,7 @@ from .performance import l2_gain, norm
 from .performance_synthesis import h2syn, hinfsyn
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
-from .strategies import feedback
+from .loop import feedback
 from .synthesis import passivesyn
 
 __all__ = ["critical_loss"]

@@ -103,7 +103,7 @@ def run_demo(outdir: str = "demo-output", *, trials: int = 200, seed: int = 0,
     from .passivity import mean_input_ff_index
     from .responses import simulate
     from .stability import ms_radius
-    from .strategies import feedback
+    from .loop import feedback
     from .synthesis import passivesyn
     from .plots import schedule_plot
     from .exceptions import SynthesisError

@@ -12,16 +12,16 @@ from ._checks import choice, real_array
 
 __all__ = ["PeriodicGain"]
 
-#: The controller kinds a gain can belong to; the network strategies
-#: (``strategies.STRATEGIES``) are built for every pair of a kind here and
-#: an actuator strategy below.
+#: The controller kinds a gain can belong to; the builder
+#: (:func:`control_ncs.build`) writes one mode function per kind, for every
+#: actuator strategy below.
 CONTROLLERS = ("static", "predictor", "estimator", "lti")
 #: What an actuator applies when its message is lost or not scheduled.
 ACTUATORS = ("zero", "hold")
 
 
 def controllers() -> tuple[str, ...]:
-    """Controller kinds, those of ``strategies.STRATEGIES``.
+    """Controller kinds, those the builder writes loops for.
 
     Returns
     -------
@@ -38,7 +38,7 @@ def controllers() -> tuple[str, ...]:
 
 
 def actuators() -> tuple[str, ...]:
-    """Actuator strategies, those of ``strategies.STRATEGIES``.
+    """Actuator strategies, those the builder writes loops for.
 
     Returns
     -------

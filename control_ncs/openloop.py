@@ -46,8 +46,10 @@ class JumpPlant:
         ``(nx, nx)``, ``(nx, nu)``, ``(nx, nw)``, ``(nz, nx)``, ``(nz, nu)``,
         ``(nz, nw)``. Taken as they are (no broadcasting, no validation):
         builders such as :func:`control_ncs.build` check their inputs.
-    E : array_like, shape (N, nk, nx)
-        What the controller sees of ``ξ`` at each phase.
+    E : array_like, shape (N, nk, nx) or (N, M, nk, nx)
+        What the controller sees of ``ξ`` at each phase, or in each mode
+        of each phase (a gain per age of a buffered measurement: each mode
+        reads the block of its age).
     probabilities : array_like, shape (N, M)
         Mode probabilities per phase; each row sums to 1.
     dt : True or float > 0, optional
@@ -72,7 +74,7 @@ class JumpPlant:
         gains ``K_{k,ℓ}`` are equal within a class.
     estimator_gain : array_like, shape (N_L, n, nmeas), optional
         The estimator's ``L_k`` of a ``controller='estimator'`` plant.
-    Ew : array_like, shape (N, nk, nw), optional
+    Ew : array_like, shape (N, nk, nw) or (N, M, nk, nw), optional
         Noise in what the controller sees (a measurement ``y = C2 x +
         D21 w`` read at once): it sees ``E_k ξ + Ew_k w``.
     Gw : array_like, shape (N, M, nx, nw), optional
@@ -215,7 +217,32 @@ class JumpPlant:
         """Sizes: ``nx`` (state), ``nw``, ``nz``, ``nu`` (control), ``nk``."""
         return dict(nx=self.A.shape[-1], nw=self.Bw.shape[-1],
                     nz=self.Cz.shape[-2], nu=self.Bu.shape[-1],
-                    nk=self.E.shape[1])
+                    nk=self.E.shape[-2])
+
+    @property
+    def reads_per_mode(self) -> bool:
+        """True when the gain reads something else in each mode.
+
+        ``E`` of shape (N, M, nk, nx): a gain per age of a buffered
+        measurement. The convex programs need one reading per phase."""
+        return self.E.ndim == 4
+
+    def readings(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """``E`` and ``Ew`` per phase and mode, (N, M, nk, ·).
+
+        Returns
+        -------
+        E, Ew : ndarray
+            Broadcast over the modes when they are per phase; ``Ew`` None
+            without measurement noise read at once.
+        """
+        M = self.probabilities.shape[1]
+
+        def per_mode(X):
+            if X is None or X.ndim == 4:
+                return X
+            return np.broadcast_to(X[:, None], (X.shape[0], M) + X.shape[1:])
+        return per_mode(self.E), per_mode(self.Ew)
 
     def gain_shape(self) -> tuple[int, int, int]:
         """Shape ``(N, nu, nk)`` of a gain sequence for :meth:`close`.
@@ -255,14 +282,15 @@ class JumpPlant:
             if K.ndim == 3:     # one gain for every previous mode
                 K = np.repeat(K[:, None], self.probabilities.shape[1], 1)
             return self._close_pairs(K, name, info)
-        F = np.einsum("kuj,kjx->kux", K, self.E)  # K_k E_k, per phase
-        A = self.A + np.einsum("kmxu,kuy->kmxy", self.Bu, F)
-        C = self.Cz + np.einsum("kmzu,kuy->kmzy", self.Du, F)
+        E, Ew = self.readings()
+        F = np.einsum("kuj,kmjx->kmux", K, E)     # K_k E_ki per mode
+        A = self.A + self.Bu @ F
+        C = self.Cz + self.Du @ F
         B, D = self.Bw, self.Dw
-        if self.Ew is not None:
-            Fw = np.einsum("kuj,kjw->kuw", K, self.Ew)
-            B = B + np.einsum("kmxu,kuw->kmxw", self.Bu, Fw)
-            D = D + np.einsum("kmzu,kuw->kmzw", self.Du, Fw)
+        if Ew is not None:
+            Fw = np.einsum("kuj,kmjw->kmuw", K, Ew)
+            B = B + self.Bu @ Fw
+            D = D + self.Du @ Fw
         loop = (A, B, C, D)
         if self.transition is not None:
             # Markov modes are not merged (their futures differ, theory: Markov
@@ -363,15 +391,16 @@ class JumpPlant:
         controller hears (``Ew``, ``Gw``) the input matrices are
         ``Bw + Bu K Ew + (A + Bu K E) Gw`` and likewise for ``D``."""
         N, M = self.probabilities.shape
-        F = np.einsum("kluj,kjx->klux", K, self.E)  # K_{k,ℓ} E_k
-        A = self.A[:, None] + np.einsum("kmxu,kluy->klmxy", self.Bu, F)
-        C = self.Cz[:, None] + np.einsum("kmzu,kluy->klmzy", self.Du, F)
+        E, Ew = self.readings()
+        F = np.einsum("kluj,kmjx->klmux", K, E)  # K_{k,ℓ} E_{k,i}
+        A = self.A[:, None] + self.Bu[:, None] @ F
+        C = self.Cz[:, None] + self.Du[:, None] @ F
         B = np.repeat(self.Bw[:, None], M, 1)
         D = np.repeat(self.Dw[:, None], M, 1)
-        if self.Ew is not None:
-            Fw = np.einsum("kluj,kjw->kluw", K, self.Ew)
-            B = B + np.einsum("kmxu,kluw->klmxw", self.Bu, Fw)
-            D = D + np.einsum("kmzu,kluw->klmzw", self.Du, Fw)
+        if Ew is not None:
+            Fw = np.einsum("kluj,kmjw->klmuw", K, Ew)
+            B = B + self.Bu[:, None] @ Fw
+            D = D + self.Du[:, None] @ Fw
         if self.Gw is not None:
             B = B + np.einsum("klmxy,klyw->klmxw", A, self.Gw)
             D = D + np.einsum("klmzy,klyw->klmzw", C, self.Gw)
@@ -410,11 +439,17 @@ class JumpPlant:
             # that Gw tells apart as previous modes
             return self
         mats = [getattr(self, f) for f in self._FIELDS]
-        groups, nominal = merge_groups(mats, self.probabilities, self.nominal)
-        (A, Bu, Bw, Cz, Du, Dw), p = apply_groups(mats, self.probabilities,
-                                                   groups)
-        return replace(self, A=A, Bu=Bu, Bw=Bw, Cz=Cz, Du=Du, Dw=Dw,
-                       probabilities=p, nominal=nominal)
+        per_mode = [X for X in (self.E, self.Ew) if X is not None
+                    and X.ndim == 4]
+        groups, nominal = merge_groups(mats + per_mode, self.probabilities,
+                                       self.nominal)
+        merged, p = apply_groups(mats + per_mode, self.probabilities, groups)
+        changes: dict[str, Any] = dict(zip(self._FIELDS, merged))
+        if self.E.ndim == 4:
+            changes["E"] = merged[6]
+            if self.Ew is not None and self.Ew.ndim == 4:
+                changes["Ew"] = merged[7]
+        return replace(self, probabilities=p, nominal=nominal, **changes)
 
     def mean(self) -> tuple[np.ndarray, ...]:
         """Per-phase mean matrices ``Σ_i p_ki X_ki`` of every field.
@@ -439,9 +474,11 @@ class JumpPlant:
         Returns
         -------
         ndarray of int
-            Indices of the columns of ``E_k`` that are not zero.
+            Indices of the columns of ``E_k`` that are not zero (in some
+            mode, when the reading is per mode).
         """
-        return np.flatnonzero(np.any(self.E[k % self.period] != 0, axis=0))
+        Ek = self.E[k % self.period]
+        return np.flatnonzero(np.any(Ek != 0, axis=tuple(range(Ek.ndim - 1))))
 
     def active_inputs(self, k: int) -> np.ndarray:
         """Control inputs that can act at phase ``k``.
@@ -471,6 +508,8 @@ class JumpPlant:
             one 1 and otherwise zeros (required by synthesis).
         """
         E = self.E
+        if E.ndim == 4:         # one reading per mode: not a phase selection
+            return False
         binary = np.all((E == 0) | (E == 1))
         return bool(binary and np.all(E.sum(axis=2) <= 1)
                     and np.all(E.sum(axis=1) <= 1))

@@ -111,10 +111,6 @@ def _not_exact(P: NetworkedStateSpace, controller: str, actuator: str,
     if np.any(np.asarray(P.D21) != 0):
         return ("P", f"P: {who}'s exact program needs a gain on the state "
                      f"alone; with D21 ≠ 0 it also reads the noise")
-    if P.sensor_delay is not None or P.actuator_delay is not None or \
-            P.input_delay is not None:
-        return ("P", f"P: {who}'s exact program needs the state now; over "
-                     f"delayed links the gain reads a past measurement")
     if controller != "static":
         return ("controller", f"controller: {who}'s exact program is for the "
                               f"static gain on the state, got {controller!r}")
@@ -132,10 +128,12 @@ def _not_exact(P: NetworkedStateSpace, controller: str, actuator: str,
                      f"acknowledgements; under this schedule a link idle the "
                      f"step before hides its state, and the program with one "
                      f"gain for the hidden states is not written")
-    if not all(np.array_equal(Ek, np.eye(n)) for Ek in plant.E):
-        return ("P", f"P: the static gain does not see the whole state at "
-                     f"every phase (a sensor schedule); {who}'s exact program "
-                     f"needs y = x at every step")
+    if plant.reads_per_mode or not all(np.array_equal(Ek, np.eye(n))
+                                       for Ek in plant.E):
+        return ("P", f"P: the static gain does not see the whole loop state "
+                     f"at every phase (a sensor schedule, or measurements or "
+                     f"commands a delayed link still holds); {who}'s exact "
+                     f"program needs y = x and nothing else at every step")
     return None
 
 
@@ -390,18 +388,8 @@ def _local_design(P: NetworkedStateSpace, controller: str, actuator: str,
     of the better of the two loops, else None)."""
     deadline = None if time_limit is None else \
         time.perf_counter() + time_limit
-    delayed = P.sensor_delay is not None or P.actuator_delay is not None \
-        or P.input_delay is not None
-    if delayed:
-        if estimator_gain is not None:
-            raise ControlArgument("estimator_gain: over delayed links the "
-                                  "controller is 'static' or 'predictor'")
-        mats, loop, shape, close, starts = _delayed_problem(
-            P, controller, actuator)
-        L = None
-    else:
-        mats, loop, shape, close, starts, L = _plant_problem(
-            P, controller, actuator, estimator_gain)
+    mats, loop, shape, close, starts, L = _plant_problem(
+        P, controller, actuator, estimator_gain)
     if initial_gain is not None:
         G = np.asarray(initial_gain, float)
         if G.shape != shape and G.shape != (1,) + shape[1:]:
@@ -449,52 +437,16 @@ def _local_design(P: NetworkedStateSpace, controller: str, actuator: str,
     return K, CL, rate, certified
 
 
-def _delayed_problem(P: NetworkedStateSpace, controller: str,
-                     actuator: str) -> tuple:
-    """The loop over delayed links (a gain per sensor age, or the
-    predictor's) for the local designs: its output and noise matrices, the
-    rate loop, the gains' shape, its closing and its starts (the design
-    without the delays at every age, and zero)."""
-    if controller not in ("static", "predictor"):
-        raise ControlArgument(f"controller: over delayed links expected "
-                              f"'static' or 'predictor', got {controller!r}")
-    from ._delay_design import _rate_loop, undelayed
-    from .delays import delayed_parts, gain_shape, start_from
-    from .strategies import feedback
-    loop = _rate_loop(P, controller, actuator)
-    parts = delayed_parts(P, controller, actuator)
-    N = parts.T.shape[0]
-
-    def phases(X: np.ndarray) -> np.ndarray:
-        return np.broadcast_to(X, (N,) + X.shape)
-
-    mats = (phases(parts.C0), phases(parts.LC), phases(parts.B),
-            phases(parts.D), parts.pi, None)
-    shape = gain_shape(P, controller)
-    starts = []
-    try:
-        K0 = h2syn(undelayed(P), controller=controller, actuator=actuator,
-                   time_limit=10.0)[0].gains
-        starts.append(start_from(K0, shape).ravel())
-    except (SynthesisError, ControlArgument):
-        pass
-    starts.append(np.zeros(loop.free.size))
-
-    def close(K: np.ndarray) -> JumpStateSpace:
-        return feedback(P, K, controller=controller, actuator=actuator)
-
-    return mats, loop, shape, close, starts
-
-
 def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
                    estimator_gain: Any) -> tuple:
     """A structured loop of the network's open loop
     (:class:`~control_ncs.openloop.JumpPlant`) for the local designs: as
-    :func:`_delayed_problem`, with the starts the full-information design
+    its output and noise matrices, the rate loop, the gains' shape, its
+    closing and its starts: the full-information design
     restricted to what the gain sees, the mean-square LQ gain restricted,
     and zero."""
     from .estimator import estimator_gain as default_estimator
-    from .refine import _Loop, _lq_gain, _restrict
+    from .refine import _Loop, _lq_gain, _projected, _restrict
     L = None
     if controller == "estimator":
         L = estimator_gain if estimator_gain is not None else \
@@ -512,9 +464,11 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
             f"feedback(P, K, controller={controller!r})")
     loop = _Loop(plant, plant.probabilities, plant.transition)
     mats = (plant.Cz, plant.Du, plant.Bw, plant.Dw, plant.probabilities,
-            plant.Ew)
-    starts = [_restrict(loop, _lq_gain(plant, plant.probabilities)),
-              np.zeros(loop.free.size)]
+            plant.readings()[1])
+    G = _lq_gain(plant, plant.probabilities)
+    projected = _projected(plant, loop, G)
+    starts = ([] if projected is None else [projected]) + [
+        _restrict(loop, G), np.zeros(loop.free.size)]
     if controller == "static" and plant.shape["nx"] == P.nstates and \
             not P.shared_channel and np.array_equal(P.C2, np.eye(P.nstates)):
         # the exact design with every sensor sending, if that is exact

@@ -14,7 +14,8 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, flag, matrix, no_extra_kwargs, real_array
 from .exceptions import ScheduleWarning
-from .network import (GilbertElliott, common_period, delay_model, link_model,
+from .network import (BurstyDelay, GilbertElliott, common_period,
+                      delay_model, link_model,
                       mode_probabilities, mode_transition, schedule,
                       warn_silent_nodes)
 
@@ -103,15 +104,22 @@ class NetworkedStateSpace(ct.StateSpace):
     shared_channel : bool
         If True, at most one message crosses the network per step: no phase
         may schedule a sensor and an actuator together (paper §2).
-    sensor_delay, actuator_delay : RandomDelay or array_like, optional
+    sensor_delay, actuator_delay : RandomDelay, BurstyDelay or array_like, optional
         Random integer delays on the link, the freshest packet winning
         (:func:`control_ncs.random_delay`, or its pmf
-        ``[P(δ = 0), P(δ = 1), …]``; :ref:`theory-delays`). The link's loss
-        is then ``1 - Σ pmf`` (``sensor_loss``/``actuator_loss`` must be 0
-        or that value). One packet carries every node's value, so a
-        schedule may only let all nodes of the link send together or none
-        (the age chain is then periodic); close the loop with
-        :func:`control_ncs.feedback`.
+        ``[P(δ = 0), P(δ = 1), …]``, or :func:`control_ncs.bursty_delay`;
+        :ref:`theory-delays`). A loss on the same link composes with the
+        delay (:ref:`theory-links-compose`): a packet is lost with
+        probability ``sensor_loss``, else delayed by the pmf, whose own
+        ``1 - Σ pmf`` is lost too; the link's total loss is
+        ``1 - (1 - α)(1 - (1 - Σ pmf))``. A Gilbert–Elliott loss on a
+        delayed link, or a loss beside a bursty delay, is refused (write
+        the laws per channel state with ``bursty_delay``). One packet
+        carries every node's value, so a schedule may only let all nodes
+        of the link send together or none (the age chain is then
+        periodic). Every combination with the other link, the schedules
+        and the controllers composes into one loop
+        (:func:`control_ncs.feedback`).
     input_delay : InputDelay, optional
         Sub-sample delays of the control input; give
         ``input_delay=(taus, probabilities)`` to :func:`nss` with a
@@ -128,14 +136,14 @@ class NetworkedStateSpace(ct.StateSpace):
     sensor_schedule, actuator_schedule : Schedule
         Both written over the common ``period``.
     sensor_loss, actuator_loss : float
-        Loss probabilities ``α1`` and ``α2`` (stationary ones for a bursty
-        link).
+        Loss probabilities ``α1`` and ``α2`` of each link (stationary ones
+        for a bursty link; a delay law's own loss included).
     sensor_link, actuator_link : float or GilbertElliott
         The loss models as given (a matrix becomes a GilbertElliott).
     shared_channel : bool
         Whether at most one message crosses the network per step.
-    sensor_delay, actuator_delay : RandomDelay or None
-        The delay models (None: no delay).
+    sensor_delay, actuator_delay : RandomDelay, BurstyDelay or None
+        The delay models as given (None: no delay).
     input_delay : InputDelay or None
         Sub-sample delays of the control input (made by :func:`nss`).
     period : int
@@ -235,26 +243,34 @@ class NetworkedStateSpace(ct.StateSpace):
             if delay is None:
                 continue
             link = getattr(self, f"{side}_link")
-            if isinstance(link, GilbertElliott) or not (
-                    link == 0.0 or abs(link - delay.loss) < 1e-12):
-                raise ValueError(
-                    f"{side}_loss: a delayed link carries its loss in its pmf "
-                    f"(1 - Σ pmf = {delay.loss:g}); give {side}_loss=0 (or "
-                    f"the same value), got {link!r}")
+            if isinstance(link, GilbertElliott):
+                raise ControlArgument(
+                    f"{side}_loss: a bursty (Gilbert–Elliott) loss on a "
+                    f"delayed link has no finite chain (a packet lost while "
+                    f"the channel is bad, delayed otherwise, needs the "
+                    f"channel's past); give the delay law of each channel "
+                    f"state instead: {side}_delay=ncs.bursty_delay(link, "
+                    f"pmf_bad, pmf_good)")
+            if isinstance(delay, BurstyDelay) and link:
+                raise ControlArgument(
+                    f"{side}_loss: a loss beside a bursty delay is not a "
+                    f"thinning of one law (the channel state sets the "
+                    f"arrivals); put the losses in bursty_delay's laws "
+                    f"(pmf_bad, pmf_good summing to less than 1) and give "
+                    f"{side}_loss=0")
             pattern = getattr(self, f"{side}_schedule").pattern
             if not np.all(pattern.all(axis=1) | ~pattern.any(axis=1)):
                 raise ValueError(
                     f"{side}_delay: a delayed link carries one packet with "
                     f"every {side}'s value; its schedule must let all "
                     f"{side}s send together or none at each phase")
-            if self.shared_channel:
-                raise ValueError("shared_channel: not supported with delayed "
-                                 "links")
-            # the loss of a delayed link is the packet never arriving
+            # a loss and a delay on one link compose: a packet is lost with
+            # probability α, else delayed by the pmf (theory: links compose)
+            total = 1.0 - (1.0 - float(link)) * (1.0 - delay.loss)
             if side == "sensor":
-                self.sensor_link = self.sensor_loss = delay.loss
+                self.sensor_loss = total
             else:
-                self.actuator_link = self.actuator_loss = delay.loss
+                self.actuator_loss = total
         if self.shared_channel:
             both = (self.sensor_schedule.pattern.any(axis=1)
                     & self.actuator_schedule.pattern.any(axis=1))

@@ -74,6 +74,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 from control.exception import ControlArgument, ControlDimension
+from scipy.optimize import minimize
 from scipy.sparse.linalg import (ArpackError, ArpackNoConvergence,
                                  LinearOperator, eigs)
 
@@ -112,6 +113,9 @@ RESTART_SCALES = (0.3, 1.0, 3.0)
 #: Quasi-Newton iterations of stage 2 at most (each evaluation solves the
 #: analysis LMI once).
 STAGE2_ITERATIONS = 30
+
+#: Markov modes' stage 2 (derivative-free): certified loops evaluated.
+EVALUATIONS = 200
 
 #: Stage 2 with a given ``eta`` aims this far above it (relative, at least
 #: 1 absolute), so that the analysis LMI's strictness margin still fits.
@@ -219,14 +223,15 @@ class _Loop:
 
     def __init__(self, plant: JumpPlant, probabilities: np.ndarray,
                  transition: np.ndarray | None):
-        self.A, self.Bu, self.E = plant.A, plant.Bu, plant.E
+        self.A, self.Bu = plant.A, plant.Bu
+        self.E = plant.readings()[0]                 # (N, M, nk, nx)
         self.p, self.T = probabilities, transition
         self.N, self.M, self.n = plant.A.shape[0], plant.A.shape[1], \
             plant.A.shape[-1]
         mask = np.zeros(plant.gain_shape(), bool)
         for k in range(self.N):
             rows = plant.active_inputs(k)
-            cols = np.flatnonzero(np.any(plant.E[k] != 0, axis=1))
+            cols = np.flatnonzero(np.any(self.E[k] != 0, axis=(0, 2)))
             mask[k][np.ix_(rows, cols)] = True
         self.mask = mask
         self.free = np.flatnonzero(mask)
@@ -239,14 +244,20 @@ class _Loop:
         return K
 
     def rows(self, x: np.ndarray) -> np.ndarray:
-        """``F_ki = K_k E_k`` (the same for every mode), (N, M, nu, n)."""
-        F = np.einsum("kuj,kjx->kux", self.gains(x), self.E)
-        return np.broadcast_to(F[:, None], (self.N, self.M) + F.shape[1:])
+        """``F_ki = K_k E_ki``, (N, M, nu, n): the same for every mode
+        unless the reading is per mode (a gain per age of a buffered
+        measurement)."""
+        return np.einsum("kuj,kmjx->kmux", self.gains(x), self.E)
 
     def chain(self, dF: np.ndarray) -> np.ndarray:
         """A derivative in ``F_ki`` as one in the gains: ``Σ_i dF_ki
-        E_kᵀ``, in the gains' shape."""
-        return np.einsum("kmux,kjx->kuj", dF, self.E)
+        E_kiᵀ``, in the gains' shape."""
+        return np.einsum("kmux,kmjx->kuj", dF, self.E)
+
+    def reading(self) -> np.ndarray:
+        """Everything the gain reads at each phase, (N, nk, n): the union
+        of the modes' readings (their blocks do not overlap)."""
+        return np.abs(self.E).max(axis=1)
 
     def closed(self, x: np.ndarray) -> np.ndarray:
         return self.A + self.Bu @ self.rows(x)
@@ -372,35 +383,6 @@ class _Loop:
         return math.log(lam) / self.N, grad
 
 
-class _StackLoop(_Loop):
-    """``Acl_ki = A_ki + Bu_ki K_{g_i} E_ki``: a stack of gains, mode ``i``
-    applying gain ``g_i`` to what it reads, ``E_ki`` (a gain per sensor age
-    over a delayed link, :mod:`control_ncs.delays`). Same rate and Perron
-    gradient as :class:`_Loop`, summed over the modes that share a gain.
-    """
-
-    def __init__(self, A: np.ndarray, Bu: np.ndarray, E: np.ndarray,
-                 index: np.ndarray, count: int, transition: np.ndarray):
-        self.A, self.Bu, self.E = A, Bu, E
-        self.index = np.asarray(index, int)
-        self.N, self.M, self.n = A.shape[0], A.shape[1], A.shape[-1]
-        # Markov modes: the law is the chain's (``p`` is never read)
-        self.p, self.T = np.zeros((self.N, self.M)), transition
-        self.mask = np.ones((count, Bu.shape[-1], E.shape[-2]), bool)
-        self.free = np.flatnonzero(self.mask)
-        self.evaluations = 0
-        self._warm = [None, None]
-
-    def rows(self, x: np.ndarray) -> np.ndarray:
-        return self.gains(x)[self.index] @ self.E
-
-    def chain(self, dF: np.ndarray) -> np.ndarray:
-        G = np.zeros(self.mask.shape)
-        for k in range(self.N):
-            np.add.at(G, self.index, dF[k] @ self.E[k].transpose(0, 2, 1))
-        return G
-
-
 # -- BFGS with a weak Wolfe line search (HIFOO's scheme) -----------------------
 def _line_search(fg, x, f, g, d, deadline):
     c1, c2 = WOLFE
@@ -502,7 +484,48 @@ def _lq_gain(plant: JumpPlant, probabilities: np.ndarray,
 
 def _restrict(loop: _Loop, G: np.ndarray) -> np.ndarray:
     """Free entries of ``K_k = G_k E_kᵀ`` (the full gain on what is known)."""
-    return np.einsum("kux,kjx->kuj", G, loop.E).flat[loop.free].copy()
+    return np.einsum("kux,kjx->kuj", G, loop.reading()).flat[
+        loop.free].copy()
+
+
+def _projected(plant: JumpPlant, loop: _Loop, G: np.ndarray
+               ) -> np.ndarray | None:
+    """Free entries of the structured gain closest to a full-information
+    gain ``G`` (shape (N, nu, nx)) in that loop's own stationary moments.
+
+    ``K_k`` minimises ``Σ_i p_ki tr((G_k − K_k E_ki) Q_ki (G_k − K_k
+    E_ki)ᵀ)`` over the free entries, ``Q`` the stationary second moment of
+    ``ξ⁺ = (A + Bu G) ξ + v`` under unit white ``v``: where the gain reads
+    an old measurement, the correlation with the present state carries
+    ``G`` to it (for ``y = x`` read ``a`` steps late, about ``G A^a``).
+    None when ``G``'s loop is not mean-square stable.
+    """
+    from .jump import JumpStateSpace
+    from .stability import stationary_covariances
+    N, M, n = loop.N, loop.M, loop.n
+    A = plant.A + plant.Bu @ G[:, None]
+    eye = np.broadcast_to(np.eye(n), (N, M, n, n))
+    zeros = np.zeros((N, M, 1, n))
+    CL = JumpStateSpace(A, eye, zeros, np.zeros((N, M, 1, n)),
+                        None if plant.transition is not None
+                        else plant.probabilities, plant.dt,
+                        transition=plant.transition)
+    if not exact_ms_radius(CL) < 1.0:
+        return None
+    Q = stationary_covariances(CL)
+    if Q.ndim == 3:                       # i.i.d.: Q_ki = p_ki Q_k
+        Q = plant.probabilities[:, :, None, None] * Q[:, None]
+    E = loop.E
+    K = np.zeros(loop.mask.shape)
+    for k in range(N):
+        lhs = np.einsum("mjx,mxy,miy->ji", E[k], Q[k], E[k])
+        rhs = np.einsum("ux,mxy,miy->ui", G[k], Q[k], E[k])
+        for u in range(K.shape[1]):
+            cols = np.flatnonzero(loop.mask[k, u])
+            if cols.size:
+                K[k, u, cols] = np.linalg.lstsq(
+                    lhs[np.ix_(cols, cols)], rhs[u, cols], rcond=None)[0]
+    return K.flat[loop.free].copy() if np.all(np.isfinite(K)) else None
 
 
 def _continued(plant: JumpPlant, t: float
@@ -561,7 +584,8 @@ class _Index:
             PFZ = P[(k + 1) % N] @ F[k] @ Z                  # (M, n, n+m)
             BtPFZ = plant.Bu[k].transpose(0, 2, 1) @ PFZ[:, :, :n]
             DtZ = plant.Du[k].transpose(0, 2, 1) @ Z[n:, :n]
-            G[k] = 2 * np.tensordot(p, BtPFZ - DtZ, axes=1) @ plant.E[k].T
+            G[k] = 2 * np.tensordot(
+                p, (BtPFZ - DtZ) @ loop.E[k].transpose(0, 2, 1), axes=1)
         return -float(report.value or 0.0), G.flat[loop.free].copy()
 
 
@@ -575,6 +599,46 @@ def _analysis(CL, eta, decay):
     if not res.passive or res.certificate is None:
         return None
     return res.certificate
+
+
+class _Reached(Exception):
+    """The derivative-free stage met the requested level."""
+
+
+def _certified_search(plant: JumpPlant, loop: _Loop, K: np.ndarray,
+                      cert: Any, eta: float | None, decay: float,
+                      deadline: float | None) -> tuple[np.ndarray, Any]:
+    """Nelder–Mead on ``-η`` of the analysis certificate of each loop
+    (``EVALUATIONS`` at most), from ``K``; returns the best certified gain
+    met (``K`` and ``cert`` when none beats them, or, ``eta`` given, when
+    none reaches it)."""
+    best = {"K": K, "cert": cert}
+    bound = min(1.0, decay ** 2)
+
+    def certify(x: np.ndarray) -> float:
+        if deadline is not None and time.perf_counter() > deadline:
+            return math.inf
+        Kx = loop.gains(x)
+        CL = plant.close(Kx)
+        if not exact_ms_radius(CL) < bound:
+            return math.inf
+        c = _analysis(CL, None, decay)
+        if c is None or not c.verified:
+            return math.inf
+        if best["cert"] is None or c.eta > best["cert"].eta:
+            best.update(K=Kx, cert=c)
+        if eta is not None and c.eta >= eta:
+            raise _Reached
+        return -float(c.eta)
+
+    try:
+        minimize(certify, K.flat[loop.free].copy(), method="Nelder-Mead",
+                 options=dict(maxfev=EVALUATIONS, xatol=1e-5, fatol=1e-7))
+    except _Reached:
+        pass
+    if eta is not None and (best["cert"] is None or best["cert"].eta < eta):
+        return K, cert            # nothing met the level asked
+    return best["K"], best["cert"]
 
 
 # -- the driver -----------------------------------------------------------------
@@ -612,8 +676,11 @@ def _refine(plant: JumpPlant, eta: float | None, decay: float,
     starts = []
     if given is not None:
         starts.append(("given", given.flat[loop.free].copy()))
-    starts.append(("full", _restrict(loop, _lq_gain(plant,
-                                                    plant.probabilities))))
+    G = _lq_gain(plant, plant.probabilities)
+    projected = _projected(plant, loop, G)
+    if projected is not None:
+        starts.append(("projected", projected))
+    starts.append(("full", _restrict(loop, G)))
     starts.append(("zero", np.zeros(loop.free.size)))
     scored = sorted(((loop.rate(x)[0], j, name, x)
                      for j, (name, x) in enumerate(starts)),
@@ -709,6 +776,12 @@ def _refine(plant: JumpPlant, eta: float | None, decay: float,
             cert2 = _analysis(plant.close(K2), eta, decay)
             if cert2 is not None and (cert is None or cert2.eta > cert.eta):
                 K, cert = K2, cert2
+    elif (cert is None or eta is None) and not out_of_time():
+        # Markov modes: the gradient above is written for i.i.d. modes; a
+        # derivative-free search on the certified η itself, keeping the best
+        # certified loop it meets
+        K, cert = _certified_search(plant, loop, K, cert, eta, decay,
+                                    deadline)
     if cert is not None and cert.verified:
         if stopped != TIME_LIMIT:
             stopped = CERTIFIED

@@ -1,42 +1,404 @@
-"""Network strategies as builders of the generic jump system
-(:ref:`theory-static-loop`, :ref:`theory-predictor`,
-:ref:`theory-jump-system`).
+"""The one builder: plant + network + controller kind → JumpPlant
+(:ref:`theory-links-compose`, :ref:`theory-static-loop`,
+:ref:`theory-predictor`, :ref:`theory-output-feedback`,
+:ref:`theory-delays`).
 
-Each builder turns a :class:`~control_ncs.plant.NetworkedStateSpace` into a
-:class:`~control_ncs.jump.JumpPlant` with the four network modes of each
-phase listed in the order of paper eq. 14, ``(θ1, θ2) = (0,0), (1,0), (0,1),
-(1,1)``; the last one is loss-free. Builders never call a solver, and nothing
-downstream looks at schedules or losses again.
+The network is the product of the two links' chains
+(:mod:`control_ncs.links`) and, for a sampled plant with sub-sample input
+delays, the delay's chain; a mode is a tuple of their states and the
+builder reads only what each state emits: the age of the packet the
+receiver uses, or stale. Buffered measurements, commands and noises are
+loop state, as are the controller's memory and held values. One function
+per controller kind writes a mode's matrices; every link combination goes
+through it. Builders never call a solver, and nothing downstream looks at
+schedules or links again.
 """
 
 from __future__ import annotations
 
-import math
-import warnings
 from dataclasses import dataclass
-from functools import partial
 from typing import Any, Callable
 
-import control as ct
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import (caller_stacklevel, choice, no_extra_kwargs,
-                      positive_int, real_array)
-from .exceptions import ScheduleWarning
-from .gain import PeriodicGain
+from ._checks import choice, positive_int, real_array
 from ._lifting import check_lifted_size
-from .jump import JumpStateSpace
-from .delays import delayed_loop
+from .gain import ACTUATORS, CONTROLLERS
+from .links import LinkChain, link_chain, product, timing_chain
+from .modes import periodic_stationary
 from .openloop import JumpPlant
-from ._lti import lti_operand
 from .plant import NetworkedStateSpace
 
-__all__ = ["build", "feedback", "loop_closes", "require_state_measured"]
+__all__ = ["build", "loop_closes", "require_state_measured"]
 
-MODES = ((0, 0), (1, 0), (0, 1), (1, 1))
+#: Largest number of loop states the builder writes (the matrices of a
+#: mode are dense): a buffer or a period beyond this is refused up front.
+MAX_LOOP_STATES = 4000
+#: Largest number of network modes per phase.
+MAX_MODES = 20000
 
 
+# -- the network: the links' product -----------------------------------------------
+@dataclass(frozen=True)
+class Network:
+    """The mode chain of a loop: the product of its links' chains.
+
+    Attributes
+    ----------
+    sensor, actuator : LinkChain
+        The links as the controller kind reads them (the sensor chain one
+        step ahead for controllers with memory, in pairs for the
+        estimator over a buffered link).
+    timing : LinkChain or None
+        Sub-sample input delays.
+    transition : ndarray, shape (N, M, M)
+    emissions : ndarray of int, shape (N, M, 3)
+        Per mode: sensor age, actuator age, delay index (0 without one).
+    previous : ndarray of int, shape (N, M), or None
+        The sensor age the step before (pairs only).
+    """
+
+    sensor: LinkChain
+    actuator: LinkChain
+    timing: LinkChain | None
+    transition: np.ndarray
+    emissions: np.ndarray
+    previous: np.ndarray | None
+
+    @property
+    def count(self) -> int:
+        """Number of modes per phase."""
+        return self.transition.shape[1]
+
+    def law(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """``(probabilities, transition)``: i.i.d. modes when every row of
+        every phase is the same (transition None), else the periodic
+        stationary marginals and the chain."""
+        T = self.transition
+        if np.all(T == T[:, :1, :]):
+            return np.roll(T[:, 0, :], 1, axis=0), None
+        return periodic_stationary(T), T
+
+    def nominal(self) -> np.ndarray:
+        """The loss-free mode of each phase: every chain in its best state
+        (delivered, age 0, the first delay)."""
+        chains = [self.sensor, self.actuator] + (
+            [] if self.timing is None else [self.timing])
+        i, scale = 0, 1
+        for c in chains:
+            i += scale * c.nominal
+            scale *= c.size
+        return np.full(self.transition.shape[0], i)
+
+    def observed(self) -> np.ndarray:
+        """What the controller knows of the previous mode, per phase: equal
+        labels for modes whose emissions (ages the controller reads or is
+        told through acknowledgements) are equal; the sub-sample delay is
+        never seen."""
+        em = self.emissions[:, :, :2]
+        if self.previous is not None:
+            em = np.concatenate([em, self.previous[:, :, None]], axis=2)
+        em = np.roll(em, 1, axis=0)                 # [k] = the mode at k - 1
+        out = np.zeros(em.shape[:2], int)
+        for k in range(em.shape[0]):
+            _, out[k] = np.unique(em[k], axis=0, return_inverse=True)
+        return out
+
+
+def network(P: NetworkedStateSpace, controller: str, N: int) -> Network:
+    """The mode chain of ``P``'s loop with a controller of this kind."""
+    sent = [P.sensor_schedule.repeat(N).pattern.any(axis=1),
+            P.actuator_schedule.repeat(N).pattern.any(axis=1)]
+    sensor = link_chain(P.sensor_link, P.sensor_delay, sent[0], "sensor")
+    actuator = link_chain(P.actuator_link, P.actuator_delay, sent[1],
+                          "actuator")
+    previous = None
+    if controller in ("predictor", "estimator") and sensor.buffer:
+        # the estimator corrects only on a new packet: consecutive ages
+        previous = sensor.previous()
+        sensor = sensor.pairs()
+    elif controller != "static":
+        sensor = sensor.shifted()
+    chains = [sensor, actuator]
+    timing = None
+    if P.input_delay is not None:
+        timing = timing_chain(P.input_delay.probabilities, N)
+        chains.append(timing)
+    size = int(np.prod([c.size for c in chains]))
+    if size > MAX_MODES:
+        raise ValueError(
+            f"P: the network has {size} modes per phase (sensor link "
+            f"{sensor.size} states x actuator link {actuator.size}"
+            f"{'' if timing is None else f' x {timing.size} delays'}), more "
+            f"than MAX_MODES = {MAX_MODES}; use shorter buffers")
+    T, em = product(chains)
+    if previous is not None:        # per mode of the product
+        previous = previous[:, np.arange(T.shape[1]) % sensor.size]
+    if timing is None:
+        em = np.concatenate([em, np.zeros(em.shape[:2] + (1,), int)], axis=2)
+    return Network(sensor, actuator, timing, T, em, previous)
+
+
+# -- the loop state ---------------------------------------------------------------
+class Layout:
+    """Named blocks of the loop state ``ξ``, in order."""
+
+    def __init__(self, blocks: list[tuple[str, int]]):
+        self.slices: dict[str, slice] = {}
+        start = 0
+        for name, size in blocks:
+            self.slices[name] = slice(start, start + size)
+            start += size
+        self.size = start
+
+    def has(self, name: str) -> bool:
+        return name in self.slices and \
+            self.slices[name].stop > self.slices[name].start
+
+
+class Rows:
+    """Linear expressions in ``[ξ_k; w_k; v_k; w_{k+1}]``: a matrix per
+    quantity, columns in that order (``v`` the controller's output,
+    ``w_{k+1}`` the noise a measurement of the next step carries)."""
+
+    def __init__(self, layout: Layout, nw: int, nv: int):
+        self.layout, self.nw, self.nv = layout, nw, nv
+        self.width = layout.size + 2 * nw + nv
+        self.iw = slice(layout.size, layout.size + nw)
+        self.iv = slice(self.iw.stop, self.iw.stop + nv)
+        self.inext = slice(self.iv.stop, self.width)
+
+    def zeros(self, rows: int) -> np.ndarray:
+        return np.zeros((rows, self.width))
+
+    def state(self, name: str, part: slice | None = None) -> np.ndarray:
+        s = self.layout.slices[name]
+        cols = range(s.start, s.stop)[part] if part is not None else \
+            range(s.start, s.stop)
+        out = self.zeros(len(cols))
+        out[np.arange(len(cols)), list(cols)] = 1.0
+        return out
+
+    def noise(self) -> np.ndarray:
+        out = self.zeros(self.nw)
+        out[:, self.iw] = np.eye(self.nw)
+        return out
+
+    def next_noise(self) -> np.ndarray:
+        out = self.zeros(self.nw)
+        out[:, self.inext] = np.eye(self.nw)
+        return out
+
+    def command(self, rows: slice) -> np.ndarray:
+        out = self.zeros(self.nv)[rows]
+        out[:, self.iv] = np.eye(self.nv)[rows]
+        return out
+
+
+@dataclass
+class Context:
+    """What every mode of one loop shares: the plant, the schedules, the
+    layout, the buffers and the strategies."""
+
+    P: NetworkedStateSpace
+    N: int
+    rows: Rows
+    Ds: int
+    Da: int
+    Dw: int
+    H: np.ndarray          # the actuators some phase addresses (held)
+    hold: bool
+    S1: np.ndarray         # (N, p2) sensor schedule over the loop's period
+    S2: np.ndarray         # (N, m2)
+    L: np.ndarray | None   # estimator gains (N_L, n, p2)
+    sensor_hold: bool = False  # LTI: a stale measurement keeps its value
+
+    def applied(self, k: int, b: int) -> np.ndarray:
+        """``u_k`` as rows: the components the command packet of age ``b``
+        carries, the rest held or zero (:ref:`theory-delays`)."""
+        r, m2 = self.rows, self.P.ncon
+        carried = np.diag(self.S2[(k - b) % self.N].astype(float)) \
+            if b <= self.Da else np.zeros((m2, m2))
+        u = r.zeros(m2)
+        if b == 0:
+            u = u + carried @ r.command(slice(0, m2))
+        elif b <= self.Da:
+            u = u + carried @ r.state(f"v{b}")
+        if self.hold:
+            u = u + (np.eye(m2) - carried) @ self.H.T @ r.state("u_prev")
+        return u
+
+    def previous_input(self) -> np.ndarray:
+        """``u_{k-1}`` as rows (zero when it is not kept)."""
+        r = self.rows
+        if not r.layout.has("u_prev"):
+            return r.zeros(self.P.ncon)
+        return self.H.T @ r.state("u_prev")
+
+    def plant(self, x: np.ndarray, u: np.ndarray, c: int) -> np.ndarray:
+        """``x_{k+1}`` as rows: ``A x + B1 w + B2 u``, or with a sub-sample
+        delay ``τ_c``, ``Φ x + B1 w + Γ0(τ) u + Γ1(τ) u_{k-1}``."""
+        P, r = self.P, self.rows
+        step = P.A @ x + P.B1 @ r.noise()
+        delay = P.input_delay
+        if delay is None:
+            return step + P.B2 @ u
+        return step + delay.gamma0[c] @ u + \
+            delay.gamma1[c] @ self.previous_input()
+
+    def output(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        P = self.P
+        return P.C1 @ x + P.D11 @ self.rows.noise() + P.D12 @ u
+
+    def measurement(self, x: np.ndarray, back: int) -> np.ndarray:
+        """``y_s = C2 x_s + D21 w_s`` as rows, ``x_s`` given, for the step
+        ``s = k - back`` (``back = -1``: the next step)."""
+        P, r = self.P, self.rows
+        y = P.C2 @ x
+        if not np.any(P.D21):
+            return y
+        if back == -1:
+            return y + P.D21 @ r.next_noise()
+        if back == 0:
+            return y + P.D21 @ r.noise()
+        return y + P.D21 @ r.state(f"w{back}")
+
+    def shift(self, nxt: dict, u: np.ndarray) -> None:
+        """The buffers move one step: commands, noises, held inputs."""
+        r, m2 = self.rows, self.P.ncon
+        for j in range(1, self.Da + 1):
+            nxt[f"v{j}"] = r.command(slice(0, m2)) if j == 1 else \
+                r.state(f"v{j - 1}")
+        for j in range(1, self.Dw + 1):
+            nxt[f"w{j}"] = r.noise() if j == 1 else r.state(f"w{j - 1}")
+        if r.layout.has("u_prev"):
+            nxt["u_prev"] = self.H @ u
+
+
+@dataclass
+class Mode:
+    """One mode's matrices before the gain, as rows on ``[ξ; w; v; w⁺]``."""
+
+    nxt: dict
+    z: np.ndarray
+    E: np.ndarray
+    Ew: np.ndarray
+
+
+# -- one function per controller kind ---------------------------------------------
+def _static_mode(ctx: Context, k: int, a: int, b: int, c: int,
+                 a_prev: int | None) -> Mode:
+    """Memoryless gain (:ref:`theory-static-loop`): ``v_k = K_{k,a} ŷ``,
+    the gain of the measurement's age ``a`` (a block of the gain per age),
+    nothing when the sensor link is stale."""
+    r, P = ctx.rows, ctx.P
+    p2 = P.C2.shape[0]
+    x = r.state("x")
+    u = ctx.applied(k, b)
+    nxt = {"x": ctx.plant(x, u, c)}
+    for j in range(1, ctx.Ds + 1):
+        nxt[f"x{j}"] = x if j == 1 else r.state(f"x{j - 1}")
+    ctx.shift(nxt, u)
+    read = np.zeros(((ctx.Ds + 1) * p2, r.width))
+    if a <= ctx.Ds:
+        S1 = np.diag(ctx.S1[(k - a) % ctx.N].astype(float))
+        xa = x if a == 0 else r.state(f"x{a}")
+        read[a * p2:(a + 1) * p2] = S1 @ ctx.measurement(xa, a)
+    L = r.layout.size
+    return Mode(nxt, ctx.output(x, u), read[:, :L], read[:, r.iw])
+
+
+def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int,
+              a_prev: int | None) -> Mode:
+    """An LTI controller (:ref:`theory-output-feedback`): its input ``ŷ``,
+    what arrived at the end of the step (age ``a`` at ``k + 1``), is loop
+    state; its realisation ``[[Dc, Cc], [Bc, Ac]]`` is the gain on
+    ``[ŷ; xc]`` with outputs ``[v; xc⁺]``."""
+    r, P = ctx.rows, ctx.P
+    p2 = P.C2.shape[0]
+    m2 = P.ncon
+    x = r.state("x")
+    u = ctx.applied(k, b)
+    xn = ctx.plant(x, u, c)
+    nxt = {"x": xn}
+    for j in range(1, ctx.Ds + 1):
+        nxt[f"x{j}"] = x if j == 1 else r.state(f"x{j - 1}")
+    ctx.shift(nxt, u)
+    nc = r.layout.slices["xc"].stop - r.layout.slices["xc"].start
+    nxt["xc"] = r.command(slice(m2, m2 + nc))
+    Hs = _heard(ctx.S1)
+    held = Hs.T @ r.state("y_rcv") if ctx.sensor_hold else r.zeros(p2)
+    if a <= ctx.Ds:
+        S1 = np.diag(ctx.S1[(k + 1 - a) % ctx.N].astype(float))
+        xs = xn if a == 0 else (x if a == 1 else r.state(f"x{a - 1}"))
+        y = S1 @ ctx.measurement(xs, a - 1) + (np.eye(p2) - S1) @ held
+    else:
+        y = held
+    nxt["y_rcv"] = Hs @ y
+    E = np.vstack([Hs.T @ r.state("y_rcv"), r.state("xc")])
+    L = r.layout.size
+    return Mode(nxt, ctx.output(x, u), E[:, :L],
+                np.zeros((p2 + nc, P.B1.shape[1])))
+
+
+def _model_mode(ctx: Context, k: int, a: int, b: int, c: int,
+                a_prev: int | None) -> Mode:
+    """The model-based controller (:ref:`theory-predictor`,
+    :ref:`theory-output-feedback`): estimates ``x̂`` of the last ``Ds + 1``
+    steps, predicted with the known inputs and corrected when the packet
+    that arrives at ``k + 1`` (age ``a``) is new; state ``[x̂; u⁻; e]``
+    with ``e = x − x̂`` per step."""
+    r, P = ctx.rows, ctx.P
+    Ds = ctx.Ds
+    L = ctx.L
+    assert L is not None           # the predictor's is I
+    xh = [r.state("xh")] + [r.state(f"xh{j}") for j in range(1, Ds + 1)]
+    er = [r.state("e")] + [r.state(f"e{j}") for j in range(1, Ds + 1)]
+    x = xh[0] + er[0]
+    u = ctx.applied(k, b)
+    xn = ctx.plant(x, u, c)
+    # at k + 1, before the correction: x̂_{k+1} predicted, older ones kept;
+    # index j holds step k + 1 - j
+    est = [P.A @ xh[0] + P.B2 @ u] + xh[:Ds]
+    true = [xn] + [xh[j] + er[j] for j in range(Ds)]
+    new = a <= Ds and (a_prev is None or a <= a_prev)
+    if new:
+        S1 = np.diag(ctx.S1[(k + 1 - a) % ctx.N].astype(float))
+        Lk = L[(k + 1 - a) % L.shape[0]]
+        innovation = S1 @ (ctx.measurement(true[a], a - 1) - P.C2 @ est[a])
+        for j in range(a + 1):
+            est[j] = est[j] + np.linalg.matrix_power(P.A, a - j) @ Lk \
+                @ innovation
+    nxt = {"xh": est[0], "e": true[0] - est[0]}
+    for j in range(1, Ds + 1):
+        nxt[f"xh{j}"] = est[j]
+        nxt[f"e{j}"] = true[j] - est[j]
+    ctx.shift(nxt, u)
+    E = r.state("xh")
+    if ctx.hold:
+        E = np.vstack([E, ctx.H.T @ r.state("u_prev")])
+    nX = r.layout.size
+    return Mode(nxt, ctx.output(x, u), E[:, :nX],
+                np.zeros((E.shape[0], P.B1.shape[1])))
+
+
+def _heard(S1: np.ndarray) -> np.ndarray:
+    """Selector of the sensors some phase schedules: a never-scheduled
+    sensor delivers nothing; its held value would be a constant 0 with an
+    eigenvalue 1 in every mode, so it is left out."""
+    idx = np.flatnonzero(S1.any(axis=0))
+    H = np.zeros((idx.size, S1.shape[1]))
+    H[np.arange(idx.size), idx] = 1.0
+    return H
+
+
+MODE_BUILDERS: dict[str, Callable[..., Mode]] = {
+    "static": _static_mode, "lti": _lti_mode, "predictor": _model_mode,
+    "estimator": _model_mode}
+
+
+# -- the builder ------------------------------------------------------------------
 def build(P: NetworkedStateSpace, controller: str = "static",
           actuator: str = "zero", *, period: int | None = None,
           sensor: str = "zero", controller_order: int = 0,
@@ -45,27 +407,36 @@ def build(P: NetworkedStateSpace, controller: str = "static",
 
     The gain the plant is closed with (:meth:`JumpPlant.close`,
     :func:`control_ncs.passivesyn`) acts in positive feedback, as it is:
-    ``v_k = K_k E_k ξ`` (``u = K y`` for the static controller, ``u = K x̂``
+    ``v_k = K_k E ξ`` (``u = K y`` for the static controller, ``u = K x̂``
     for the predictor and the estimator; for an LTI controller the "gain"
     is its realisation, see below). Negate a gain designed for
     ``u = -K x``, such as :func:`control.dlqr`'s.
+
+    Every link combination is built the same way: the links are chains
+    (:mod:`control_ncs.links`), a mode is a tuple of their states, and
+    what a buffered link may still deliver is loop state
+    (:ref:`theory-links-compose`).
 
     Parameters
     ----------
     P : NetworkedStateSpace
         Plant with its network.
     controller : {'static', 'predictor', 'estimator', 'lti'}
-        ``'static'``: ``v = K_k ŷ`` with ``ŷ = θ1 Σ1 y`` (paper eq. 2-3,
-        :ref:`theory-static-loop`). ``'predictor'``: the model-based controller
-        of :ref:`theory-predictor`, ``v = K_k x̂`` (needs ``y = x``).
-        ``'estimator'``: :ref:`theory-output-feedback`, the predictor corrected
-        through ``estimator_gain`` ``L_k`` for any ``y = C2 x``;
+        ``'static'``: ``v = K_k ŷ`` with ``ŷ`` the received measurement
+        (paper eq. 2-3, :ref:`theory-static-loop`); over a buffered
+        (delayed) sensor link a gain per age of the measurement, the
+        columns of ``K_k`` in blocks ``[age 0 | age 1 | …]``.
+        ``'predictor'``: the model-based controller of
+        :ref:`theory-predictor`, ``v = K_k x̂`` (needs ``y = x``).
+        ``'estimator'``: :ref:`theory-output-feedback`, the predictor
+        corrected through ``estimator_gain`` ``L_k`` for any ``y = C2 x``;
         ``v = K_k x̂``. ``'lti'``: a discrete-time LTI controller
         ``xc⁺ = Ac xc + Bc ŷ``, ``v = Cc xc + Dc ŷ`` of order
-        ``controller_order``; its gain is ``[[Dc, Cc], [Bc, Ac]]`` acting on
-        ``[ŷ; xc]`` (use :func:`feedback` with the controller itself).
+        ``controller_order``; its gain is ``[[Dc, Cc], [Bc, Ac]]`` acting
+        on ``[ŷ; xc]`` (use :func:`feedback` with the controller itself).
     actuator : {'zero', 'hold'}
-        What an actuator applies when its message is lost or not scheduled.
+        What an actuator applies when its message is lost, stale or not
+        scheduled.
     period : int, optional
         Build over this many phases (a multiple of ``P.period``), e.g. to
         match a gain sequence.
@@ -80,21 +451,24 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     Returns
     -------
     JumpPlant
-        Unmerged: four modes per phase, ``(θ1, θ2) = (0, 0), (1, 0),
-        (0, 1), (1, 1)`` in that order; ``nominal`` is the loss-free mode.
+        Unmerged. Without buffers the four modes ``(θ1, θ2) = (0, 0),
+        (1, 0), (0, 1), (1, 1)`` (the sensor bit of the step's end for the
+        controllers with memory); in general the product of the links'
+        states, the sensor link's fastest; ``nominal`` is the loss-free
+        mode.
 
     Raises
     ------
     ControlArgument
         If ``P`` is not a :class:`NetworkedStateSpace`, the controller,
         actuator or sensor strategy is unknown, the predictor is asked for
-        without ``y = x``, or an option is given to a controller that does
-        not take it.
+        without ``y = x``, a link combination has no chain, or an option
+        is given to a controller that does not take it.
     ControlDimension
         If ``estimator_gain`` has the wrong shape.
     ValueError
-        If ``period`` is not an int >= 1, not a multiple of ``P.period``, or
-        its lifted face would be too large.
+        If ``period`` is not an int >= 1, not a multiple of ``P.period``,
+        or the loop would be too large.
 
     Examples
     --------
@@ -110,17 +484,21 @@ def build(P: NetworkedStateSpace, controller: str = "static",
     >>> plant.close(np.full((1, 1, 1), -2.0)).modes.A[0, :, 0, 0].tolist()
     [2.0, 0.0]
     """
+    ctx, net, options = _plan(P, controller, actuator, period, sensor,
+                              controller_order, estimator_gain)
+    return _run(ctx, net, controller, actuator, options)
+
+
+def _plan(P: Any, controller: Any, actuator: Any, period: Any, sensor: Any,
+          controller_order: Any, estimator_gain: Any
+          ) -> tuple[Context, Network, dict]:
+    """Validate, then lay out the loop: the network's chain, the state's
+    blocks and what every mode shares."""
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
-    if P.sensor_delay is not None or P.actuator_delay is not None or \
-            P.input_delay is not None:
-        raise ControlArgument(
-            "P: a plant with delayed links has no open-loop builder "
-            "(JumpPlant) for synthesis over delayed links: close its loop "
-            "with feedback(P, K), or design with passivesyn(P), which "
-            "searches the gains locally there")
-    strategy = _strategy(controller, actuator)
+    choice(controller, "controller", CONTROLLERS)
+    choice(actuator, "actuator", ACTUATORS)
     opts = _options(P, controller, sensor, controller_order, estimator_gain)
     N = positive_int(period, "period", allow_none=True) or P.period
     for what, NL in (("network", P.period),
@@ -129,93 +507,221 @@ def build(P: NetworkedStateSpace, controller: str = "static",
         if N % NL:
             raise ValueError(f"period: {N} is not a multiple of the {what} "
                              f"period {NL}")
-    # the state has at least n entries: refuse a hopeless period before the
-    # per-phase work, not after it
     check_lifted_size(P.nstates, len(P.disturbance_labels),
                       len(P.performance_labels), N, "P")
-    if strategy.needs_state and not _measures_state(P):
-        raise ControlArgument(
-            f"controller={controller!r} needs the full state measured: y = x "
-            f"(C2 = I), got C2 of shape {P.C2.shape}")
-    # a phase's matrices depend on k only through the schedules' rows at k
-    # and k + 1: build each distinct phase once (long periods repeat them)
-    s1 = P.sensor_schedule.pattern
-    s2 = P.actuator_schedule.pattern
-    built: dict = {}
-    fields = []
+    require_state_measured(P, controller, allow_static=True)
+    net = network(P, controller, N)
+    Ds, Da = _buffer(P.sensor_delay), _buffer(P.actuator_delay)
+    n, m1, m2 = P.nstates, P.B1.shape[1], P.ncon
+    S1 = P.sensor_schedule.repeat(N).pattern
+    S2 = P.actuator_schedule.repeat(N).pattern
+    H = _addressed(S2)
+    hold = actuator == "hold"
+    keep_u = hold or P.input_delay is not None
+    noisy = bool(np.any(P.D21))
+    memory = controller != "static"
+    Dw = (max(Ds - 1, 0) if memory else Ds) if noisy else 0
+    blocks: list[tuple[str, int]]
+    if controller == "static":
+        blocks = [("x", n), ("u_prev", H.shape[0] if keep_u else 0)]
+        blocks += [(f"x{j}", n) for j in range(1, Ds + 1)]
+        nv = m2
+    elif controller == "lti":
+        nc = opts["nc"]
+        blocks = [("x", n), ("xc", nc), ("y_rcv", _heard(S1).shape[0]),
+                  ("u_prev", H.shape[0] if keep_u else 0)]
+        blocks += [(f"x{j}", n) for j in range(1, Ds + 1)]
+        nv = m2 + nc
+    else:
+        blocks = [("xh", n), ("u_prev", H.shape[0] if keep_u else 0),
+                  ("e", n)]
+        blocks += [(f"xh{j}", n) for j in range(1, Ds + 1)]
+        blocks += [(f"e{j}", n) for j in range(1, Ds + 1)]
+        nv = m2
+    blocks += [(f"v{j}", m2) for j in range(1, Da + 1)]
+    blocks += [(f"w{j}", m1) for j in range(1, Dw + 1)]
+    layout = Layout(blocks)
+    if layout.size > MAX_LOOP_STATES:
+        raise ValueError(
+            f"P: the loop would have {layout.size} states (plant {n}, "
+            f"buffers of {Ds} measurements and {Da} commands), more than "
+            f"MAX_LOOP_STATES = {MAX_LOOP_STATES}; use shorter buffers")
+    L = opts.get("L")
+    if controller == "predictor":
+        L = np.eye(n)[None]
+    ctx = Context(P, N, Rows(layout, m1, nv), Ds, Da, Dw, H, hold,
+                  S1, S2, L, sensor_hold=sensor == "hold")
+    return ctx, net, opts
+
+
+def _run(ctx: Context, net: Network, controller: str, actuator: str,
+         options: dict) -> JumpPlant:
+    """Every mode of every phase, then the JumpPlant."""
+    P, r, N = ctx.P, ctx.rows, ctx.N
+    layout = r.layout
+    mode = MODE_BUILDERS[controller]
+    M = net.count
+    fields: dict[str, list] = {f: [] for f in ("A", "Bu", "Bw", "Cz", "Du", "Dw", "E", "Ew",
+                              "Gnext")}
+    cache: dict = {}
     for k in range(N):
-        key: tuple = (s1[k % P.period].tobytes(),
-                      s1[(k + 1) % P.period].tobytes(),
-                      s2[k % P.period].tobytes())
-        if "L" in opts:
-            key += (opts["L"][(k + 1) % opts["L"].shape[0]].tobytes(),)
-        if key not in built:
-            built[key] = [strategy.phase(P, k, t1, t2, **opts)
-                          for (t1, t2) in MODES]
-        fields.extend(built[key])
-    per_phase = ("E", "Ew", "Gnext")
-    stacked = {f: np.array([m[f] for m in fields]).reshape(
-        (N, 4) + fields[0][f].shape) for f in fields[0]
-        if f not in per_phase}
-    E = np.array([fields[4 * k]["E"] for k in range(N)])
-    # measurement noise (D21 ≠ 0, theory: measurement noise): read at once
-    # (Ew, the static gain) or stored on arrival, the next step's offset
-    # Gw[k + 1, ℓ] of this step's mode ℓ (the model-based controllers)
-    Ew = Gw = None
-    if np.any(P.D21 != 0):
-        if "Ew" in fields[0]:
-            Ew = np.array([fields[4 * k]["Ew"] for k in range(N)])
-        if "Gnext" in fields[0]:
-            Gw = np.roll(np.array([m["Gnext"] for m in fields]).reshape(
-                (N, 4) + fields[0]["Gnext"].shape), 1, axis=0)
-    a1, a2 = P.sensor_loss, P.actuator_loss
-    prob = P.mode_probabilities()
-    p = np.tile([prob[m] for m in MODES], (N, 1))
-    # bursty links (theory: Markov losses): the channels evolve at every step
-    # whether or not a node is scheduled; the predictor's mode (θ1,k+1, θ2,k)
-    # follows the same Kronecker chain as the static one's (θ1,k, θ2,k)
-    T = P.mode_transition()
-    transition = None if T is None else np.tile(T, (N, 1, 1))
-    description: dict = dict(sensor_loss=a1, actuator_loss=a2,
-                             plant_period=P.period)
-    if T is not None:
-        description.update(sensor_link=P.sensor_link,
-                           actuator_link=P.actuator_link)
+        for i in range(M):
+            a, b, c = (int(e) for e in net.emissions[k, i])
+            a_prev = None if net.previous is None else \
+                int(net.previous[k, i])
+            key = _phase_key(ctx, controller, k, (a, b, c, a_prev))
+            if key not in cache:
+                cache[key] = _assemble(mode(ctx, k, a, b, c, a_prev), layout,
+                                       r)
+            for f, value in cache[key].items():
+                fields[f].append(value)
+    arr = {f: np.array(v).reshape((N, M) + v[0].shape)
+           for f, v in fields.items()}
+    E, Ew, Bu, Du = _per_phase_reading(arr["E"], arr["Ew"], arr["Bu"],
+                                       arr["Du"])
+    p, T = net.law()
+    Gw = None
+    if np.any(arr["Gnext"]):
+        # the noise of a measurement of the next step reaches the state with
+        # that step's input: step k + 1 acts on ξ + Gw[k + 1, ℓ] w, ℓ = the
+        # mode at k (theory: measurement noise)
+        Gw = np.roll(arr["Gnext"], 1, axis=0)
+    if not np.any(Ew):
+        Ew = None
+    description = _description(P, net)
     if controller == "lti":
-        description["sensor"] = sensor
-    return JumpPlant(stacked["A"], stacked["Bu"], stacked["Bw"], stacked["Cz"],
-                     stacked["Du"], stacked["Dw"], E, p, P.dt,
-                     transition=transition, nominal=np.full(N, 3),
-                     inputs=P.disturbance_labels,
-                     outputs=P.performance_labels,
-                     states=strategy.states(P, **opts), name=P.name,
-                     controller=controller, actuator=actuator,
-                     observed=(None if T is None
-                               else _observed(P, controller, N)),
-                     estimator_gain=opts.get("L"), Ew=Ew, Gw=Gw,
-                     description=description)
+        description["sensor"] = "hold" if ctx.sensor_hold else "zero"
+    return JumpPlant(
+        arr["A"], Bu, arr["Bw"], arr["Cz"], Du, arr["Dw"], E, p, P.dt,
+        transition=T, nominal=net.nominal(), inputs=P.disturbance_labels,
+        outputs=P.performance_labels, states=_state_names(P, layout, ctx),
+        name=P.name, controller=controller, actuator=actuator,
+        observed=None if T is None else net.observed(),
+        estimator_gain=options.get("L"), Ew=Ew, Gw=Gw,
+        description=description)
 
 
-def _observed(P: NetworkedStateSpace, controller: str, N: int) -> np.ndarray:
-    """What the controller observes of the previous mode, per phase.
+def _phase_key(ctx: Context, controller: str, k: int, emissions: tuple
+               ) -> tuple:
+    """A mode's matrices depend on the phase only through the schedules'
+    rows the ages point to and the estimator gain: modes of equal keys are
+    built once (long periods repeat them)."""
+    a, b, c, a_prev = emissions
+    shift = 0 if controller == "static" else 1
+    rows = [ctx.S1[(k + shift - j) % ctx.N].tobytes()
+            for j in range(ctx.Ds + 1)]
+    rows += [ctx.S2[(k - j) % ctx.N].tobytes() for j in range(ctx.Da + 1)]
+    if ctx.L is not None and ctx.L.shape[0] > 1:
+        rows += [ctx.L[(k + shift - j) % ctx.L.shape[0]].tobytes()
+                 for j in range(ctx.Ds + 1)]
+    return (a, b, c, a_prev, *rows)
 
-    The mode index is ``θ1 + 2θ2`` (``MODES``). The static gain's previous
-    mode is ``(θ1,k-1, θ2,k-1)``; the model-based controllers' is
-    ``(θ1,k, θ2,k-1)`` (their mode is ``(θ1,k+1, θ2,k)``,
-    :ref:`theory-markov`). A link reveals its bit only at a step where it
-    is scheduled (an arrival, or an acknowledgement). Returns the
-    observation class of each previous mode, shape (N, 4): equal labels
-    for modes the controller cannot tell apart.
-    """
-    s1 = P.sensor_schedule.pattern.any(axis=1)
-    s2 = P.actuator_schedule.pattern.any(axis=1)
-    shift = 1 if controller == "static" else 0
-    out = np.zeros((N, len(MODES)), int)
+
+def _assemble(m: Mode, layout: Layout, r: Rows) -> dict:
+    """A mode's rows as the JumpPlant's matrices."""
+    nX = layout.size
+    nxt = np.zeros((nX, r.width))
+    for name, rows in m.nxt.items():
+        nxt[layout.slices[name]] = rows
+    return dict(A=nxt[:, :nX], Bw=nxt[:, r.iw], Bu=nxt[:, r.iv],
+                Gnext=nxt[:, r.inext], Cz=m.z[:, :nX], Dw=m.z[:, r.iw],
+                Du=m.z[:, r.iv], E=m.E, Ew=m.Ew)
+
+
+def _per_phase_reading(E: np.ndarray, Ew: np.ndarray, Bu: np.ndarray,
+                       Du: np.ndarray) -> tuple:
+    """What the gain reads, per phase when the modes agree on it.
+
+    A mode that reads nothing sends nothing (``Bu K 0 = 0``); it keeps the
+    phase's reading with its input columns set to zero, so that every
+    mode of a phase reads the same ``E_k`` (the form the convex programs
+    need). When modes read different things (a gain per age of a buffered
+    measurement) the reading stays per mode, shape (N, M, nk, nx)."""
+    N, M = E.shape[:2]
+    EP = np.zeros((N,) + E.shape[2:])
+    EwP = np.zeros((N,) + Ew.shape[2:])
+    Bu, Du = Bu.copy(), Du.copy()
     for k in range(N):
-        see1 = bool(s1[(k - shift) % P.period])
-        see2 = bool(s2[(k - 1) % P.period])
-        out[k] = [t1 * see1 + 2 * t2 * see2 for t1, t2 in MODES]
+        reads = [i for i in range(M) if np.any(E[k, i]) or np.any(Ew[k, i])]
+        if not reads:
+            continue
+        first = reads[0]
+        if not all(np.array_equal(E[k, i], E[k, first])
+                   and np.array_equal(Ew[k, i], Ew[k, first]) for i in reads):
+            return E, Ew, Bu, Du
+        EP[k], EwP[k] = E[k, first], Ew[k, first]
+        for i in set(range(M)) - set(reads):
+            Bu[k, i] = 0.0
+            Du[k, i] = 0.0
+    return EP, EwP, Bu, Du
+
+
+def _buffer(delay: Any) -> int:
+    return 0 if delay is None else int(delay.buffer)
+
+
+def _addressed(S2: np.ndarray) -> np.ndarray:
+    """Selector of the actuators whose last value is kept: an actuator that
+    no phase addresses applies 0 forever; keeping it in the state would add
+    an eigenvalue 1 to every mode (a constant nobody can change)."""
+    idx = np.flatnonzero(S2.any(axis=0))
+    H = np.zeros((idx.size, S2.shape[1]))
+    H[np.arange(idx.size), idx] = 1.0
+    return H
+
+
+def _description(P: NetworkedStateSpace, net: Network) -> dict:
+    """The network's description, for people (copied into ``info``)."""
+    out: dict = dict(sensor_loss=P.sensor_loss, actuator_loss=P.actuator_loss,
+                     plant_period=P.period)
+    if net.transition is not None:
+        out.update(sensor_link=P.sensor_link, actuator_link=P.actuator_link)
+    for side in ("sensor", "actuator"):
+        if getattr(P, f"{side}_delay") is not None:
+            out[f"{side}_delay"] = getattr(P, f"{side}_delay")
+    if P.input_delay is not None:
+        out["input_delay"] = P.input_delay.taus
     return out
+
+
+def _state_names(P: NetworkedStateSpace, layout: Layout, ctx: Context
+                 ) -> list[str]:
+    """Names of the loop state, block by block."""
+    x = list(P.state_labels)
+    controls = P.input_labels[len(P.disturbance_labels):]
+    held = [f"{controls[i]}_prev"
+            for i in np.flatnonzero(ctx.S2.any(axis=0))]
+    ys = P.output_labels[len(P.performance_labels):]
+    names: list[str] = []
+    for name, s in layout.slices.items():
+        size = s.stop - s.start
+        if not size:
+            continue
+        j = name.lstrip("xhevwc_") or "0"
+        if name == "x":
+            names += x
+        elif name == "xh":
+            names += [f"{q}_hat" for q in x]
+        elif name == "e":
+            names += [f"{q}_err" for q in x]
+        elif name == "u_prev":
+            names += held
+        elif name == "xc":
+            names += [f"xc[{i}]" for i in range(size)]
+        elif name == "y_rcv":
+            names += [f"{ys[i]}_rcv" for i in np.flatnonzero(
+                ctx.S1.any(axis=0))]
+        elif name.startswith("xh"):
+            names += [f"{q}_hat[k-{j}]" for q in x]
+        elif name.startswith("x"):
+            names += [f"{q}[k-{j}]" for q in x]
+        elif name.startswith("e"):
+            names += [f"{q}_err[k-{j}]" for q in x]
+        elif name.startswith("v"):
+            names += [f"v{i}[k-{j}]" for i in range(size)]
+        elif name.startswith("w"):
+            names += [f"{q}[k-{j}]" for q in P.disturbance_labels]
+    return names
 
 
 def _options(P: NetworkedStateSpace, controller: str, sensor: Any,
@@ -255,7 +761,8 @@ def _options(P: NetworkedStateSpace, controller: str, sensor: Any,
     return dict(L=L)
 
 
-def require_state_measured(P: NetworkedStateSpace, controller: str) -> None:
+def require_state_measured(P: NetworkedStateSpace, controller: str,
+                           allow_static: bool = False) -> None:
     """Refuse state feedback for a plant that does not measure x.
 
     Parameters
@@ -264,11 +771,15 @@ def require_state_measured(P: NetworkedStateSpace, controller: str) -> None:
         Plant with its network.
     controller : str
         The controller kind asked for.
+    allow_static : bool
+        Accept a static output feedback (``'static'`` on any ``C2``); only
+        the predictor then needs ``y = x``.
 
     Raises
     ------
     ControlArgument
-        If ``controller`` is ``'static'`` or ``'predictor'`` and ``C2 ≠ I``.
+        If ``controller`` is ``'predictor'`` (or ``'static'``, unless
+        ``allow_static``) and ``C2 ≠ I``.
 
     Examples
     --------
@@ -277,10 +788,12 @@ def require_state_measured(P: NetworkedStateSpace, controller: str) -> None:
     ...         nmeas=1, ncon=1)
     >>> ncs.require_state_measured(P, "estimator")       # any C2 will do
     """
-    if controller in ("static", "predictor") and not _measures_state(P):
+    kinds = ("predictor",) if allow_static else ("static", "predictor")
+    if controller in kinds and not _measures_state(P):
         raise ControlArgument(
-            f"controller={controller!r}: static gains need y = x; use "
-            f"controller='estimator' (got C2 of shape {P.C2.shape}, not I)")
+            f"controller={controller!r}: state-feedback gains need y = x; "
+            f"use controller='estimator' (got C2 of shape {P.C2.shape}, "
+            f"not I)")
 
 
 def _measures_state(P: NetworkedStateSpace) -> bool:
@@ -288,281 +801,15 @@ def _measures_state(P: NetworkedStateSpace) -> bool:
         P.C2, np.eye(P.nstates))
 
 
-def _static_phase(P: NetworkedStateSpace, k: int, t1: int, t2: int, *,
-                  actuator: str, **_: Any) -> dict:
-    """Memoryless gain, :ref:`theory-static-loop`: ``u = θ2 Σ2 K θ1 Σ1 y``."""
-    n, m2 = P.nstates, P.ncon
-    S1 = P.sensor_schedule.selection(k)
-    S2 = P.actuator_schedule.selection(k)
-    g = t1 * t2
-    A, B1, B2, C1, D11, D12 = P.A, P.B1, P.B2, P.C1, P.D11, P.D12
-    E = S1 @ P.C2
-    Ew = S1 @ P.D21           # the noise read with the measurement
-    if actuator == "zero":
-        return dict(A=A, Bu=g * B2 @ S2, Bw=B1, Cz=C1, Du=g * D12 @ S2,
-                    Dw=D11, E=E, Ew=Ew)
-    # hold: ξ = [x; u⁻], u = (I - θ2 Σ2) u⁻ + θ2 Σ2 v
-    H = _held(P)
-    h = H.shape[0]
-    keep = np.eye(m2) - t2 * S2
-    Z = np.zeros
-    return dict(
-        A=np.block([[A, B2 @ keep @ H.T], [Z((h, n)), H @ keep @ H.T]]),
-        Bu=g * np.vstack([B2 @ S2, H @ S2]),
-        Bw=np.vstack([B1, Z((h, B1.shape[1]))]),
-        Cz=np.hstack([C1, D12 @ keep @ H.T]), Du=g * D12 @ S2, Dw=D11,
-        E=np.hstack([E, Z((E.shape[0], h))]), Ew=Ew)
-
-
-def _held(P: NetworkedStateSpace) -> np.ndarray:
-    """Selector of the actuators whose last value a hold actuator keeps.
-
-    An actuator that no phase addresses applies its initial value 0 forever;
-    keeping it in the state would add an eigenvalue 1 to every mode (a
-    constant nobody can change), so it is left out.
-    """
-    idx = np.flatnonzero(P.actuator_schedule.pattern.any(axis=0))
-    H = np.zeros((idx.size, P.ncon))
-    H[np.arange(idx.size), idx] = 1.0
-    return H
-
-
-def _predictor_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int,
-                     *, actuator: str, L: np.ndarray | None = None) -> dict:
-    """Model-based controller, :ref:`theory-predictor`; the mode is
-    ``(θ1,k+1, θ2,k)``.
-
-    State ``[x̂; e]`` (zero actuator) or ``[x̂; u⁻; e]`` (hold; ``u⁻`` the
-    last inputs of the actuators some phase addresses), with ``x̂`` the
-    estimate after the sensor update and ``e = x - x̂``. With estimator
-    gains ``L`` (:ref:`theory-output-feedback`) the correction is
-    ``R = θ1 L_{k+1} Σ1 C2`` instead of :ref:`theory-predictor`'s ``θ1 Σ1``
-    (which is ``C2 = I``, ``L = I``). A measurement with noise
-    (``D21 ≠ 0``) moves the estimate by ``Rw w_{k+1}``, ``Rw = θ1 L_{k+1}
-    Σ1 D21``, and the error by ``-Rw w_{k+1}``: the next step's offset
-    ``Gnext`` (:ref:`theory-measurement-noise`).
-    """
-    n, m2 = P.nstates, P.ncon
-    S2 = P.actuator_schedule.selection(k)
-    R = t1_next * P.sensor_schedule.selection(k + 1)
-    Rw = R @ P.D21
-    if L is not None:
-        Rw = L[(k + 1) % L.shape[0]] @ Rw
-        R = L[(k + 1) % L.shape[0]] @ R @ P.C2
-    A, B1, B2, C1, D11, D12 = P.A, P.B1, P.B2, P.C1, P.D11, P.D12
-    I, Z = np.eye(n), np.zeros
-    m1 = B1.shape[1]
-    if actuator == "zero":
-        return dict(
-            A=np.block([[A, R @ A], [Z((n, n)), (I - R) @ A]]),
-            Bu=t2 * np.vstack([B2 @ S2, Z((n, m2))]),
-            Bw=np.vstack([R @ B1, (I - R) @ B1]),
-            Cz=np.hstack([C1, C1]), Du=t2 * D12 @ S2, Dw=D11,
-            E=np.hstack([I, Z((n, n))]), Gnext=np.vstack([Rw, -Rw]))
-    H = _held(P)
-    h = H.shape[0]
-    keep = np.eye(m2) - t2 * S2
-    # the gain acts on [x̂; u⁻] with all m2 last inputs (never-addressed ones
-    # are identically zero and left out of the state, see _held)
-    E = np.zeros((n + m2, 2 * n + h))
-    E[:n, :n] = I
-    E[n:, n:n + h] = H.T
-    return dict(
-        A=np.block([[A, B2 @ keep @ H.T, R @ A],
-                    [Z((h, n)), H @ keep @ H.T, Z((h, n))],
-                    [Z((n, n)), Z((n, h)), (I - R) @ A]]),
-        Bu=t2 * np.vstack([B2 @ S2, H @ S2, Z((n, m2))]),
-        Bw=np.vstack([R @ B1, Z((h, m1)), (I - R) @ B1]),
-        Cz=np.hstack([C1, D12 @ keep @ H.T, C1]), Du=t2 * D12 @ S2, Dw=D11,
-        E=E, Gnext=np.vstack([Rw, Z((h, m1)), -Rw]))
-
-
-def _plant_states(P: NetworkedStateSpace, **_: Any) -> list[str]:
-    return list(P.state_labels)
-
-
-def _held_names(P: NetworkedStateSpace) -> list[str]:
-    controls = P.input_labels[len(P.disturbance_labels):]
-    return [f"{controls[i]}_prev"
-            for i in np.flatnonzero(P.actuator_schedule.pattern.any(axis=0))]
-
-
-def _predictor_states(P: NetworkedStateSpace, hold: bool, **_: Any
-                      ) -> list[str]:
-    x = list(P.state_labels)
-    return ([f"{s}_hat" for s in x] + (_held_names(P) if hold else [])
-            + [f"{s}_err" for s in x])
-
-
-def _heard(P: NetworkedStateSpace) -> np.ndarray:
-    """Selector of the sensors some phase schedules (cf. :func:`_held`).
-
-    A never-scheduled sensor delivers nothing; its held value would be a
-    constant 0 with an eigenvalue 1 in every mode, so it is left out.
-    """
-    idx = np.flatnonzero(P.sensor_schedule.pattern.any(axis=0))
-    H = np.zeros((idx.size, P.C2.shape[0]))
-    H[np.arange(idx.size), idx] = 1.0
-    return H
-
-
-def _lti_phase(P: NetworkedStateSpace, k: int, t1_next: int, t2: int, *,
-               actuator: str, sensor: str, nc: int) -> dict:
-    """A discrete-time LTI controller in the loop (theory: output feedback).
-
-    State ``ξ = [x; xc; ŷ; u⁻]``: plant, controller, the measurements the
-    controller received at this step (sensors some phase schedules), and
-    with a hold actuator the last applied inputs. The received value
-    ``ŷ_k = θ1,k Σ1,k y_k`` (+ ``(I - θ1,k Σ1,k) ŷ_{k-1}`` with a hold
-    sensor) is carried in the state so that the loss ``θ1`` acts on the
-    controller's input while the controller itself stays a gain
-    ``[[Dc, Cc], [Bc, Ac]]`` on ``E ξ = [ŷ; xc]``, with outputs
-    ``[v; xc⁺]``. As for the predictor the transition ``k → k+1`` depends
-    on ``(θ2,k, θ1,k+1)``. The noise of a measurement ``y = C2 x + D21 w``
-    arrives with ``w_{k+1}``, the next step's input: the stored ``ŷ`` is
-    the noise-free part and the next step's offset ``Gnext`` adds
-    ``θ1 Σ1 D21 w`` (:ref:`theory-measurement-noise`).
-    """
-    n, m2 = P.nstates, P.ncon
-    A, B1, B2, C1, D11, D12 = P.A, P.B1, P.B2, P.C1, P.D11, P.D12
-    m1 = B1.shape[1]
-    Hs = _heard(P)
-    Hu = _held(P) if actuator == "hold" else np.zeros((0, m2))
-    hs, hu = Hs.shape[0], Hu.shape[0]
-    nx = n + nc + hs + hu
-    ix, ic, iy, iu = (slice(0, n), slice(n, n + nc),
-                      slice(n + nc, n + nc + hs), slice(n + nc + hs, nx))
-    S2 = P.actuator_schedule.selection(k)
-    S1n = P.sensor_schedule.selection(k + 1)
-    # applied input u = Ux ξ + Uv v: the held part (hold actuator) and the
-    # delivered part of the controller's message
-    Ux = np.zeros((m2, nx))
-    if actuator == "hold":
-        Ux[:, iu] = (np.eye(m2) - t2 * S2) @ Hu.T
-    Uv = t2 * S2
-    # x⁺ = A x + B1 w + B2 u, without the gain's part B2 Uv v
-    Ax = np.zeros((n, nx))
-    Ax[:, ix] = A
-    Ax += B2 @ Ux
-    Bv = B2 @ Uv
-    # what arrives at k+1: θ1 Σ1 C2 x⁺ (+ the held rest)
-    Rn = t1_next * Hs @ S1n @ P.C2
-    Amat = np.zeros((nx, nx))
-    Bu = np.zeros((nx, m2 + nc))
-    Amat[ix] = Ax
-    Bu[ix, :m2] = Bv
-    Bu[ic, m2:] = np.eye(nc)
-    Amat[iy] = Rn @ Ax
-    if sensor == "hold":
-        Amat[iy, iy] += Hs @ (np.eye(Hs.shape[1]) - t1_next * S1n) @ Hs.T
-    Bu[iy, :m2] = Rn @ Bv
-    Amat[iu] = Hu @ Ux
-    Bu[iu, :m2] = Hu @ Uv
-    Bw = np.zeros((nx, m1))
-    Bw[ix] = B1
-    Bw[iy] = Rn @ B1
-    Cz = D12 @ Ux
-    Cz[:, ix] += C1
-    E = np.zeros((Hs.shape[1] + nc, nx))
-    E[:Hs.shape[1], iy] = Hs.T
-    E[Hs.shape[1]:, ic] = np.eye(nc)
-    Gnext = np.zeros((nx, m1))
-    Gnext[iy] = t1_next * Hs @ S1n @ P.D21
-    return dict(A=Amat, Bu=Bu, Bw=Bw, Cz=Cz,
-                Du=np.hstack([D12 @ Uv, np.zeros((C1.shape[0], nc))]),
-                Dw=D11, E=E, Gnext=Gnext)
-
-
-def _lti_states(P: NetworkedStateSpace, hold: bool, nc: int, **_: Any
-                ) -> list[str]:
-    ys = P.output_labels[len(P.performance_labels):]
-    return (list(P.state_labels) + [f"xc[{i}]" for i in range(nc)]
-            + [f"{ys[i]}_rcv" for i in np.flatnonzero(
-                P.sensor_schedule.pattern.any(axis=0))]
-            + (_held_names(P) if hold else []))
-
-
-@dataclass(frozen=True)
-class Strategy:
-    """How one (controller, actuator) pair builds a phase of the jump plant.
-
-    Attributes
-    ----------
-    phase : callable
-        ``phase(P, k, t1, t2, **options)`` -> dict of ``A, Bu, Bw, Cz, Du,
-        Dw, E`` of the network mode ``(t1, t2)`` at phase ``k``; the options
-        are the controller's (:func:`build`: ``L`` for the estimator,
-        ``sensor`` and ``nc`` for an LTI controller).
-    states : callable
-        ``states(P, **options)`` -> names of the state ``ξ``.
-    memoryless : bool
-        The controller keeps nothing between messages, so it acts only at
-        phases that schedule a sensor and an actuator together
-        (:ref:`theory-static-loop`).
-    needs_state : bool
-        The controller needs ``y = x`` (``C2 = I``).
-    """
-
-    phase: Callable[..., dict]
-    states: Callable[[NetworkedStateSpace], list]
-    memoryless: bool
-    needs_state: bool
-
-
-#: Every network strategy, keyed by ``(controller, actuator)``: a new one is
-#: one entry here (and its gain shape in :class:`~control_ncs.jump.JumpPlant`
-#: follows from its ``E``). The accepted choices are derived from the keys.
-STRATEGIES: dict[tuple[str, str], Strategy] = {
-    ("static", "zero"): Strategy(
-        partial(_static_phase, actuator="zero"), _plant_states,
-        memoryless=True, needs_state=False),
-    ("static", "hold"): Strategy(
-        partial(_static_phase, actuator="hold"),
-        lambda P, **_: _plant_states(P) + _held_names(P),
-        memoryless=True, needs_state=False),
-    ("predictor", "zero"): Strategy(
-        partial(_predictor_phase, actuator="zero"),
-        partial(_predictor_states, hold=False),
-        memoryless=False, needs_state=True),
-    ("predictor", "hold"): Strategy(
-        partial(_predictor_phase, actuator="hold"),
-        partial(_predictor_states, hold=True),
-        memoryless=False, needs_state=True),
-    ("estimator", "zero"): Strategy(
-        partial(_predictor_phase, actuator="zero"),
-        partial(_predictor_states, hold=False),
-        memoryless=False, needs_state=False),
-    ("estimator", "hold"): Strategy(
-        partial(_predictor_phase, actuator="hold"),
-        partial(_predictor_states, hold=True),
-        memoryless=False, needs_state=False),
-    ("lti", "zero"): Strategy(
-        partial(_lti_phase, actuator="zero"),
-        partial(_lti_states, hold=False),
-        memoryless=False, needs_state=False),
-    ("lti", "hold"): Strategy(
-        partial(_lti_phase, actuator="hold"),
-        partial(_lti_states, hold=True),
-        memoryless=False, needs_state=False),
-}
-
-
-def _strategy(controller: Any, actuator: Any) -> Strategy:
-    """The registered strategy, or ControlArgument naming the choices."""
-    choice(controller, "controller", dict.fromkeys(c for c, _ in STRATEGIES))
-    choice(actuator, "actuator", dict.fromkeys(a for _, a in STRATEGIES))
-    if (controller, actuator) not in STRATEGIES:
-        raise ControlArgument(
-            f"actuator: {actuator!r} is not available with controller="
-            f"{controller!r}; available pairs: {sorted(STRATEGIES)}")
-    return STRATEGIES[controller, actuator]
-
-
 def loop_closes(P: NetworkedStateSpace) -> bool:
-    """Whether a memoryless (static) gain can act on the loop of ``P``.
+    """Whether a memoryless gain can ever close the loop of ``P``.
 
-    It can only at a phase that schedules a sensor and an actuator together
-    (:ref:`theory-static-loop`).
+    A static gain acts only on what arrives in the same step, so some
+    phase must schedule a sensor and an actuator together
+    (:ref:`theory-static-loop`); a shared channel never does. Over a
+    buffered link a measurement may be used later, so any phase with an
+    actuator message at most the buffer's age after a sensor message
+    closes the loop.
 
     Parameters
     ----------
@@ -572,7 +819,7 @@ def loop_closes(P: NetworkedStateSpace) -> bool:
     Returns
     -------
     bool
-        True if some phase schedules a sensor and an actuator together.
+        True if the loop can close.
 
     Examples
     --------
@@ -582,288 +829,8 @@ def loop_closes(P: NetworkedStateSpace) -> bool:
     >>> ncs.loop_closes(P), ncs.loop_closes(P.with_network(actuator_schedule=[1, 1]))
     (False, True)
     """
-    return bool((P.sensor_schedule.pattern.any(axis=1)
-                 & P.actuator_schedule.pattern.any(axis=1)).any())
-
-
-def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
-             actuator: str | None = None, sensor: str | None = None,
-             estimator_gain: Any = None, **kwargs: Any) -> JumpStateSpace:
-    """Close the loop of ``P`` with a gain or an LTI controller.
-
-    Sign convention ``u = K y``: the gain or controller is applied as it
-    is, in positive feedback. The controller sends ``v_k = K_k ŷ_k``
-    (static: ``u = K y`` when every message arrives, so ``u = K x`` for
-    ``y = x``), ``v_k = K_k x̂_k`` (predictor and estimator: ``u = K x̂``),
-    or the output of the LTI system ``K`` driven by the received
-    measurements ``ŷ``. A gain designed for ``u = -K x``, as
-    :func:`control.dlqr` returns, must be negated (see the Examples); so
-    must a controller designed for negative feedback.
-
-    Parameters
-    ----------
-    P : NetworkedStateSpace
-        Plant with its network.
-    K : PeriodicGain, array_like, control.StateSpace or TransferFunction
-        A gain from :func:`control_ncs.passivesyn`, or gains of shape
-        ``(m2, nk)`` (constant), ``(N_K, M, m2, nk)`` (per phase and
-        previous network mode ``ℓ``, :ref:`theory-markov`: the loop is then a
-        Markov jump system on pair modes ``(ℓ, i)``, for i.i.d. links too,
-        where ``ℓ`` is extra information) or ``(N_K, m2, nk)`` (periodic; the
-        loop's period is the least common multiple of ``N_K``, ``P.period`` and
-        the estimator gain's period). ``nk`` is ``nmeas`` for the static
-        controller, ``n`` for the predictor and the estimator, plus ``m2``
-        for those with a hold actuator. Or a discrete-time LTI controller
-        with the plant's ``dt``, ``nmeas`` inputs (the received
-        measurements) and ``ncon`` outputs (the controls it sends); it runs
-        at every step. Over delayed links (:ref:`theory-delays`): a static
-        gain, or one per age of the measurement ``(Ds + 1, m2, nmeas)``,
-        the predictor's or the estimator's gain ``(m2, n)``, or an LTI
-        controller reading the freshest measurement.
-    controller : {'static', 'predictor', 'estimator', 'lti'}, optional
-        Default: ``'lti'`` for a system ``K``, else the gain's own kind,
-        else ``'estimator'`` when an estimator gain is given, else
-        ``'static'``.
-    actuator : {'zero', 'hold'}, optional
-        Default: the gain's own strategy, else ``'zero'``.
-    sensor : {'zero', 'hold'}, optional
-        LTI controller only: what it receives for a lost or unscheduled
-        measurement, 0 (default, the paper's eq. 2) or the last received
-        value.
-    estimator_gain : array_like, shape (n, nmeas) or (N_L, n, nmeas), optional
-        The estimator's ``L_k`` (:ref:`theory-output-feedback`), e.g. from
-        :func:`control_ncs.estimator_gain` or ``ct.dlqe``'s gain (see its
-        notes); default ``K.estimator_gain`` when ``K`` carries one.
-    **kwargs
-        None are accepted: an unknown keyword raises ``TypeError``.
-
-    Returns
-    -------
-    JumpStateSpace
-        The closed loop ``w → z`` (modes merged); ``info`` records the
-        controller, actuator and gains. For an LTI controller its state is
-        ``[x; xc; ŷ; u⁻]`` (plant, controller, received measurements of the
-        sensors some phase schedules, held inputs); ``ŷ`` at step 0 is what
-        arrived then (e.g. ``C2 x0`` for a first message that got through,
-        0 for one that was lost).
-
-    Raises
-    ------
-    ValueError
-        If a static gain can never close the loop because no phase schedules
-        a sensor and an actuator together (e.g. a shared channel,
-        :ref:`theory-static-loop`), or if ``K`` has non-finite entries.
-    ControlDimension
-        If the gain, the estimator gain or the controller has the wrong
-        shape.
-    ControlArgument
-        If an LTI controller is continuous-time or has another ``dt`` than
-        the plant, or an option does not fit the controller.
-
-    References
-    ----------
-    .. [1] B. Riyanto and I. Arifin, *Positive Real Synthesis of Networked
-           Control System: An LMI Approach* (the seed paper; its errors and
-           their corrections: :ref:`errata`).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> P = ncs.nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]], [[1.0, 0.0], [0.0, 0.0]],
-    ...         nmeas=1, ncon=1, actuator_loss=0.2)
-    >>> CL = ncs.feedback(P, [[-2.0]])                 # u = -2 x when it arrives
-    >>> CL.modes.probabilities.round(3).tolist()
-    [[0.2, 0.8]]
-    >>> CL.modes.A[0, :, 0, 0].tolist()           # lost: 2, arrived: 2 - 2
-    [2.0, 0.0]
-
-    An LQR gain is designed for ``u = -K x``: pass ``-K``.
-
-    >>> K, _, _ = ct.dlqr(P.A, P.B2, np.eye(1), np.eye(1))
-    >>> CL = ncs.feedback(P, -K)
-    >>> bool(ncs.ms_radius(CL) < 1)
-    True
-
-    A PI controller ``u = -(2 y + 0.1 Σ y)`` (an LTI system, ``u = K y``
-    with the sign inside it):
-
-    >>> C = ct.ss([[1.0]], [[1.0]], [[-0.1]], [[-2.0]], True)
-    >>> CL = ncs.feedback(P, C)
-    >>> CL.jump_states
-    ['x[0]', 'xc[0]', 'y[0]_rcv']
-    >>> bool(ncs.ms_radius(CL) < 1)
-    True
-    """
-    no_extra_kwargs("feedback", kwargs)
-    if not isinstance(P, NetworkedStateSpace):
-        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
-                              f"got {type(P).__name__}")
-    if P.sensor_delay is not None or P.actuator_delay is not None or \
-            P.input_delay is not None:
-        if isinstance(K, (ct.StateSpace, ct.TransferFunction)):
-            Kss = _lti_controller(P, K, controller, estimator_gain)
-            choice(sensor or "zero", "sensor", ("zero", "hold"))
-            return delayed_loop(P, Kss, "lti", str(actuator or "zero"),
-                                str(sensor or "zero"))
-        if sensor is not None:
-            raise ControlArgument("sensor: only an LTI controller (K a "
-                                  "control.StateSpace or TransferFunction) "
-                                  "takes a sensor strategy")
-        L = estimator_gain if estimator_gain is not None else \
-            getattr(K, "estimator_gain", None)
-        kind = str(controller or getattr(K, "controller", None) or
-                   ("estimator" if L is not None else "static"))
-        if kind == "estimator" and L is None:
-            raise ControlArgument(
-                "estimator_gain: controller='estimator' needs the estimator "
-                "gain L (n, nmeas), e.g. ncs.estimator_gain of the plant "
-                "without its delays, or control.dlqe's")
-        if kind != "estimator" and estimator_gain is not None:
-            raise ControlArgument("estimator_gain: only controller="
-                                  "'estimator' takes an estimator gain")
-        return delayed_loop(P, K, kind,
-                            str(actuator or getattr(K, "actuator", "zero")),
-                            estimator_gain=L if kind == "estimator" else None)
-    if isinstance(K, (ct.StateSpace, ct.TransferFunction)):
-        return _feedback_lti(P, K, controller, actuator, sensor,
-                             estimator_gain)
-    if sensor is not None:
-        raise ControlArgument("sensor: only an LTI controller (K a "
-                              "control.StateSpace or TransferFunction) takes "
-                              "a sensor strategy")
-    if isinstance(K, PeriodicGain):
-        controller = controller or K.controller
-        actuator = actuator or K.actuator
-        if estimator_gain is None:
-            estimator_gain = getattr(K, "estimator_gain", None)
-        gains = K.gains
-    else:
-        # validate here so that messages name the argument K, not 'gains'
-        gains = real_array(K, "K", ndim=(2, 3, 4))
-        gains = gains[None] if gains.ndim == 2 else gains
-    if 0 in gains.shape:
-        raise ControlDimension(f"K: expected a non-empty gain (at least one "
-                               f"phase, one row, one column), got shape "
-                               f"{gains.shape}")
-    if controller is None:
-        controller = "static" if estimator_gain is None else "estimator"
-    actuator = actuator or "zero"
-    strategy = _strategy(controller, actuator)
-    if controller == "lti":
-        raise ControlArgument("K: controller='lti' needs K as a discrete-time "
-                              "control.StateSpace or TransferFunction, got "
-                              f"{type(K).__name__}")
-    if strategy.memoryless and not loop_closes(P):
-        raise ValueError(
-            "K: a memoryless (static) gain never closes this loop: no phase "
-            "schedules a sensor and an actuator together (a shared channel "
-            "forces this, theory: static-gain loop), so F_k = Σ2 K Σ1 = 0 and the plant runs "
-            "open loop. Use controller='predictor', which keeps a model-based "
-            "estimate between messages.")
-    NL = 1
-    if controller == "estimator" and estimator_gain is not None:
-        NL = np.shape(estimator_gain)[0] if np.ndim(estimator_gain) == 3 else 1
-    N = math.lcm(P.period, gains.shape[0], NL)
-    plant = build(P, controller, actuator, period=N,
-                  estimator_gain=estimator_gain)
-    want: tuple[int, ...] = plant.gain_shape()[1:]
-    if gains.ndim == 4:
-        # K_{k,ℓ}: one gain per previous mode ℓ (theory: Markov losses)
-        want = (plant.probabilities.shape[1],) + want
-    if gains.shape[1:] != want:
-        raise ControlDimension(
-            f"K: expected gains of shape {want[-2:]} (or "
-            f"({gains.shape[0]}, {want[-2]}, {want[-1]}) per phase, or "
-            f"({gains.shape[0]}, {plant.probabilities.shape[1]}, {want[-2]}, "
-            f"{want[-1]}) per phase and previous mode) for "
-            f"controller={controller!r}, actuator={actuator!r}, got "
-            f"{gains.shape[1:]}")
-    gains = np.tile(gains, (N // gains.shape[0],) + (1,) * (gains.ndim - 1))
-    observed = plant.observed
-    if gains.ndim == 4 and observed is not None:
-        _require_observed(gains, observed)
-    effective = _warn_unused_gains(P, plant, gains, controller)
-    CL = plant.close(gains)
-    CL.info["effective_gains"] = effective
-    return CL
-
-
-def _warn_unused_gains(P: NetworkedStateSpace, plant: JumpPlant,
-                       gains: np.ndarray, controller: str) -> np.ndarray:
-    """The gains as the loop applies them, with one warning when some of
-    their entries multiply an input the controller never has at that phase
-    (a sensor the schedule leaves silent): such entries act on zeros."""
-    dead = ~np.any(plant.E != 0, axis=2)                  # (N, nk)
-    used = np.any(gains != 0, axis=-2)                    # (N, [M,] nk)
-    if used.ndim == 3:
-        used = used.any(axis=1)
-    unused = dead & used
-    effective = gains.copy()
-    if gains.ndim == 4:
-        effective[:, :, :, :] *= ~dead[:, None, None, :]
-    else:
-        effective *= ~dead[:, None, :]
-    if unused.any():
-        where = {int(k % P.period): np.flatnonzero(unused[k]).tolist()
-                 for k in range(unused.shape[0]) if unused[k].any()}
-        what = ("sensors" if controller == "static" else "inputs")
-        warnings.warn(ScheduleWarning(
-            f"K: at phase(s) {sorted(where)} the gain's columns for {what} "
-            f"{where} multiply nothing (no message is scheduled there); the "
-            f"loop applies the gain without them (CL.info['effective_gains']). "
-            f"To use every measurement, hold the last one (an LTI "
-            f"controller with sensor='hold') or let a model bridge the "
-            f"silence (controller='predictor' or 'estimator')"),
-            stacklevel=caller_stacklevel())
-    return effective
-
-
-def _require_observed(gains: np.ndarray, observed: np.ndarray) -> None:
-    """Refuse gains ``K_{k,ℓ}`` that use a bit of ``ℓ`` the controller never
-    sees (a link idle the step before, :func:`_observed`)."""
-    for k, labels in enumerate(observed):
-        for o in np.unique(labels):
-            same = np.flatnonzero(labels == o)
-            for ell in same[1:]:
-                if not np.array_equal(gains[k, ell], gains[k, same[0]]):
-                    raise ControlArgument(
-                        f"K: at phase {k} the gains for previous modes "
-                        f"{MODES[same[0]]} and {MODES[ell]} (θ1, θ2) differ, "
-                        "but the controller cannot tell these modes apart (a "
-                        "link carried no message the step before, so no "
-                        "arrival or acknowledgement revealed its state); give "
-                        "them the same gain")
-
-
-def _lti_controller(P: NetworkedStateSpace, K: Any, controller: str | None,
-                    estimator_gain: Any) -> ct.StateSpace:
-    """An LTI controller ``K`` for ``P``, checked: discrete-time with the
-    plant's ``dt``, ``nmeas`` inputs, ``ncon`` outputs, finite."""
-    if controller not in (None, "lti"):
-        raise ControlArgument(f"controller: a system K is an LTI controller "
-                              f"(controller='lti'), got {controller!r}")
-    if estimator_gain is not None:
-        raise ControlArgument("estimator_gain: an LTI controller takes no "
-                              "estimator gain")
-    Kss = lti_operand(K, "K", dt=P.dt)
-    nmeas, ncon = P.C2.shape[0], P.ncon
-    if (Kss.ninputs, Kss.noutputs) != (nmeas, ncon):
-        raise ControlDimension(
-            f"K: expected a controller with {nmeas} inputs (the received "
-            f"measurements) and {ncon} outputs (the controls), got "
-            f"{Kss.ninputs} inputs and {Kss.noutputs} outputs")
-    if not np.all(np.isfinite(np.block([[Kss.D, Kss.C], [Kss.B, Kss.A]]))):
-        raise ValueError("K: the controller's matrices must be finite")
-    return Kss
-
-
-def _feedback_lti(P: NetworkedStateSpace, K: Any, controller: str | None,
-                  actuator: str | None, sensor: str | None,
-                  estimator_gain: Any) -> JumpStateSpace:
-    """:func:`feedback` with an LTI controller: checks, then build + close."""
-    Kss = _lti_controller(P, K, controller, estimator_gain)
-    realisation = np.block([[Kss.D, Kss.C], [Kss.B, Kss.A]])
-    plant = build(P, "lti", actuator or "zero", sensor=sensor or "zero",
-                  controller_order=Kss.nstates)
-    gains = np.tile(realisation, (P.period, 1, 1))
-    return plant.close(gains, controller_system=Kss)
+    s1 = P.sensor_schedule.pattern.any(axis=1)
+    s2 = P.actuator_schedule.pattern.any(axis=1)
+    N = P.period
+    return bool(any(s1[k] and s2[(k + a) % N] for k in range(N)
+                    for a in range(_buffer(P.sensor_delay) + 1)))

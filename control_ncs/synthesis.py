@@ -19,7 +19,6 @@ import math
 import time
 import warnings
 
-import numpy as np
 from dataclasses import replace
 from typing import Any
 
@@ -36,8 +35,6 @@ from .plant import NetworkedStateSpace
 from .strategies import build, require_state_measured
 from .exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
 from .verify import (level_floor)
-from ._delay_design import delayed_design, undelayed
-from .delays import gain_shape, start_from
 from ._lifting import unseen_modes
 from ._synthesis_result import _SHORTAGE_HELP, SynthesisResult
 from ._synthesis_routes import (_feedthrough, _open_loop_bound, _plant_arrays,
@@ -110,46 +107,6 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant,
             f"loop (controller={controller!r}, sensor schedule) needs 'block' "
             "or 'extended' (theory: synthesis)")
     return eta, decay, structure
-
-
-def _over_delays(P: NetworkedStateSpace, eta: Any, decay: Any,
-                 controller: str, actuator: str, deadline: float | None,
-                 initial_gain: Any, options: dict
-                 ) -> tuple[PeriodicGain, JumpStateSpace, float]:
-    """passivesyn over delayed links: the local search of
-    :mod:`control_ncs._delay_design`, started from the design without the
-    delays (or ``initial_gain``)."""
-    defaults: dict[str, Any] = dict(form="merged", structure="auto",
-                                    gain="mode", solver=None, method="auto",
-                                    options={})
-    changed = sorted(k for k, v in options.items() if v != defaults[k])
-    if changed:
-        raise ControlArgument(
-            f"{', '.join(changed)}: over delayed links passivesyn searches "
-            f"the gains locally on exact figures; only eta, decay, "
-            f"controller, actuator, initial_gain and time_limit apply")
-    if controller not in ("static", "predictor"):
-        raise ControlArgument(f"controller: over delayed links expected "
-                              f"'static' or 'predictor', got {controller!r}")
-    eta = finite_real(eta, "eta", allow_none=True)
-    decay = decay_bound(decay)
-    shape = gain_shape(P, controller)
-    if initial_gain is not None:
-        start = np.asarray(initial_gain, float)
-        if start.shape not in (shape, (1,) + shape[1:]):
-            raise ControlDimension(f"initial_gain: expected shape {shape}, "
-                                   f"got {start.shape}")
-    else:
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                start = start_from(passivesyn(
-                    undelayed(P), decay=decay, controller=controller,
-                    actuator=actuator)[0].gains, shape)
-        except (SynthesisError, ValueError):
-            start = np.zeros(shape)
-    return delayed_design(P, eta, decay, controller, actuator, deadline,
-                          start)
 
 
 def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
@@ -460,14 +417,6 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     if time_limit is not None:
         time_limit = positive_real(time_limit, "time_limit")
     deadline = None if time_limit is None else time.perf_counter() + time_limit
-    if isinstance(P, NetworkedStateSpace) and (
-            P.sensor_delay is not None or P.actuator_delay is not None
-            or P.input_delay is not None):
-        return _over_delays(P, eta, decay, controller, actuator, deadline,
-                            initial_gain, dict(form=form, structure=structure,
-                                               gain=gain, solver=solver,
-                                               method=method,
-                                               options=solver_options))
     if isinstance(P, JumpPlant):
         # the gain's labels: the strategy that built the plant, if named
         plant = replace(P, controller=P.controller or controller,
@@ -488,6 +437,21 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         plant = None
     eta, decay, structure0 = _checks(P, eta, decay, controller, actuator,
                                      form, structure, plant, gain)
+    if plant.reads_per_mode:
+        # a gain per age of a buffered measurement: each mode reads its own
+        # block, which no synthesis LMI expresses; the local search applies
+        given = [name for name, value, default in (
+            ("method", method, "auto"), ("structure", structure, "auto"),
+            ("form", form, "merged"), ("solver", solver, None),
+            ("gain", gain, "mode")) if value not in (default, "refine")] \
+            + sorted(solver_options)
+        if given:
+            raise ControlArgument(
+                f"{given[0]}: this loop's gain reads a measurement of a "
+                f"different age in each mode (a delayed sensor link); no "
+                f"synthesis LMI expresses that, and the gain is searched "
+                f"locally on exact figures (method='refine')")
+        method, gain = "refine", "phase"
     riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
     note = ""
     if method == "refine" and plant.transition is not None and gain == "mode":

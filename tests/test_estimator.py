@@ -237,8 +237,8 @@ def test_estimator_gain_is_refused_for_a_static_controller():
 @pytest.mark.parametrize("controller", ["static", "predictor"])
 def test_state_feedback_design_without_y_equal_x_says_use_the_estimator(
         controller):
-    with pytest.raises(ControlArgument, match="static gains need y = x; use "
-                       "controller='estimator'"):
+    with pytest.raises(ControlArgument, match="state-feedback gains need y "
+                       "= x; use controller='estimator'"):
         require_state_measured(two_state(2.0), controller)
 
 
@@ -375,15 +375,15 @@ def test_undetectable_plant_is_refused_by_passivesyn_before_solving():
 @pytest.mark.parametrize("controller", ["static", "predictor"])
 def test_passivesyn_state_feedback_without_y_equal_x_says_use_the_estimator(
         controller):
-    with pytest.raises(ControlArgument, match="static gains need y = x; use "
-                       "controller='estimator'"):
+    with pytest.raises(ControlArgument, match="state-feedback gains need y "
+                       "= x; use controller='estimator'"):
         passivesyn(measured_first(), controller=controller)
 
 
 def test_invertible_non_identity_c2_is_refused_for_static_gains_by_name():
     P = nss([[1.2]], [[1.0, 1.0]], [[1.0], [2.0]], [[1.0, 0.0], [0.0, 0.0]],
             True, nmeas=1, ncon=1)
-    with pytest.raises(ControlArgument, match="static gains need y = x"):
+    with pytest.raises(ControlArgument, match="state-feedback gains need y = x"):
         passivesyn(P)
 
 

@@ -35,37 +35,18 @@ def _two_state(**network):
                              [0.0, 0.0]]), True, nmeas=2, ncon=1, **network)
 
 
-def _delayed_objective(P, controller, actuator):
-    from control_ncs._delay_design import _rate_loop
-    from control_ncs.delays import delayed_parts, gain_shape
-    loop = _rate_loop(P, controller, actuator)
-    parts = delayed_parts(P, controller, actuator)
-    N = parts.T.shape[0]
-
-    def phases(X):
-        return np.broadcast_to(X, (N,) + X.shape)
-
-    objective = H2Objective(loop, phases(parts.C0), phases(parts.LC),
-                            phases(parts.B), phases(parts.D), parts.pi)
-    shape = gain_shape(P, controller)
-
-    def exact(x):
-        return ncs.norm(ncs.feedback(P, x.reshape(shape),
-                                     controller=controller,
-                                     actuator=actuator)) ** 2
-    return objective, exact
-
-
-def _plant_objective(P, controller):
+def _plant_objective(P, controller, actuator="zero"):
+    """The local search's objective on the one open loop, and the exact
+    norm of the loop feedback builds for the same gains."""
     from control_ncs.refine import _Loop
-    from control_ncs.strategies import build
-    plant = build(P, controller, "zero")
+    plant = ncs.build(P, controller, actuator)
     loop = _Loop(plant, plant.probabilities, plant.transition)
     objective = H2Objective(loop, plant.Cz, plant.Du, plant.Bw, plant.Dw,
-                            plant.probabilities)
+                            plant.probabilities, plant.readings()[1])
 
     def exact(x):
-        return ncs.norm(plant.close(loop.gains(x))) ** 2
+        return ncs.norm(ncs.feedback(P, loop.gains(x), controller=controller,
+                                     actuator=actuator)) ** 2
     return objective, exact
 
 
@@ -81,7 +62,7 @@ def test_objective_and_gradient_are_the_exact_norms(case):
     if kind == "delayed":
         P = _two_state(sensor_delay=[0.5, 0.3, 0.1],
                        actuator_delay=[0.6, 0.3])
-        objective, exact = _delayed_objective(P, controller, actuator)
+        objective, exact = _plant_objective(P, controller, actuator)
         scale = 0.3
     else:
         P = _two_state(sensor_schedule=[1, 2], actuator_loss=0.2,
@@ -137,7 +118,7 @@ def test_a_sensor_schedule_costs_between_full_information_and_its_start():
 def test_over_delayed_links_per_age_gains_beat_the_design_without_delays():
     P = _lq_plant(loss=0.0, sensor_delay=[0.5, 0.3, 0.1])
     K, CL, h2 = ncs.h2syn(P)
-    assert K.gains.shape == (3, 1, 1) and K.result.route == "local"
+    assert K.gains.shape == (1, 1, 3) and K.result.route == "local"
     assert h2 == ncs.norm(ncs.feedback(P, K))
     K0 = ncs.h2syn(_lq_plant(loss=0.0))[0].gains
     assert h2 <= ncs.norm(ncs.feedback(P, K0)) * (1 + 1e-9)
@@ -178,11 +159,10 @@ def test_the_l2_gain_objectives_gradient_is_its_difference_quotient(kind):
     (from the LMI's duals) against central differences of that optimum;
     the solver's accuracy bounds the agreement."""
     from control_ncs._hinf_design import GainObjective
-    from control_ncs.performance_synthesis import (_delayed_problem,
-                                                   _plant_problem)
+    from control_ncs.performance_synthesis import _plant_problem
     if kind == "delayed":
         P = _two_state(sensor_delay=[0.5, 0.3, 0.1])
-        mats, loop, *_ = _delayed_problem(P, "static", "zero")
+        mats, loop, *_ = _plant_problem(P, "static", "zero", None)
         scale = 0.3
     else:
         P = _two_state(sensor_schedule=[1, 2], actuator_loss=0.2)
@@ -222,7 +202,7 @@ def test_hinfsyn_over_a_delayed_link_certifies_a_gain_per_age():
     # a short search: what is returned is the better of the H2 start and
     # where the search stopped, certified either way
     K, CL, gamma = ncs.hinfsyn(P, time_limit=2.0)
-    assert K.gains.shape == (3, 1, 1) and K.result.route == "local"
+    assert K.gains.shape == (1, 1, 3) and K.result.route == "local"
     assert gamma == ncs.l2_gain(ncs.feedback(P, K)).gamma
     h2_gain = ncs.h2syn(P)[0]
     assert gamma <= ncs.l2_gain(ncs.feedback(P, h2_gain)).gamma
@@ -264,8 +244,8 @@ def test_the_local_search_uses_a_given_start_and_the_other_routes_options(
     """Stage 2 starts from the stable start of least norm, not from the one
     of least rate (held command: the rate is least near k = -0.3, the norm
     near -0.365; with no iterations the search returns its stage-2 start);
-    the held predictor over a delayed link starts from the design without
-    delays on what it reads; margin belongs to the exact program."""
+    the held predictor over a delayed link reads the estimate and the held
+    command; margin belongs to the exact program."""
     import control_ncs._h2_design as h2d
     from control_ncs.performance_synthesis import _plant_problem
     P = _lq_plant()
@@ -280,6 +260,6 @@ def test_the_local_search_uses_a_given_start_and_the_other_routes_options(
     monkeypatch.undo()
     delayed = _lq_plant(loss=0.0, sensor_delay=[0.5, 0.3, 0.1])
     K, CL, h2 = ncs.h2syn(delayed, controller="predictor", actuator="hold")
-    assert K.gains.shape == (1, 1, 1) and math.isfinite(h2)
+    assert K.gains.shape == (1, 1, 2) and math.isfinite(h2)
     with pytest.raises(ControlArgument, match="^margin: .*locally"):
         ncs.h2syn(P, actuator="hold", margin=1e-3)

@@ -327,22 +327,19 @@ def test_no_module_guards_an_import_of_its_own_package():
     assert guarded == []
 
 
-# -- 7. strategies live in one registry ---------------------------------------
-def test_accepted_controllers_and_actuators_come_from_the_registry(
-        monkeypatch):
+# -- 7. controller kinds live in one place --------------------------------------
+def test_accepted_controllers_and_actuators_come_from_the_builder():
     from control_ncs import strategies
-    zero = strategies.STRATEGIES["static", "zero"]
-    ramp = strategies.Strategy(zero.phase, lambda P: ["a", "b"],
-                               memoryless=True, needs_state=False)
+    from control_ncs.gain import actuators, controllers
+    assert set(strategies.MODE_BUILDERS) == set(controllers())
+    for controller in ("static", "predictor", "lti"):
+        for actuator in actuators():
+            J = build(plant(sensor_loss=0.1), controller, actuator)
+            assert J.controller == controller and J.actuator == actuator
     with pytest.raises(ControlArgument, match="^actuator:.*'ramp'"):
         build(plant(), "static", "ramp")
-    monkeypatch.setitem(strategies.STRATEGIES, ("static", "ramp"), ramp)
-    J = build(plant(sensor_loss=0.1), "static", "ramp")
-    assert J.states == ["a", "b"] and J.info["actuator"] == "ramp"
-    monkeypatch.delitem(strategies.STRATEGIES, ("predictor", "hold"))
-    with pytest.raises(ControlArgument, match="^actuator: 'hold' is not "
-                       "available with controller='predictor'"):
-        build(plant(), "predictor", "hold")
+    with pytest.raises(ControlArgument, match="^controller:.*'pid'"):
+        build(plant(), "pid", "zero")
 
 
 def test_build_over_a_multiple_of_the_period_repeats_the_phases():

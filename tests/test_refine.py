@@ -310,7 +310,8 @@ def test_method_refine_reports_how_far_it_moved_the_gain():
     K, CL, eta = ncs.passivesyn(P, -100.0, method="refine")
     res = K.result
     assert res.method == "refine" and res.report.solver == "REFINE"
-    assert res.start in ("full", "zero", "continuation", "restart", "lmi")
+    assert res.start in ("projected", "full", "zero", "continuation",
+                         "restart", "lmi")
     assert res.refinement.ms_radius == pytest.approx(ncs.ms_radius(CL))
     assert res.refinement.iterations > 0
     assert res.refinement.verified and eta == -100.0
