@@ -192,14 +192,16 @@ def _product(chains: list) -> _Chain:
 
 
 def _visited(chain: _Chain) -> np.ndarray:
-    """The states the stationary chain visits at some phase."""
-    alive = chain.initial > 0
-    seen = alive.copy()
-    for _ in range(2):                       # twice round the period
-        for Tk in chain.T:
-            alive = (alive.astype(float) @ (Tk > 0)) > 0
-            seen |= alive
-    return seen
+    """The states the stationary chain visits, closed under every phase's
+    transition (so that each kept row keeps its whole mass: a kept state
+    improbable at some phase keeps its true successors)."""
+    keep = chain.initial > 0
+    edges = (chain.T > 0).any(axis=0)
+    while True:
+        grown = keep | ((keep.astype(float) @ edges) > 0)
+        if np.array_equal(grown, keep):
+            return keep
+        keep = grown
 
 
 # --------------------------------------------------------------------------
