@@ -254,7 +254,7 @@ class _Queue:
         freshest arrived packet no older than the buffer (0 where none)."""
         self.content[:, 0] = content
         arrived = self.arrival <= t
-        fresh = arrived.any(axis=1)
+        fresh: Any = arrived.any(axis=1)
         c = np.argmax(arrived, axis=1)          # smallest age that arrived
         value = self.content[np.arange(c.size), c] * fresh[:, None]
         self.theta = fresh
@@ -330,8 +330,8 @@ def _make_link(loss: Any, delay: Any, name: str, S: NDArray[np.float64],
             raise ValueError(f"{name}: a Bernoulli loss and a bursty delay on "
                              f"one link; put the loss in the delay laws")
         pmfs = tuple(_pmf(q, name) for q in bursty)
-        buffer = int(getattr(delay, "buffer"))
-        channel = np.asarray(getattr(delay.link, "transition"), dtype=float)
+        buffer = int(delay.buffer)
+        channel = np.asarray(delay.link.transition, dtype=float)
         return _BurstyQueue(channel, pmfs, buffer, trials, S.shape[1])
     pmf = _pmf(getattr(delay, "pmf", delay), name)
     buffer = int(getattr(delay, "buffer", pmf.size - 1))
@@ -802,10 +802,11 @@ def _controller_step(p: _Plan, st: dict, t: int, sens: Any, ypkt: Any,
 
 
 def _run(p: _Plan, rng: np.random.Generator) -> dict[str, NDArray[Any]]:
-    m, trials, steps, N = p.mats, p.trials, p.steps, p.S1.shape[0]
+    m, trials, steps = p.mats, p.trials, p.steps
     n, m2 = m["n"], m["m2"]
-    sens = _make_link(*p.links[0], "sensor_delay", p.S1, trials)
-    act = _make_link(*p.links[1], "actuator_delay", p.S2, trials)
+    (loss1, delay1), (loss2, delay2) = p.links
+    sens = _make_link(loss1, delay1, "sensor_delay", p.S1, trials)
+    act = _make_link(loss2, delay2, "actuator_delay", p.S2, trials)
     model_based = p.controller in ("predictor", "estimator")
     st: dict[str, Any] = {
         "x": np.zeros((trials, n)), "u": np.zeros((trials, m2)),

@@ -153,13 +153,13 @@ def link_chain(link: Link, sent: Any) -> _Chain:
 def _with_previous_age(chain: _Chain, stale: int) -> _Chain:
     """The chain of ``(previous age, g, a)``: what says whether the packet
     in use is new."""
-    N, S = chain.T.shape[0], chain.T.shape[1]
+    N = chain.T.shape[0]
     ages = sorted({a for _, a in chain.labels})
     labels = [(ap, g, a) for ap in ages for (g, a) in chain.labels]
     index = {lab: i for i, lab in enumerate(labels)}
     T = np.zeros((N, len(labels), len(labels)))
     for k in range(N):
-        for (ap, g, a), i in index.items():
+        for (_, g, a), i in index.items():
             for j, (g2, b) in enumerate(chain.labels):
                 T[k, i, index[(a, g2, b)]] = chain.T[k, chain.labels.index(
                     (g, a)), j]
@@ -168,7 +168,7 @@ def _with_previous_age(chain: _Chain, stale: int) -> _Chain:
     for Tk in chain.T[:-1]:
         last = last @ Tk
     initial = np.zeros(len(labels))
-    for i, (gp, ap) in enumerate(chain.labels):
+    for i, (_, ap) in enumerate(chain.labels):
         for j, (g, a) in enumerate(chain.labels):
             initial[index[(ap, g, a)]] += last[i] * chain.T[-1, i, j]
     return _Chain(labels, T, initial)
@@ -298,7 +298,7 @@ def _step(c: _Loop, k: int, age: int | None, new: bool, cage: int | None,
     ``cage``; returns (next state, z), linear in (xi, w)."""
     P, s = c.plant, c.slices
     cols = xi.shape[1]
-    n, m2, p2 = P.A.shape[0], P.B2.shape[1], P.C2.shape[0]
+    m2, p2 = P.B2.shape[1], P.C2.shape[0]
     x = xi[s["x"]]
     y0 = P.C2 @ x + P.D21 @ w
 
