@@ -21,8 +21,9 @@ Construction
   arrives with the hazard ``h_g'(c) = q_c / (1 - Σ_{c' < c} q_c')`` of the
   new channel state ``g'``; the freshest arrival is the new age, else the
   packet in use ages by one (stale beyond ``D``).
-* **Modes.** The product of the sensor link's chain (with the previous age
-  for the model-based controllers, which act on *new* packets only), the
+* **Modes.** The product of the sensor link's chain (with whether the
+  packet in use is new, for the model-based controllers, which correct on
+  new packets only: a function of consecutive ages), the
   actuator link's chain and the sub-sample input delay's i.i.d. draw; modes
   that the stationary chain never visits are dropped. The initial law is
   the periodic stationary law at phase 0.
@@ -150,27 +151,31 @@ def link_chain(link: Link, sent: Any) -> _Chain:
     return _Chain(labels, T, _stationary(T))
 
 
-def _with_previous_age(chain: _Chain, stale: int) -> _Chain:
-    """The chain of ``(previous age, g, a)``: what says whether the packet
-    in use is new."""
+def _with_news(chain: _Chain, stale: int) -> _Chain:
+    """The chain of ``(new, g, a)``: whether the packet in use at ``t`` is
+    new (not stale, and fresher than the one used at ``t - 1``) is a
+    function of the ages at ``t - 1`` and ``t``, so the triple is Markov."""
     N = chain.T.shape[0]
-    ages = sorted({a for _, a in chain.labels})
-    labels = [(ap, g, a) for ap in ages for (g, a) in chain.labels]
+
+    def news(before: int, now: int) -> bool:
+        return now != stale and (before == stale or now <= before)
+
+    labels = [(new, g, a) for new in (False, True) for (g, a) in chain.labels]
     index = {lab: i for i, lab in enumerate(labels)}
     T = np.zeros((N, len(labels), len(labels)))
     for k in range(N):
         for (_, g, a), i in index.items():
+            row = chain.labels.index((g, a))
             for j, (g2, b) in enumerate(chain.labels):
-                T[k, i, index[(a, g2, b)]] = chain.T[k, chain.labels.index(
-                    (g, a)), j]
-    # law at phase 0: the previous state from the law at phase N - 1
+                T[k, i, index[(news(a, b), g2, b)]] = chain.T[k, row, j]
+    # the law at phase 0 from the law at phase N - 1 and the last step
     last = chain.initial.copy()
     for Tk in chain.T[:-1]:
         last = last @ Tk
     initial = np.zeros(len(labels))
     for i, (_, ap) in enumerate(chain.labels):
         for j, (g, a) in enumerate(chain.labels):
-            initial[index[(ap, g, a)]] += last[i] * chain.T[-1, i, j]
+            initial[index[(news(ap, a), g, a)]] += last[i] * chain.T[-1, i, j]
     return _Chain(labels, T, initial)
 
 
@@ -414,7 +419,7 @@ def loop(plant: Plant, sensor_link: Link, actuator_link: Link, gains: Any,
     s_chain = link_chain(sensor_link, S1.any(axis=1))
     stale_s = sensor_link.buffer + 1
     if model_based:
-        s_chain = _with_previous_age(s_chain, stale_s)
+        s_chain = _with_news(s_chain, stale_s)
     a_chain = link_chain(actuator_link, S2.any(axis=1))
     chains = [s_chain, a_chain]
     if plant.gamma0 is not None:
@@ -436,9 +441,7 @@ def loop(plant: Plant, sensor_link: Link, actuator_link: Link, gains: Any,
         sens, act = lab[0], lab[1]
         tau = lab[2][0] if len(lab) > 2 else None
         a = sens[-1] if sens[-1] <= sensor_link.buffer else None
-        new = False
-        if model_based and a is not None:
-            new = sens[0] == stale_s or a <= sens[0]
+        new = bool(sens[0]) if model_based else False
         b = act[1] if act[1] <= actuator_link.buffer else None
         for k in range(N):
             key = (k, a, new, b, tau)
