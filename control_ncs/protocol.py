@@ -59,8 +59,8 @@ for a Gilbert--Elliott one the stationary loss at the first step, then
 ``f`` after a delivery and ``1 - r`` after a loss; then each delayed link's
 draws (sensor, then actuator): a Bernoulli loss if given, then the delay
 ``δ`` of the new packet; or, for a bursty link, its channel state and one
-uniform per packet in flight; then the sub-sample delay. A link without
-delay draws exactly as before delays were modelled.
+uniform per packet in flight; then the sub-sample delay (a Bernoulli link
+with ``f = 1 - r = α`` draws exactly as a Gilbert--Elliott one would).
 """
 
 from __future__ import annotations
