@@ -379,15 +379,17 @@ def test_lti_controller_over_delayed_links_equals_the_protocol_simulator(
     assert abs(power.mean() - exact) < 4 * se
 
 
-def test_protocol_simulator_refuses_delays_it_does_not_model():
+def test_protocol_simulator_refuses_links_it_does_not_model():
     args = ([[0.5]], [[0.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]], [[1]],
             [[1]])
-    with pytest.raises(ValueError, match="^sensor_delay: the link's loss"):
-        simulate_protocol(*args, 0.2, 0.0, np.zeros((2, 1, 1)), 5,
+    bursty = ncs.gilbert_elliott(fail=0.2, recover=0.5)
+    with pytest.raises(ValueError, match="^sensor_delay: a Gilbert-Elliott"):
+        simulate_protocol(*args, bursty, 0.0, np.zeros((2, 1, 1)), 5,
                           sensor_delay=[0.5, 0.3])
-    with pytest.raises(ValueError, match="controller='static' or 'lti'"):
-        simulate_protocol(*args, 0.0, 0.0, np.zeros((1, 1, 1)), 5,
-                          controller="predictor", actuator_delay=[0.5])
+    with pytest.raises(ValueError, match="^actuator_delay: a Bernoulli loss"):
+        simulate_protocol(*args, 0.0, 0.2, np.zeros((1, 1, 1)), 5,
+                          actuator_delay=ncs.bursty_delay(bursty, [0.5],
+                                                          [1.0]))
     with pytest.raises(ValueError, match=r"^gains must have shape \(D \+ 1"):
         simulate_protocol(*args, 0.0, 0.0, np.zeros((1, 1, 1)), 5,
                           sensor_delay=[0.5, 0.3])
