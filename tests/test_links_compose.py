@@ -200,7 +200,11 @@ def package_loop(case: Case):
             kw["estimator_gain"] = case.L
         controller = "static" if case.controller == "per_age" else \
             case.controller
-        return ncs.feedback(P, case.K, controller=controller, **kw)
+        K = case.K
+        if case.controller == "per_age" and np.ndim(K) == 3:
+            # one gain per age, as feedback reads it: blocks of columns
+            K = np.concatenate(list(np.asarray(K)), axis=-1)
+        return ncs.feedback(P, K, controller=controller, **kw)
 
 
 def reference_plant(case: Case) -> R.Plant:
@@ -356,7 +360,7 @@ def test_h2syn_reports_the_norm_of_its_loop_beside_an_actuator_delay():
     P = scalar_plant(1.5, sensor_loss=0.3,
                      actuator_delay=ncs.random_delay([1.0]))
     K, CL, value = ncs.h2syn(P)
-    gains = np.asarray(K.gains)
+    gains = np.asarray(K.gains)[:, None]          # (N, one age, m2, p2)
     ref = scalar_reference(1.5, R.bernoulli(0.3), R.delay([1.0]), gains)
     truth = ncs.norm(ref)
     assert truth >= 1.0 / math.sqrt(1.0 - 0.3 * 1.5 ** 2) * (1 - 1e-6)
