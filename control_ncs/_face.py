@@ -8,7 +8,8 @@ object meets python-control where python-control gives it no method to
 override:
 
 * **Printing** follows python-control's protocol: ``repr`` in the
-  ``'eval'`` format (loadable, as long as it fits in a screen) or the
+  ``'eval'`` format (loadable, at numpy's print precision as
+  python-control's, as long as it fits in a screen) or the
   ``'info'`` format, ``_repr_html_`` and ``str``, each naming the class
   and, for the per-step signals, the mode law.
 * **Copies.** python-control's copy constructor (``control.ss(sys)``,
@@ -143,8 +144,7 @@ def _labels_repr(J: Any) -> str:
 def _stack_repr(X: np.ndarray) -> str:
     """``repr`` of a per-phase, per-mode stack in its shortest loadable
     shape: one matrix if all coincide, an ``(M, ., .)`` stack if the
-    phases do; floats printed exactly (numpy's ``'unique'`` mode), blank
-    lines between blocks dropped."""
+    phases do; blank lines between blocks dropped."""
     if np.all(X == X[:1, :1]):
         X = X[0, 0]
     elif np.all(X == X[:1]):
@@ -158,15 +158,18 @@ def _tight(text: str) -> str:
 
 
 def eval_repr(J: Any) -> str:
-    """A loadable ``JumpStateSpace(...)`` (numpy's ``array``) that rebuilds
-    an equal system, or the ``'info'`` form when it would not fit in a
-    screen."""
+    """A loadable ``JumpStateSpace(...)`` (numpy's ``array``), or the
+    ``'info'`` form when it would not fit in a screen.
+
+    As python-control's, the matrices are printed at numpy's precision;
+    the mode law is printed exactly (numpy's ``'unique'`` float mode), so
+    that its rows still sum to one when loaded.
+    """
     m = J.modes
     law, transition = J.mode_law()
-    with np.printoptions(floatmode="unique", threshold=_sys.maxsize):
-        # the law keeps the period: (N, M) probabilities or transitions
-        one = J.period == 1
-        parts = [_stack_repr(X) for X in (m.A, m.B, m.C, m.D)]
+    one = J.period == 1          # the law keeps the period N otherwise
+    parts = [_stack_repr(X) for X in (m.A, m.B, m.C, m.D)]
+    with np.printoptions(floatmode="unique"):
         if transition is not None and np.array_equal(law, m.probabilities[0]):
             law_text = "None"       # the stationary law, recomputed exactly
         else:

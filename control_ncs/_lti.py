@@ -139,7 +139,8 @@ def _check_step(sys: ct.StateSpace, name: str, dt: Any, period: int) -> None:
     if ct.isctime(sys, strict=True):
         step = "dt" if dt is None or dt is True else repr(dt)
         raise ValueError(f"{name}: continuous-time (dt = 0); the loop is "
-                         f"discrete-time: discretize it first, e.g. "
+                         f"discrete-time (incompatible timebases, in "
+                         f"python-control's words): discretize it first, e.g. "
                          f"{name}.sample({step}) or control.sample_system")
     if dt is None or dt is True or sys.dt is True or sys.dt is None:
         return
@@ -148,4 +149,5 @@ def _check_step(sys: ct.StateSpace, name: str, dt: Any, period: int) -> None:
                 f"the base rate dt, not N·dt)"
                 if period > 1 and np.isclose(sys.dt, dt * period) else "")
         raise ValueError(f"{name}: sampling periods differ: the loop steps "
-                         f"with dt = {dt}, {name} has dt = {sys.dt}{hint}")
+                         f"with dt = {dt}, {name} has dt = {sys.dt} "
+                         f"(incompatible timebases){hint}")

@@ -87,7 +87,8 @@ def _common_dt(step: float | bool, dt: Any) -> float | bool:
         return other
     if not np.isclose(step, other, rtol=1e-12, atol=0):
         raise ValueError(f"other.dt: sampling periods differ: the jump system "
-                         f"steps with dt = {step}, other has dt = {other}")
+                         f"steps with dt = {step}, other has dt = {other} "
+                         f"(incompatible timebases)")
     return step
 
 

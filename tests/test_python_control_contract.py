@@ -16,6 +16,7 @@ python-control on the same matrices.
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import control as ct
@@ -410,14 +411,33 @@ def test_eval_repr_matches_python_controls_label_format():
     assert repr(S).endswith("dt=0.1,\nstates=3, outputs=2, inputs=2)")
 
 
+def assert_rebuilt(back, J):
+    """``back`` is ``J`` up to numpy's print precision of the matrices (as
+    python-control's repr); the mode law, step and names exactly."""
+    for X in "ABCD":
+        np.testing.assert_allclose(getattr(back.modes, X),
+                                   getattr(J.modes, X), rtol=1e-7, atol=1e-8)
+    assert back.mode_law()[0].tolist() == J.mode_law()[0].tolist()
+    assert (back.modes.transition is None) == (J.modes.transition is None)
+    if J.modes.transition is not None:
+        np.testing.assert_array_equal(back.modes.transition,
+                                      J.modes.transition)
+    assert back.dt_step == J.dt_step
+    if not re.match(r"sys\[\d+\]$", J.name):   # a generic name is not shown
+        assert back.name == J.name
+    assert (back.jump_inputs, back.jump_outputs, back.jump_states) == (
+        J.jump_inputs, J.jump_outputs, J.jump_states)
+    assert (back.nominal_mode is None) == (J.nominal_mode is None)
+
+
 @pytest.mark.parametrize("loop", [lossy_loop, mimo_loop, small_markov_loop,
                                   periodic_loop])
 def test_eval_repr_rebuilds_an_equal_system(loop):
     CL = loop()
     back = eval(repr(CL), {"JumpStateSpace": ncs.JumpStateSpace,
                            "array": np.array})
-    assert back.equals(CL) and back.name == CL.name
-    assert back.jump_states == CL.jump_states
+    assert back.equals(CL)        # short decimals print exactly
+    assert_rebuilt(back, CL)
 
 
 @settings(max_examples=25, deadline=None)
@@ -439,14 +459,12 @@ def test_eval_repr_round_trip_over_random_systems(n, m, p, M, N, markov,
         J = ncs.jss(*mats, probs, DT, nominal=[0] * N, **kw)
     text = repr(J)
     if text.startswith("<"):            # too large for a screen: 'info'
-        assert n * M * N > 2            # the smallest ones always fit
+        assert n * M * N > 4            # the small ones always fit
         assert len(text.splitlines()) == 1 and "JumpStateSpace" in text
         return
     back = eval(text, {"JumpStateSpace": ncs.JumpStateSpace,
                        "array": np.array})
-    assert back.equals(J)
-    assert (back.jump_inputs, back.jump_outputs, back.jump_states) == (
-        J.jump_inputs, J.jump_outputs, J.jump_states)
+    assert_rebuilt(back, J)
 
 
 def test_repr_of_a_large_system_is_the_info_line():
@@ -522,3 +540,12 @@ def test_two_random_jump_systems_are_still_refused():
         lossy_loop() * lossy_loop()
     with pytest.raises(ControlArgument, match="independent"):
         ct.feedback(lossy_loop(), lossy_loop())
+
+
+@pytest.mark.parametrize("dt", [0, 0.2])
+def test_another_timebase_is_refused_in_python_controls_words(dt):
+    CL, G = lossy_loop(), ct.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], dt)
+    for op in (lambda: CL * G, lambda: ct.feedback(CL, G),
+               lambda: ct.parallel(G, CL), lambda: ncs.jump_feedback(CL, G)):
+        with pytest.raises(ValueError, match="incompatible timebases"):
+            op()
