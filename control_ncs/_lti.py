@@ -7,8 +7,13 @@ with :func:`control.ss`, as python-control does), or a static gain. This
 module decides, in one place, what is accepted, what is refused and with
 which message:
 
-* a jump system is not deterministic: its ``StateSpace`` face is its mean,
-  and combining two jump systems needs the joint law of their modes;
+* a random jump system is not deterministic: its ``StateSpace`` face is
+  its mean, and combining two jump systems needs the joint law of their
+  modes; a jump system whose live modes coincide and do not change with
+  the phase *is* an LTI system (:func:`deterministic_lti`), and so is
+  accepted;
+* a plain ``StateSpace`` copied from a random jump system's mean face
+  (``control.ss(sys)``) has lost the modes (:mod:`control_ncs._face`);
 * a :class:`~control_ncs.plant.NetworkedStateSpace` is a plant without its
   network loop;
 * a continuous-time system, or one with another sampling period, does not
@@ -26,6 +31,7 @@ import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import real_array
+from ._face import refuse_mean_copy
 from .plant import NetworkedStateSpace
 
 __all__: list[str] = []
@@ -34,6 +40,24 @@ __all__: list[str] = []
 def is_jump(sys: Any) -> bool:
     """True for a jump system: a StateSpace that carries a mode law."""
     return isinstance(sys, ct.StateSpace) and hasattr(sys, "modes")
+
+
+def deterministic_lti(sys: Any) -> ct.StateSpace | None:
+    """A jump system as the LTI system it is, or None.
+
+    It is one when, at every phase, its live modes coincide
+    (``sys.deterministic()``) and the phases coincide too: then every
+    step applies the same known linear map. Returned at the base step
+    with the per-step signal names and the system's name.
+    """
+    mats = sys.deterministic()
+    if mats is None or any(not np.array_equal(X, X[:1].repeat(len(X), 0))
+                           for X in mats):
+        return None
+    return ct.StateSpace(*(X[0] for X in mats), sys.dt_step,
+                         name=str(sys.name), inputs=list(sys.jump_inputs),
+                         outputs=list(sys.jump_outputs),
+                         states=list(sys.jump_states))
 
 
 def lti_operand(other: Any, name: str = "other", *, dt: Any = None,
@@ -66,11 +90,15 @@ def lti_operand(other: Any, name: str = "other", *, dt: Any = None,
         raise ControlArgument(
             f"{name}: a NetworkedStateSpace is a plant without its network "
             f"loop; close it first (control_ncs.feedback)")
+    refuse_mean_copy(other, name)
     if is_jump(other):
-        raise ControlArgument(
-            f"{name}: expected a deterministic LTI system, got a "
-            f"{type(other).__name__} (its StateSpace face is its mean, not a "
-            f"deterministic system)")
+        lti = deterministic_lti(other)
+        if lti is None:
+            raise ControlArgument(
+                f"{name}: expected a deterministic LTI system, got a random "
+                f"{type(other).__name__} (its StateSpace face is its mean, "
+                f"not a deterministic system)")
+        other = lti
     if isinstance(other, ct.LTI):
         sys = other if isinstance(other, ct.StateSpace) else ct.ss(other)
         _check_step(sys, name, dt, period)
@@ -111,7 +139,8 @@ def _check_step(sys: ct.StateSpace, name: str, dt: Any, period: int) -> None:
     if ct.isctime(sys, strict=True):
         step = "dt" if dt is None or dt is True else repr(dt)
         raise ValueError(f"{name}: continuous-time (dt = 0); the loop is "
-                         f"discrete-time: discretize it first, e.g. "
+                         f"discrete-time (incompatible timebases, in "
+                         f"python-control's words): discretize it first, e.g. "
                          f"{name}.sample({step}) or control.sample_system")
     if dt is None or dt is True or sys.dt is True or sys.dt is None:
         return
@@ -120,4 +149,5 @@ def _check_step(sys: ct.StateSpace, name: str, dt: Any, period: int) -> None:
                 f"the base rate dt, not N·dt)"
                 if period > 1 and np.isclose(sys.dt, dt * period) else "")
         raise ValueError(f"{name}: sampling periods differ: the loop steps "
-                         f"with dt = {dt}, {name} has dt = {sys.dt}{hint}")
+                         f"with dt = {dt}, {name} has dt = {sys.dt} "
+                         f"(incompatible timebases){hint}")

@@ -69,7 +69,7 @@ from control.exception import ControlArgument
 from ._checks import discrete_dt, no_extra_kwargs, real_array
 from ._lifting import check_lifted_size, lift, lifted_names
 from .jump import JumpStateSpace, as_jump
-from ._lti import lti_operand
+from ._lti import deterministic_lti, lti_operand
 
 __all__ = ["jump_feedback", "lift_lti", "interconnect"]
 
@@ -87,7 +87,8 @@ def _common_dt(step: float | bool, dt: Any) -> float | bool:
         return other
     if not np.isclose(step, other, rtol=1e-12, atol=0):
         raise ValueError(f"other.dt: sampling periods differ: the jump system "
-                         f"steps with dt = {step}, other has dt = {other}")
+                         f"steps with dt = {step}, other has dt = {other} "
+                         f"(incompatible timebases)")
     return step
 
 
@@ -308,11 +309,12 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
     Parameters
     ----------
     syslist : sequence
-        Exactly one :class:`~control_ncs.jump.JumpStateSpace` and any number
-        of deterministic discrete-time :class:`control.StateSpace` or
-        :class:`control.TransferFunction` systems with the same base step
-        ``dt`` (or an unspecified one), time-invariant at that rate for any
-        period ``N``.
+        Exactly one random :class:`~control_ncs.jump.JumpStateSpace` and
+        any number of deterministic discrete-time
+        :class:`control.StateSpace` or :class:`control.TransferFunction`
+        systems (or jump systems whose live modes coincide at every phase)
+        with the same base step ``dt`` (or an unspecified one),
+        time-invariant at that rate for any period ``N``.
     connections, inplist, outlist : optional
         As in :func:`control.interconnect`.
     **kwargs
@@ -326,6 +328,10 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
     JumpStateSpace
         Signals as python-control names them for the interconnection;
         ``info`` adds an ``'interconnect'`` entry (the other systems' names).
+        A jump system has at least one input and one output: an
+        interconnection without external inputs (``inplist=[]``, an
+        autonomous loop) gets one input named ``'unused'`` that enters
+        nowhere, one without outputs an output ``'unused'`` that is zero.
 
     Raises
     ------
@@ -351,6 +357,49 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
     >>> sys.nmodes, sys.nstates, sys.input_labels, sys.output_labels
     (2, 2, ['d'], ['z'])
     """
+    J, others = _jump_and_others(syslist)
+    name = kwargs.pop("name", None)
+
+    def blocks(k: int, i: int) -> list[ct.StateSpace]:
+        mode_sys = J.mode_system(k, i)
+        return [mode_sys if s is None else s for s in others]
+
+    maps, first = _signal_maps(blocks(0, 0), connections, inplist, outlist,
+                               kwargs)
+    done = [[_closed(blocks(k, i), maps, (k, i)) for i in range(J.nmodes)]
+            for k in range(J.period)]
+    A, B, C, D = (np.array([[m[j] for m in row] for row in done], dtype=float)
+                  for j in range(4))
+    inputs, outputs = list(first.input_labels), list(first.output_labels)
+    if maps[1].shape[1] == 0:     # no external input: one that enters nowhere
+        B, D, inputs = _zero_line(B, -1), _zero_line(D, -1), [UNUSED]
+    if maps[2].shape[0] == 0:     # no output: one that sees nothing
+        C, D, outputs = _zero_line(C, -2), _zero_line(D, -2), [UNUSED]
+    dt = J.dt_step if first.dt is True else first.dt
+    info = dict(J.info, interconnect=[s.name for s in others if s is not None])
+    law, transition = J.mode_law()   # the chain is kept (theory: Markov losses)
+    return JumpStateSpace(A, B, C, D, law, dt, transition=transition,
+                          nominal=J.nominal_mode, name=name,
+                          inputs=inputs, outputs=outputs,
+                          states=list(first.state_labels), info=info)
+
+
+#: The name of the input (output) that an interconnection without external
+#: inputs (outputs) gets: a jump system has at least one of each.
+UNUSED = "unused"
+
+
+def _zero_line(X: np.ndarray, axis: int) -> np.ndarray:
+    """``X`` with one more column (``axis=-1``) or row (``-2``) of zeros."""
+    shape = list(X.shape)
+    shape[axis] = 1
+    return np.concatenate([X, np.zeros(shape)], axis=axis)
+
+
+def _jump_and_others(syslist: Any) -> tuple[JumpStateSpace, list]:
+    """The one random jump system of ``syslist`` and the others as
+    deterministic StateSpaces at its step (None in the jump system's
+    place). A deterministic jump system is one of the others."""
     if isinstance(syslist, (ct.InputOutputSystem, str)) or not isinstance(
             syslist, (list, tuple)):
         raise ControlArgument(f"syslist: expected a list of systems, got "
@@ -359,15 +408,16 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
     if not jumps:
         raise ControlArgument("syslist: no JumpStateSpace; for deterministic "
                               "systems only, use control.interconnect")
-    if len(jumps) > 1:
+    random = [s for s in jumps if deterministic_lti(s) is None]
+    if len(random) > 1:
         raise ControlArgument(
-            f"syslist: {len(jumps)} jump systems "
-            f"({', '.join(j.name for j in jumps)}). Their modes are "
+            f"syslist: {len(random)} jump systems "
+            f"({', '.join(j.name for j in random)}). Their modes are "
             f"independent only if you say so, and the interconnection needs "
             f"the joint law of the mode sequences: build one jump system "
             f"over the joint modes with jss() (products of the "
             f"probabilities if independent)")
-    J = jumps[0]
+    J = (random or jumps)[0]
     others: list[ct.StateSpace | None] = []
     for s in syslist:
         if s is J:
@@ -377,36 +427,40 @@ def interconnect(syslist: Sequence[Any], connections: Any = None,
             s, ct.InputOutputSystem) else "syslist", dt=J.dt_step,
             period=J.period)
         others.append(s)
-    name = kwargs.pop("name", None)
+    return J, others
 
-    def blocks(k: int, i: int) -> list[ct.StateSpace]:
-        mode_sys = J.mode_system(k, i)
-        return [mode_sys if s is None else s for s in others]
 
-    # python-control parses the signal names (connect, input and output
-    # maps); its own linearisation iterates to a fixed point and stops at an
-    # algebraic loop, so the maps are taken from the systems with D = 0 and
-    # each mode is closed exactly below
-    def static_free(sys: ct.StateSpace) -> ct.StateSpace:
-        return ct.ss(sys.A, sys.B, sys.C, np.zeros_like(sys.D), sys.dt,
-                     name=sys.name, inputs=list(sys.input_labels),
-                     outputs=list(sys.output_labels),
-                     states=list(sys.state_labels))
+def _signal_maps(systems: list[ct.StateSpace], connections: Any,
+                 inplist: Any, outlist: Any, kwargs: dict
+                 ) -> tuple[tuple[np.ndarray, ...], Any]:
+    """python-control's connection, input and output maps of ``systems``
+    (and its interconnection, for the signal names).
 
-    first = ct.interconnect([static_free(S) for S in blocks(0, 0)],
-                            connections, inplist, outlist, **kwargs)
-    maps = (np.asarray(first.connect_map, float),
-            np.asarray(first.input_map, float),
-            np.asarray(first.output_map, float))
-    done = [[_closed(blocks(k, i), maps, (k, i)) for i in range(J.nmodes)]
-            for k in range(J.period)]
-    A, B, C, D = (np.array([[m[j] for m in row] for row in done], dtype=float)
-                  for j in range(4))
-    dt = J.dt_step if first.dt is True else first.dt
-    info = dict(J.info, interconnect=[s.name for s in others if s is not None])
-    law, transition = J.mode_law()   # the chain is kept (theory: Markov losses)
-    return JumpStateSpace(A, B, C, D, law, dt, transition=transition,
-                          nominal=J.nominal_mode, name=name,
-                          inputs=list(first.input_labels),
-                          outputs=list(first.output_labels),
-                          states=list(first.state_labels), info=info)
+    python-control parses the signal names; its own linearisation iterates
+    to a fixed point and stops at an algebraic loop, so the maps are taken
+    from the systems with ``D = 0`` (each mode is closed exactly by
+    :func:`_closed`). It also fails on an interconnection with no external
+    input and some output; then the maps are read with one input (any: the
+    connection and output maps do not depend on it) and the input map is
+    empty.
+    """
+    static_free = [
+        ct.ss(S.A, S.B, S.C, np.zeros_like(S.D), S.dt, name=S.name,
+              inputs=list(S.input_labels), outputs=list(S.output_labels),
+              states=list(S.state_labels)) for S in systems]
+    no_input = (inplist is None and kwargs.get("inputs") is None) or (
+        isinstance(inplist, (list, tuple)) and len(inplist) == 0)
+    if no_input and not (isinstance(outlist, (list, tuple))
+                         and len(outlist) == 0):
+        probe = next(f"{S.name}.{S.input_labels[0]}" for S in static_free
+                     if S.ninputs)
+        first = ct.interconnect(static_free, connections, [probe], outlist,
+                                **{k: v for k, v in kwargs.items()
+                                   if k != "inputs"})
+        input_map = np.zeros((first.input_map.shape[0], 0))
+    else:
+        first = ct.interconnect(static_free, connections, inplist, outlist,
+                                **kwargs)
+        input_map = np.asarray(first.input_map, float)
+    return (np.asarray(first.connect_map, float), input_map,
+            np.asarray(first.output_map, float)), first

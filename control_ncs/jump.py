@@ -15,8 +15,6 @@ that synthesis designs in :mod:`control_ncs.openloop`.
 
 from __future__ import annotations
 
-import inspect
-import numbers
 from typing import Any
 
 import numpy as np
@@ -25,15 +23,18 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, no_extra_kwargs, real_array
 from ._lifting import check_lifted_size, lift, lifted_names
-from ._lti import lti_operand
+from . import _face
+from ._modewise import ModewiseAlgebra
 from .modes import (Modes, apply_groups, chain_law, check_probabilities,
                     markov_mean, merge_groups)
 from .plant import NetworkedStateSpace
 
 __all__ = ["JumpStateSpace", "jss"]
 
-#: python-control's norm, recognised by its code object (not patched).
-_SYSTEM_NORM_CODE = ct.system_norm.__code__
+#: What cannot change after construction: the face is the exact mean of
+#: the modes only while neither changes.
+_FROZEN = frozenset({"A", "B", "C", "D", "dt", "modes", "dt_step",
+                     "nominal_mode"})
 
 
 def _phase_mode_array(value: Any, name: str, N: int, M: int, shape: tuple
@@ -57,7 +58,7 @@ def _phase_mode_array(value: Any, name: str, N: int, M: int, shape: tuple
 
 
 
-class JumpStateSpace(ct.StateSpace):
+class JumpStateSpace(ModewiseAlgebra):
     """Periodic jump linear system; its StateSpace face is its mean.
 
     ``ξ[t+1] = A[k,i] ξ[t] + B[k,i] w[t]``, ``z[t] = C[k,i] ξ[t] + D[k,i] w[t]``
@@ -94,21 +95,33 @@ class JumpStateSpace(ct.StateSpace):
     ``JumpStateSpace`` built mode by mode (python-control's operation on
     each mode, probabilities kept): exact, and equal to
     :func:`control_ncs.jump_feedback` for feedback. Indices refer to the
-    per-step signals for any ``N``. Two jump systems together raise
-    ``ControlArgument`` (their modes are independent only if you say so).
-    Calls python-control does not dispatch to this object (a
-    ``TransferFunction`` on the left, ``control.feedback(G, sys)``,
-    ``control.append(G, sys)``, ``control.interconnect``) read the face and
-    return an ordinary system built from the mean (the exact mean of the
-    interconnection only if no algebraic loop multiplies two mode-dependent
-    matrices); :func:`control_ncs.interconnect` is the exact
-    interconnection by signal names. ``==`` and ``hash`` are by identity,
-    as for python-control's systems; :meth:`equals` compares values.
+    per-step signals for any ``N``. A jump system whose live modes coincide
+    and do not change with the phase is such a deterministic ``G`` too; two
+    random jump systems together raise ``ControlArgument`` (their modes are
+    independent only if you say so). ``control.linearize`` returns the
+    system itself. A ``TransferFunction`` operator with this system on
+    the right (``H * sys``, ``H + sys``, ``series(sys, H)``) and
+    ``control.tf(sys)`` would return the mean's transfer function: they
+    raise ``ControlArgument`` (convert ``H`` with ``control.ss``). Calls
+    python-control does not dispatch to this object
+    (``control.feedback(G, sys)``, ``control.append(G, sys)``,
+    ``control.interconnect``) read the face and return an ordinary system
+    built from the mean (the exact mean of the interconnection only if no
+    algebraic loop multiplies two mode-dependent matrices);
+    :func:`control_ncs.interconnect` is the exact interconnection by signal
+    names. ``control.ss(sys)`` and python-control's other copies
+    (``similarity_transform``, canonical forms) are plain ``StateSpace``
+    copies of the mean face, which the package's functions recognise and
+    refuse. ``==`` and ``hash`` are by identity, as for python-control's
+    systems; :meth:`equals` compares values.
 
-    Build one with :func:`jss` or :func:`control_ncs.feedback`. Its arrays
-    (the modes and the mean face) are read-only, so the face stays the mean
-    of the modes. A period whose lifted face would exceed
-    ``MAX_LIFTED_ENTRIES`` entries is refused.
+    Build one with :func:`jss` or :func:`control_ncs.feedback`. It is
+    immutable: its arrays (the modes and the mean face) are read-only and
+    assigning ``A``, ``B``, ``C``, ``D``, ``dt`` or ``modes`` raises
+    ``AttributeError``, so the face stays the mean of the modes. It prints
+    as python-control's systems do (``repr`` formats ``'eval'`` and
+    ``'info'``, ``str``, HTML), with its mode law. A period whose lifted
+    face would exceed ``MAX_LIFTED_ENTRIES`` entries is refused.
 
     Parameters
     ----------
@@ -128,7 +141,9 @@ class JumpStateSpace(ct.StateSpace):
         Index of the loss-free mode at each phase, for :meth:`nominal`.
     name, inputs, outputs, states : optional
         As in :class:`control.StateSpace`; ``inputs``/``outputs`` name the
-        per-step signals ``w`` and ``z``, not the lifted ones.
+        per-step signals ``w`` and ``z``, not the lifted ones (default
+        ``'w[i]'``, ``'z[i]'``, ``'x[i]'``; a count gives python-control's
+        generic names ``'u[i]'``, ``'y[i]'``, ``'x[i]'``).
     info : dict, optional
         What built the system, kept as the ``info`` attribute.
     **kwargs
@@ -141,7 +156,8 @@ class JumpStateSpace(ct.StateSpace):
     period : int
         ``N``.
     jump_inputs, jump_outputs, jump_states : list of str
-        Names of ``w``, ``z`` and ``ξ`` at one step.
+        Names of ``w``, ``z`` and ``ξ`` at one step (``nstates`` is the
+        face's order: ``M·n`` for Markov modes).
     info : dict
         What built the system (controller kind, actuator strategy, plant,
         gains), for reference; analysis never reads it.
@@ -210,14 +226,14 @@ class JumpStateSpace(ct.StateSpace):
         self.jump_outputs = _names(outputs, q, "z", "outputs")
         self.jump_states = _names(states, n, "x", "states")
 
+        # a random system marks its face's state names: python-control's
+        # copies keep them, and the package refuses such a copy (_face)
+        self._random = self.deterministic() is None
         if T is None:
             Abar, Bbar, Cbar, Dbar = self.modes.mean()
-            face_states = self.jump_states
         else:
             check_lifted_size(M * n, m, q, N, "transition")
             Abar, Bbar, Cbar, Dbar = markov_mean(self.modes)
-            face_states = [f"{s}#{i}" for i in range(M)
-                           for s in self.jump_states]
         if N == 1:
             mats = (Abar[0], Bbar[0], Cbar[0], Dbar[0])
             lifted_dt = self.dt_step
@@ -227,10 +243,57 @@ class JumpStateSpace(ct.StateSpace):
         super().__init__(*mats, lifted_dt, name=name,
                          inputs=lifted_names(self.jump_inputs, N),
                          outputs=lifted_names(self.jump_outputs, N),
-                         states=face_states)
+                         states=self._face_states(self.jump_states))
         # the face is the exact mean of self.modes only while neither changes
         for X in (self.A, self.B, self.C, self.D):
             X.setflags(write=False)
+        object.__setattr__(self, "_frozen", True)
+
+    def _face_states(self, names: list[str]) -> list[str]:
+        """The face's state names: one per state, or per state and mode
+        (``'x[0]#1'``) for Markov modes; marked if the system is random."""
+        if not self.modes.is_iid:
+            names = [f"{s}#{i}" for i in range(self.nmodes) for s in names]
+        return _face.face_states(names, self._random)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in _FROZEN and self.__dict__.get("_frozen", False):
+            raise AttributeError(
+                f"{name}: a JumpStateSpace cannot be changed: its "
+                f"StateSpace matrices are the exact mean of its modes "
+                f"(sys.modes), whose arrays are read-only; build a new "
+                f"system with control_ncs.jss()")
+        super().__setattr__(name, value)
+
+    # python-control reads ``nstates`` first when it converts a system to a
+    # transfer function; a random system refuses the conversions that
+    # would silently drop its modes (TransferFunction algebra, ct.tf)
+    @property
+    def nstates(self) -> int:
+        """Order of the StateSpace face: ``M·n`` for Markov modes.
+
+        The loop's own state (``n`` entries, the size of an
+        ``initial_state``) is named by :attr:`jump_states`.
+        """
+        if self.__dict__.get("_random"):
+            _face.check_face_read(self, _face.caller(2))
+        try:
+            return self.__dict__["nstates"]
+        except KeyError:
+            raise AttributeError("nstates") from None
+
+    @nstates.setter
+    def nstates(self, value: int) -> None:
+        self.__dict__["nstates"] = value
+
+    def issiso(self) -> bool:
+        """Whether the face has one input and one output (python-control).
+
+        ``control.step_response`` of a period-``N`` system (``N > 1``)
+        warns here: it steps the lifted face, not the base-rate loop.
+        """
+        _face.warn_step_response(self, _face.caller(2))
+        return bool(super().issiso())
 
     @staticmethod
     def _check_nominal(nominal: Any, N: int, M: int) -> np.ndarray:
@@ -345,22 +408,12 @@ class JumpStateSpace(ct.StateSpace):
 
         ``ct.norm`` copies its argument into a plain ``StateSpace`` (this
         system's mean face) and would return the *mean* system's norm, which
-        is not the jump system's (:ref:`theory-performance`): the one place
-        where python-control would compute a silently different figure. The
-        copy is refused there, naming :func:`control_ncs.norm`; every other
-        ``ss(sys)`` copy keeps the mean face, as documented.
+        is not the jump system's (:ref:`theory-performance`): refused there,
+        naming :func:`control_ncs.norm`. Other copies keep the mean face;
+        the package's functions refuse them (:mod:`control_ncs._face`).
         """
-        frame = inspect.currentframe()
-        for _ in range(3):                  # this method, ss(), its caller
-            frame = frame.f_back if frame is not None else None
-            if frame is not None and frame.f_code is _SYSTEM_NORM_CODE \
-                    and self.deterministic() is None:
-                raise ControlArgument(
-                    "control.norm(sys) would compute the norm of the mean "
-                    "system, not of this jump system (its modes are "
-                    "random): use control_ncs.norm(sys, p) for the exact H2 "
-                    "norm or the certified l2 gain, or control.norm("
-                    "sys.mean(), p) for the mean system's")
+        if self._random:
+            _face.check_norm_caller(self, _face.caller(2))
         return bool(super()._generic_name_check())
 
     def mean(self) -> ct.StateSpace:
@@ -374,7 +427,7 @@ class JumpStateSpace(ct.StateSpace):
         """
         return ct.StateSpace(self.A, self.B, self.C, self.D, self.dt,
                              inputs=self.input_labels, outputs=self.output_labels,
-                             states=self.state_labels,
+                             states=_face.plain(self.state_labels),
                              name=f"{self.name}$mean")
 
     def nominal(self) -> ct.StateSpace:
@@ -473,6 +526,73 @@ class JumpStateSpace(ct.StateSpace):
                              states=self.jump_states,
                              name=f"{self.name}$phase{k}")
 
+    def linearize(self, x0: Any, u0: Any = None, t: float = 0,
+                  params: Any = None, eps: float = 1e-6,
+                  copy_names: bool = False, **kwargs: Any
+                  ) -> "JumpStateSpace":
+        """The jump system itself: each mode is already linear.
+
+        :func:`control.linearize` calls this method. The linearization of
+        a jump system about any operating point is the system itself, mode
+        by mode, with the same mode law (python-control's numerical
+        linearization of the face would return its mean only). Named as
+        python-control names a linearization.
+
+        Parameters
+        ----------
+        x0, u0 : array_like or scalar
+            Operating point: ``x0`` of the face's ``nstates`` (or the
+            loop's own states), ``u0`` of its inputs (or the per-step
+            ones); they do not change the result.
+        t, params, eps
+            Accepted as by python-control; unused (the system is linear
+            and time-invariant per phase).
+        copy_names : bool, optional
+            Keep the signal names and name the result
+            ``'<name>$linearized'``; default: python-control's generic
+            names.
+        **kwargs
+            ``name``, ``inputs``, ``outputs``, ``states`` of the result.
+
+        Returns
+        -------
+        JumpStateSpace
+
+        Examples
+        --------
+        >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]],
+        ...               [0.2, 0.8], name="CL")
+        >>> lin = ct.linearize(sys, [1.0], [0.0], copy_names=True)
+        >>> type(lin).__name__, lin.name, lin.modes.A[0, :, 0, 0].tolist()
+        ('JumpStateSpace', 'CL$linearized', [2.0, 0.0])
+        """
+        no_extra_kwargs("linearize", {k: v for k, v in kwargs.items() if k
+                                      not in ("name", "inputs", "outputs",
+                                              "states")})
+        n = self.modes.A.shape[-1]
+        for value, sizes, what in ((x0, (self.nstates, n), "x0"),
+                                   (u0, (self.ninputs, len(self.jump_inputs)),
+                                    "u0")):
+            size = np.size(value) if value is not None else 0
+            if value is not None and size != 1 and size not in sizes:
+                raise ControlDimension(
+                    f"{what}: expected {sizes[0]} entries (or "
+                    f"{sizes[1]}, per step), got {size}")
+        defaults = ct.config.defaults
+        names: dict[str, Any] = dict(
+            name=(defaults["iosys.linearized_system_name_prefix"] + self.name
+                  + defaults["iosys.linearized_system_name_suffix"]),
+            inputs=self.jump_inputs, outputs=self.jump_outputs,
+            states=self.jump_states) if copy_names else dict(
+            name=None, inputs=len(self.jump_inputs),
+            outputs=len(self.jump_outputs), states=n)
+        names.update(kwargs)
+        m = self.modes
+        law, transition = self.mode_law()
+        return JumpStateSpace(m.A, m.B, m.C, m.D, law, self.dt_step,
+                              transition=transition, nominal=self.nominal_mode,
+                              info=dict(self.info), **names)
+
     def update_names(self, **kwargs: Any) -> None:
         """Rename the system or its per-step signals (as python-control).
 
@@ -497,21 +617,13 @@ class JumpStateSpace(ct.StateSpace):
             if key in kwargs:
                 names = _names(kwargs[key], counts[key], prefix[key], key)
                 setattr(self, f"jump_{key}", names)
-                face[key] = (names if key == "states"
+                face[key] = (self._face_states(names) if key == "states"
                              else lifted_names(names, self.period))
         if "name" in kwargs:
             face["name"] = kwargs["name"]
         super().update_names(**face)
 
-    # -- python-control algebra, mode by mode (theory: interconnections, jump system) ---
-    # python-control's operators, feedback, append and indexing dispatch to
-    # these methods (ct.series and ct.parallel call the operators; Python
-    # calls a subclass's reflected operator first, so ``G * CL`` reaches
-    # __rmul__). With a deterministic LTI ``G`` each mode of the result is
-    # python-control's operation on that mode, at the base rate, with the
-    # same probabilities: exact, because ``G`` has no modes and the mode at
-    # time t is the same draw on both sides (an algebraic loop is closed
-    # inside the mode, as in control_ncs.jump_feedback).
+    # -- mode by mode (theory: interconnections, jump system) ----------------
     def mode_system(self, k: int, i: int) -> ct.StateSpace:
         """Mode ``i`` of phase ``k`` as a StateSpace at the base rate.
 
@@ -537,29 +649,6 @@ class JumpStateSpace(ct.StateSpace):
                              inputs=self.jump_inputs,
                              outputs=self.jump_outputs,
                              states=self.jump_states, name=self.name)
-
-    def _operand(self, other: Any, what: str) -> Any:
-        """``other`` checked to be deterministic LTI data at the base rate
-        (:func:`control_ncs._lti.lti_operand`); NotImplemented for types
-        python's operator protocol should try elsewhere."""
-        from control.exception import ControlArgument
-        if isinstance(other, JumpStateSpace):
-            raise ControlArgument(
-                f"{what}: both operands are jump systems. Their modes are "
-                f"independent only if you say so, and python-control's "
-                f"algebra cannot: the interconnection needs the joint law of "
-                f"the two mode sequences. Build one jump system over the "
-                f"joint modes with jss() (products of the probabilities if "
-                f"independent), or use the mean systems .mean() knowingly "
-                f"(exact for E z only without an algebraic loop)")
-        if not isinstance(other, (ct.InputOutputSystem, numbers.Number,
-                                  np.ndarray, list, tuple)):
-            return NotImplemented
-        try:
-            return lti_operand(other, "other", dt=self.dt_step,
-                               period=self.period, arrays=True)
-        except (ValueError, TypeError) as err:
-            raise type(err)(f"{what}: {err}") from None
 
     def mode_law(self) -> tuple[np.ndarray, np.ndarray | None]:
         """The ``(probabilities, transition)`` that rebuild this mode law.
@@ -588,121 +677,6 @@ class JumpStateSpace(ct.StateSpace):
         return law, m.transition
 
 
-    def _modewise(self, op: Any, what: str, *, name: str | None = None,
-                  names: dict | None = None) -> "JumpStateSpace":
-        """The jump system whose mode (k, i) is ``op`` of mode (k, i)."""
-        N, M = self.period, self.nmodes
-        try:
-            first = op(self.mode_system(0, 0))
-        except ValueError as err:
-            # python-control's message names neither side's sizes
-            raise ControlDimension(
-                f"{what}: {err} (the jump system has "
-                f"{len(self.jump_inputs)} inputs and "
-                f"{len(self.jump_outputs)} outputs per step)") from err
-        done = [[first if k == i == 0 else op(self.mode_system(k, i))
-                 for i in range(M)] for k in range(N)]
-        A, B, C, D = (np.array([[getattr(S, X) for S in row] for row in done],
-                               dtype=float) for X in "ABCD")
-        labels = dict(inputs=list(first.input_labels),
-                      outputs=list(first.output_labels),
-                      states=list(first.state_labels))
-        labels.update(names or {})
-        dt = self.dt_step if first.dt is True else first.dt
-        return JumpStateSpace(A, B, C, D, self.mode_law()[0], dt,
-                              transition=self.modes.transition,
-                              nominal=self.nominal_mode, name=name,
-                              info=dict(self.info, algebra=what),
-                              inputs=labels["inputs"],
-                              outputs=labels["outputs"],
-                              states=labels["states"])
-
-    def __neg__(self) -> "JumpStateSpace":
-        return self._modewise(lambda S: -S, "-sys")
-
-    def __add__(self, other: Any) -> Any:
-        G = self._operand(other, "sys + other")
-        if G is NotImplemented:
-            return G
-        return self._modewise(lambda S: S + G, "sys + other")
-
-    def __radd__(self, other: Any) -> Any:
-        G = self._operand(other, "other + sys")
-        if G is NotImplemented:
-            return G
-        return self._modewise(lambda S: G + S, "other + sys")
-
-    def __sub__(self, other: Any) -> Any:
-        G = self._operand(other, "sys - other")
-        if G is NotImplemented:
-            return G
-        return self._modewise(lambda S: S - G, "sys - other")
-
-    def __rsub__(self, other: Any) -> Any:
-        G = self._operand(other, "other - sys")
-        if G is NotImplemented:
-            return G
-        return self._modewise(lambda S: G - S, "other - sys")
-
-    def __mul__(self, other: Any) -> Any:
-        G = self._operand(other, "sys * other")
-        if G is NotImplemented:
-            return G
-        return self._modewise(lambda S: S * G, "sys * other")
-
-    def __rmul__(self, other: Any) -> Any:
-        G = self._operand(other, "other * sys")
-        if G is NotImplemented:
-            return G
-        return self._modewise(lambda S: G * S, "other * sys")
-
-    def __truediv__(self, other: Any) -> Any:
-        G = self._operand(other, "sys / other")
-        if G is NotImplemented:
-            return G
-        return self._modewise(lambda S: S / G, "sys / other")
-
-    def __rtruediv__(self, other: Any) -> Any:
-        return self._refuse("other / sys")
-
-    def __pow__(self, other: Any) -> Any:
-        if type(other) is int and other == 1:
-            return self._modewise(lambda S: S, "sys ** 1")
-        if type(other) is int and other == -1:
-            # the inverse of the map at each step is the inverse of its mode
-            return self._modewise(lambda S: S ** -1, "sys ** -1")
-        return self._refuse(f"sys ** {other!r}")
-
-    def _refuse(self, what: str) -> Any:
-        from control.exception import ControlArgument
-        raise ControlArgument(
-            f"{what}: not defined for a jump system: it would put two copies "
-            f"of the same random system in series, whose modes are neither "
-            f"the same draw nor independent; build the interconnection with "
-            f"control_ncs.interconnect or jss()")
-
-    def __getitem__(self, key: Any) -> "JumpStateSpace":
-        # indices and names refer to the per-step signals z (rows) and w
-        # (columns) for any N, not to the lifted face's stacked ones
-        sizes = (len(self.jump_outputs), len(self.jump_inputs))
-        if isinstance(key, tuple) and len(key) == 2:
-            for index, size, what in zip(key, sizes, ("output", "input")):
-                if isinstance(index, (int, np.integer)) and not (
-                        -size <= index < size):
-                    raise ControlDimension(
-                        f"sys[{key!r}]: {what} index {index} is out of "
-                        f"range for {size} {what}s")
-        try:
-            first = self.mode_system(0, 0)[key]
-        except (IndexError, KeyError, ValueError, TypeError) as err:
-            raise ControlDimension(f"sys[{key!r}]: {err}") from None
-        if first.noutputs == 0 or first.ninputs == 0:
-            raise ControlDimension(
-                f"sys[{key!r}]: selects no output or no input of {sizes[0]} "
-                f"outputs and {sizes[1]} inputs")
-        return self._modewise(lambda S: S[key], f"sys[{key!r}]",
-                              name=first.name)
-
     def append(self, other: Any) -> "JumpStateSpace":
         """Append a deterministic LTI system, mode by mode.
 
@@ -716,6 +690,10 @@ class JumpStateSpace(ct.StateSpace):
         JumpStateSpace
             Inputs and outputs of ``self`` then of ``other``; same modes.
         """
+        lti = self._reflected(other)
+        if lti is not None:
+            return other._modewise(lambda S: lti.append(S),
+                                   "append(other, sys)")
         G = self._operand(other, "append(sys, other)")
         if G is NotImplemented:
             return self._refuse("append(sys, other)")
@@ -746,6 +724,13 @@ class JumpStateSpace(ct.StateSpace):
             Same inputs and outputs as ``self``; the state is
             ``[ξ; x_other]``.
         """
+        lti = self._reflected(other)
+        if lti is not None:
+            loop = other._modewise(lambda S: lti.feedback(S, sign),
+                                   "feedback(other, sys)")
+            if kwargs:
+                loop.update_names(**kwargs)
+            return loop
         G = self._operand(other, "feedback(sys, other)")
         if G is NotImplemented:
             return self._refuse("feedback(sys, other)")
@@ -810,31 +795,18 @@ class JumpStateSpace(ct.StateSpace):
     __eq__ = object.__eq__
     __hash__ = object.__hash__
 
-    def __repr__(self) -> str:
-        n = self.modes.A.shape[-1]
-        return (f"<JumpStateSpace {self.name}: {n} states, "
-                f"{len(self.jump_inputs)} inputs, {len(self.jump_outputs)} outputs, "
-                f"period {self.period}, {self.nmodes} modes, dt={self.dt_step}>")
+    # -- printing: python-control's protocol (repr formats, html, str) -----
+    def _repr_info_(self, html: bool = False) -> str:
+        return _face.info_repr(self, html)
+
+    def _repr_eval_(self) -> str:
+        return _face.eval_repr(self)
+
+    def _repr_html_(self) -> str | None:
+        return _face.html_repr(self)
 
     def __str__(self) -> str:
-        p = np.array2string(self.modes.probabilities, precision=4)
-        law = "i.i.d." if self.modes.is_iid else "Markov"
-        head = (f"JumpStateSpace: {self.name}\n"
-                f"Periodic jump linear system, period N = {self.period}, "
-                f"{self.nmodes} {law} modes per step, dt = {self.dt_step}\n"
-                f"Mode probabilities (rows = phases):\n{p}\n")
-        if self.modes.transition is not None:
-            T = np.array2string(self.modes.transition, precision=4)
-            head += f"Transition T[k][i, j] = P(j next | i now):\n{T}\n"
-        kind = self.info.get("controller")
-        if kind:
-            head += (f"Closed loop of a networked plant: controller={kind!r}, "
-                     f"actuator={self.info.get('actuator')!r}\n")
-        what = ("Mean system (exact E z for deterministic w)" if self.period == 1
-                else "Mean system lifted over one period (dt = N·dt)")
-        return head + what + ":\n" + ct.StateSpace.__str__(self.mean())
-
-
+        return _face.str_repr(self)
 
 
 def _restore_jss(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray,
@@ -858,6 +830,14 @@ def _same_nominal(a: np.ndarray | None, b: np.ndarray | None) -> bool:
 def _names(value: Any, count: int, prefix: str, argname: str) -> list[str]:
     if value is None:
         return [f"{prefix}[{i}]" for i in range(count)]
+    if isinstance(value, (int, np.integer)) and not isinstance(
+            value, (bool, np.bool_)):
+        # a count, as python-control takes one: its generic names
+        if value != count:
+            raise ControlDimension(f"{argname}: expected {count} signals, "
+                                   f"got {value}")
+        pc = _face.GENERIC[argname]
+        return [f"{pc}[{i}]" for i in range(count)]
     if isinstance(value, str):
         value = [value] if count == 1 else [f"{value}[{i}]" for i in range(count)]
     names = [str(v) for v in value]
@@ -955,6 +935,8 @@ def as_jump(sys: Any, name: str = "sys") -> JumpStateSpace:
             f"{name}: got a NetworkedStateSpace, a plant with its network but "
             f"no loop; close it first with control_ncs.feedback(P, K), or "
             f"pass ct.ss(P) to analyse the plant without its network")
+    # a copy of a random jump system's mean face has lost its modes
+    _face.refuse_mean_copy(sys, name)
     if isinstance(sys, ct.TransferFunction):
         sys = ct.ss(sys)
     if isinstance(sys, ct.StateSpace):

@@ -35,6 +35,7 @@ from .exceptions import (CERTIFIED, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
 from .lmi import (DEFAULT_MARGIN, check_options, check_solver,
                   quadratic_supply_model, solve)
 from ._results import CertifiedResult, Result
+from ._face import refuse_mean_copy
 from ._lti import is_jump
 from .jump import as_jump
 from .montecarlo import root_entropy
@@ -105,6 +106,7 @@ def norm(sys: Any, p: Any = 2, *, tol: float = 1e-10, method: str = "auto",
     (1.25988, 1.09109)
     """
     no_extra_kwargs("norm", kwargs)
+    refuse_mean_copy(sys, "sys")    # python-control's copy of a jump system
     tol = positive_real(tol, "tol")
     choice(method, "method", ("auto", "dense", "matrix-free"))
     if isinstance(p, str) or p == np.inf:

@@ -25,7 +25,7 @@ from typing import Any, Sequence
 
 import numpy as np
 import control as ct
-from control.exception import ControlArgument
+from control.exception import ControlArgument, ControlDimension
 
 from ._checks import no_extra_kwargs, positive_int
 from ._tasks import progress_check
@@ -549,6 +549,8 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     True
     """
     no_extra_kwargs("simulate", kwargs)
+    sys = as_jump(sys)
+    _check_initial_size(sys, initial_state)
     run = prepare(sys, timepts, inputs, initial_state, trials=trials,
                   seed=seed, noise_covariance=noise_covariance,
                   initial_covariance=initial_covariance, chunk=chunk)
@@ -558,6 +560,22 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     paths, store = _empty_paths(run, run.trials, title)
     run_chunks(run, store, workers, progress)
     return paths
+
+
+def _check_initial_size(sys: JumpStateSpace, initial_state: Any) -> None:
+    """An initial state of the wrong size, named against ``jump_states``:
+    ``sys.nstates`` is the face's order (``M·n`` for Markov modes), not
+    the loop's state dimension ``n``."""
+    n = len(sys.jump_states)
+    size = np.size(initial_state) if np.ndim(initial_state) == 1 else None
+    if size is None or size == n:
+        return
+    face = (f"; sys.nstates = {size} is the order of the StateSpace face "
+            f"(the Markov mean: {sys.nmodes} modes × {n} states)"
+            if size == sys.nstates else "")
+    raise ControlDimension(
+        f"initial_state: expected {n} entries, one per state of the loop "
+        f"(sys.jump_states = {sys.jump_states}), got {size}{face}")
 
 
 def _quantile_levels(quantiles: Any) -> tuple:
@@ -575,6 +593,8 @@ def _ensemble(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
               kind: str, what: str, trials: Any, seed: Any, quantiles: Any,
               noise_covariance: Any, initial_covariance: Any, keep_paths: Any,
               chunk: Any, progress: bool) -> EnsembleResponse:
+    sys = as_jump(sys)
+    _check_initial_size(sys, initial_state)
     run = prepare(sys, timepts, inputs, initial_state, trials=trials,
                   seed=seed, noise_covariance=noise_covariance,
                   initial_covariance=initial_covariance, chunk=chunk)

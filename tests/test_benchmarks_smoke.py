@@ -2,7 +2,8 @@
 
 Runs every section at tiny sizes into a temporary directory and checks that
 the report and the plot are written with the expected sections. No timing
-is asserted (the machine is shared; the real numbers are in
+is asserted and the run has no time limit: the machine is shared, and a
+loaded machine must not fail it (the real numbers are in
 docs/benchmarks.md, from a full run).
 """
 
@@ -20,7 +21,7 @@ def test_quick_run_writes_report(tmp_path):
     env["PYTHONPATH"] = ROOT + os.pathsep + env.get("PYTHONPATH", "")
     proc = subprocess.run(
         [sys.executable, "-m", "benchmarks", "--quick", "--out", str(tmp_path)],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+        cwd=ROOT, env=env, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     md = tmp_path / "benchmarks.md"
     png = tmp_path / "benchmarks_scaling.png"

@@ -330,6 +330,6 @@ def test_repr_and_str_say_what_it_is():
     CL = closed_loop_example()
     r, s = repr(CL), str(CL)
     assert r.startswith("<JumpStateSpace") and "period 2" in r and "modes" in r
-    assert s.startswith("JumpStateSpace:")
+    assert s.startswith("<JumpStateSpace>:")   # python-control's layout
     assert "jump linear system" in s and "controller='predictor'" in s
     assert "Mean system lifted over one period" in s

@@ -37,6 +37,7 @@ CALLS = {
         [[[0.5]]], [[[1.0]]], [[[1.0]]], [[[0.0]]], [[1.0]], **kw),
     "JumpStateSpace.update_names": lambda **kw: _jss().update_names(**kw),
     "JumpStateSpace.feedback": lambda **kw: _jss().feedback(G, **kw),
+    "JumpStateSpace.linearize": lambda **kw: _jss().linearize(0.0, **kw),
     "jss": _jss,
     "NetworkedStateSpace": lambda **kw: ncs.NetworkedStateSpace(
         [[1.1]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.5, 0.0], [0.0, 0.0]],
