@@ -242,7 +242,8 @@ def karp_cycle(graph: SwitchingGraph) -> tuple[float, tuple]:
         walk_edges.append(e)
         node = int(src[e])
     walk_edges.reverse()
-    best_rate, best = 0.0, ()
+    best_rate = 0.0
+    best: tuple[int, ...] = ()
     seen: dict = {}
     nodes = [int(src[walk_edges[0]])] + [int(dst[e]) for e in walk_edges]
     for i, u in enumerate(nodes):

@@ -169,7 +169,7 @@ class SwitchingGraph:
                 f"memory: the memory-{memory} lift would have {nodes_n} nodes "
                 f"and {edges_n} edges, more than MAX_LIFT = {MAX_LIFT}")
         out = self.out_edges()
-        walks = [(int(e),) for e in range(self.edge_count)]
+        walks: list[tuple[int, ...]] = [(e,) for e in range(self.edge_count)]
         for _ in range(memory - 1):
             walks = [w + (int(e),) for w in walks
                      for e in out[self.target[w[-1]]]]
@@ -204,15 +204,15 @@ class SwitchingGraph:
             raise ValueError(f"steps: the {T}-step graph would have {count} "
                              f"edges, more than MAX_LIFT = {MAX_LIFT}")
         out = self.out_edges()
-        walks = [(int(e),) for e in range(self.edge_count)]
+        walks: list[tuple[int, ...]] = [(e,) for e in range(self.edge_count)]
         for _ in range(T - 1):
             walks = [w + (int(e),) for w in walks
                      for e in out[self.target[w[-1]]]]
         mats = np.empty((len(walks), self.n, self.n))
         for k, w in enumerate(walks):
             P = self.matrices[self.mode[w[0]]]
-            for e in w[1:]:
-                P = self.matrices[self.mode[e]] @ P
+            for step in w[1:]:
+                P = self.matrices[self.mode[step]] @ P
             mats[k] = P
         mats.flags.writeable = False
         return SwitchingGraph(
@@ -263,7 +263,7 @@ def _matrices(sys: Any) -> tuple[np.ndarray, tuple]:
             f"{type(sys).__name__}")
     if not values:
         raise ValueError("sys: expected at least one matrix")
-    mats = []
+    mats: list[np.ndarray] = []
     for value, name in zip(values, what):
         arr = real_array(value, name, ndim=(0, 2))
         arr = arr.reshape(1, 1) if arr.ndim == 0 else arr

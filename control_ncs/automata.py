@@ -118,6 +118,13 @@ class LossAutomaton:
 
     __slots__ = ("_states", "_edges", "_initial", "_channels", "_name",
                  "_index", "_steps")
+    _states: tuple
+    _edges: tuple
+    _initial: tuple | None
+    _channels: int
+    _name: str
+    _index: dict
+    _steps: dict
 
     def __init__(self, states: int | Sequence[Hashable],
                  edges: Iterable[tuple[Any, Any, Label]],
@@ -207,9 +214,9 @@ class LossAutomaton:
         ([0, 0, 1], [0, 1, 0], [1, 0, 1])
         """
         E = len(self._edges)
-        src = np.array([e[0] for e in self._edges], dtype=int).reshape(E)
-        dst = np.array([e[1] for e in self._edges], dtype=int).reshape(E)
-        lab = np.array([e[2] for e in self._edges], dtype=int).reshape(
+        src = np.array([e[0] for e in self._edges], dtype=np.int64)
+        dst = np.array([e[1] for e in self._edges], dtype=np.int64)
+        lab = np.array([e[2] for e in self._edges], dtype=np.int64).reshape(
             E, self._channels)
         return src, dst, (lab[:, 0] if self._channels == 1 else lab)
 
@@ -602,20 +609,20 @@ def weakly_hard(misses: int, window: int) -> LossAutomaton:
     width = window - 1
     size = sum(math.comb(width, i) for i in range(min(misses, width) + 1))
     _check_size(size, "weakly_hard")
-    names = []
+    names: list[str] = []
     for zeros in range(min(misses, width) + 1):
         for where in itertools.combinations(range(width), zeros):
             bits = ["1"] * width
-            for w in where:
-                bits[w] = "0"
+            for k in where:
+                bits[k] = "0"
             names.append("".join(bits))
     names.sort(reverse=True)
     edges = []
-    for w in names:
+    for state in names:
         for d in (1, 0):
-            word = w + str(d)
+            word = state + str(d)
             if word.count("0") <= misses:
-                edges.append((w, word[1:], d))
+                edges.append((state, word[1:], d))
     return LossAutomaton(names, edges, "1" * width,
                          name=f"at most {misses} lost in any {window}")
 

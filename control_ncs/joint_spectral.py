@@ -34,14 +34,17 @@ __all__ = ["jsr", "JSRResult", "JSRCertificate"]
 OPTIONS = dict(
     max_length=30,        # longest closed walk searched for the lower bound
     search_budget=200_000,  # walks visited by the cycle searches, in all
-    max_vertices=1000,    # vertices of one invariant polytope, in all
+    max_vertices=500,     # vertices of one invariant polytope, in all
     max_memory=2,         # path memory of the quadratic Lyapunov lifts
     product_depth=30,     # longest products of Gripenberg's upper bound
     solver=None,          # cvxpy solver of the SDPs (Clarabel by default)
 )
 
 #: Lifts and products larger than this many matrix entries are not built.
-MAX_ENTRIES = 4_000_000
+MAX_ENTRIES = 1_000_000
+#: The same for the first, Euclidean, products: a cheap look before the
+#: better norms are known.
+FIRST_ENTRIES = 250_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -337,12 +340,13 @@ def _quadratic(best: _Best, memory: int) -> np.ndarray | None:
 
 
 def _products(best: _Best, coords: np.ndarray, lift: SwitchingGraph,
-              P: np.ndarray | None, memory: int) -> None:
+              P: np.ndarray | None, memory: int,
+              entries: int = MAX_ENTRIES) -> None:
     beta = best.cycles.rate * (1.0 + best.tol / 2)
     bound, depth = product_bound(coords, lift.source, lift.target,
                                  lift.node_count, beta,
                                  best.options["product_depth"],
-                                 max_entries=MAX_ENTRIES,
+                                 max_entries=entries,
                                  deadline=best.deadline)
     best.late()
     best.offer(JSRCertificate("product_norms", bound, lift.nodes, P=P,
@@ -363,7 +367,7 @@ def _component(g: SwitchingGraph, tol: float, deadline: float,
         best.note(f"maximum cycle mean (Karp): lower {rate:.12g}")
     else:
         _search(best, None, budget // 10, min(16, max_length))
-    _products(best, g.edge_matrices(), g, None, 0)
+    _products(best, g.edge_matrices(), g, None, 0, FIRST_ENTRIES)
     tried: set = set()
 
     def polytope() -> None:
@@ -453,7 +457,7 @@ def jsr(sys: Any, graph: Any = None, *, tol: float = 1e-6,
         the search, the bracket found so far is returned and says so.
     options : dict, optional
         Expert settings: ``max_length`` (30, longest cycle searched),
-        ``search_budget`` (200000 walks), ``max_vertices`` (1000 per
+        ``search_budget`` (200000 walks), ``max_vertices`` (500 per
         polytope), ``max_memory`` (2, path memory of the quadratic
         lifts), ``product_depth`` (30), ``solver`` (cvxpy solver name).
 

@@ -69,8 +69,10 @@ class QuadraticJSRModel:
         if report.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or any(
                 P.value is None for P in self.P):
             return None, -np.inf, report
-        P = np.array([0.5 * (P.value + P.value.T) for P in self.P])
-        return P, float(self.t.value), report
+        values = [np.asarray(Pu.value, float) for Pu in self.P]
+        P = np.array([0.5 * (V + V.T) for V in values])
+        margin = self.t.value
+        return P, -np.inf if margin is None else float(margin), report
 
 
 def complex_gauge(V: np.ndarray, z: np.ndarray
