@@ -84,9 +84,7 @@ class _Search:
         self.budget, self.deadline, self.keep = budget, deadline, keep
         self.out = [o.tolist() for o in graph.out_edges()]
         self.src, self.dst = graph.source.tolist(), graph.target.tolist()
-        self.dist = [graph.distances_to(u).tolist()
-                     for u in range(graph.node_count)] \
-            if graph.node_count > 1 else [[0]]
+        self.dist: dict[int, list] = {}      # fewest steps back to a start
         self.word = [0] * (max_length + 2)
         self.batch: list = []
         self.best_log = math.log(found.rate) if found.rate > 0 else -math.inf
@@ -122,7 +120,12 @@ class _Search:
                 self.flush()
         if t == self.L:
             return
-        d = self.dist[start][here]
+        back = self.dist.get(start)
+        if back is None:
+            if len(self.dist) > 64:
+                self.dist.clear()
+            back = self.dist[start] = self.g.distances_to(start).tolist()
+        d = back[here]
         if t + max(d, 1) > self.L:
             return
         # Gripenberg: a closed walk through this prefix has rate at most
@@ -204,6 +207,11 @@ def search_cycles(graph: SwitchingGraph, max_length: int, *,
     return out
 
 
+#: Karp's table has (V + 1) × V entries: larger graphs are left to the
+#: cycle search.
+KARP_MAX_NODES = 2000
+
+
 def karp_cycle(graph: SwitchingGraph) -> tuple[float, tuple]:
     """For scalar modes: the closed walk of largest ``Π|a_e|^{1/k}``.
 
@@ -212,20 +220,18 @@ def karp_cycle(graph: SwitchingGraph) -> tuple[float, tuple]:
     from the longest maximal walk. Returns ``(rate, walk)``; ``(0, ())``
     when every cycle has a zero.
     """
-    V, E = graph.node_count, graph.edge_count
+    V = graph.node_count
     with np.errstate(divide="ignore"):
         w = np.log(np.abs(graph.matrices[graph.mode, 0, 0]))
-    src, dst = graph.source.tolist(), graph.target.tolist()
-    weights = w.tolist()
+    src, dst = graph.source, graph.target
     D = np.full((V + 1, V), -np.inf)
     D[0, :] = 0.0
-    pred = np.full((V + 1, V), -1, dtype=int)
+    pred = np.full((V + 1, V), -1, dtype=np.int32)
     for k in range(1, V + 1):
-        row, prev = D[k], D[k - 1]
-        for e in range(E):
-            value = prev[src[e]] + weights[e]
-            if value > row[dst[e]]:
-                row[dst[e]], pred[k, dst[e]] = value, e
+        cand = D[k - 1, src] + w
+        np.maximum.at(D[k], dst, cand)
+        hit = np.flatnonzero(cand == D[k, dst])   # any maximiser will do
+        pred[k, dst[hit]] = hit
     with np.errstate(invalid="ignore"):
         ks = np.arange(V)[:, None]
         means = (D[V][None, :] - D[:V]) / (V - ks)

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._jsr_cycles import cycle_rate
 from ._switching import SwitchingGraph
 
 __all__: list[str] = []
@@ -44,7 +45,8 @@ class Polytope:
 
     ``vertices[u]`` is an array (k_u, n) (complex for the balanced complex
     polytope); ``bound`` the rechecked ``r μ`` (inf on failure);
-    ``reason`` why it stopped when it failed.
+    ``reason`` why it stopped when it failed; ``better`` a closed walk
+    ``(rate, walk)`` met on the way whose rate beats the candidate's.
     """
 
     success: bool
@@ -55,6 +57,7 @@ class Polytope:
     is_complex: bool
     reason: str = ""
     gauges: int = 0
+    better: tuple | None = None
 
 
 def _real_gauge(Vt: np.ndarray, z: np.ndarray
@@ -176,17 +179,27 @@ class _Growth:
         self.is_complex = is_complex
         self.seed_size = 1.0
         self.gauges = 0
+        self.rate = rate
+        self.start = -1
+        self.better: tuple | None = None
 
-    def offer(self, v: int, z: np.ndarray) -> str:
-        """Add ``z`` to node ``v`` when outside ``1 + tol``; '' or why the
-        growth must stop."""
+    def offer(self, v: int, z: np.ndarray, walk: tuple | None) -> str:
+        """Add ``z`` (the image of the seed along ``walk``, None for a
+        filling vector) to node ``v`` when outside ``1 + tol``; '' or why
+        the growth must stop."""
         value, _ = _gauge(self.V[v].T, z, self.is_complex)
         self.gauges += 1
         if value <= 1.0 + self.tol:
             return ""
         self.V[v] = np.vstack([self.V[v], z[None, :]])
-        self.queue.append((v, z))
+        self.queue.append((v, z, walk))
         self.count += 1
+        if walk and v == self.start:
+            # back at the seed's node: the walk is a cycle of its own
+            rate = cycle_rate(self.g, walk)
+            if rate > self.rate * (1.0 + self.tol):
+                self.better = (rate, walk)
+                return "a cycle with a larger rate was found"
         if self.count > self.max_vertices:
             return f"more than {self.max_vertices} vertices"
         if np.linalg.norm(z) > GROWTH_CAP * self.seed_size:
@@ -198,9 +211,10 @@ class _Growth:
         while self.queue:
             if time.perf_counter() > self.deadline:
                 return "time limit"
-            u, y = self.queue.popleft()
+            u, y, walk = self.queue.popleft()
             for e in self.out[u]:
-                why = self.offer(self.dst[e], self.mats[e] @ y)
+                why = self.offer(self.dst[e], self.mats[e] @ y,
+                                 None if walk is None else walk + (e,))
                 if why:
                     return why
         return ""
@@ -223,7 +237,7 @@ class _Growth:
             for b in missing:
                 z = 1e-3 * size * b
                 self.V[v] = np.vstack([self.V[v], z[None, :]])
-                self.queue.append((v, z))
+                self.queue.append((v, z, None))
                 self.count += 1
                 added = True
         return added
@@ -249,11 +263,11 @@ def _seeds(graph: SwitchingGraph, walk: tuple, rate: float
     seeds = []
     for y in start:
         node = int(graph.source[walk[0]])
-        seeds.append((node, y))
-        for e in walk[:-1]:
+        seeds.append((node, y, ()))
+        for k, e in enumerate(walk[:-1]):
             y = mats[e] @ y
             node = int(graph.target[e])
-            seeds.append((node, y))
+            seeds.append((node, y, tuple(walk[:k + 1])))
     return seeds, is_complex
 
 
@@ -264,10 +278,11 @@ def invariant_polytope(graph: SwitchingGraph, walk: tuple, rate: float, *,
     and re-prove its bound (:func:`polytope_bound`)."""
     seeds, is_complex = _seeds(graph, walk, rate)
     growth = _Growth(graph, rate, tol, max_vertices, deadline, is_complex)
-    growth.seed_size = max(float(np.linalg.norm(y)) for _, y in seeds)
+    growth.seed_size = max(float(np.linalg.norm(y)) for _, y, _ in seeds)
+    growth.start = int(graph.source[walk[0]])
     why = ""
-    for node, y in seeds:
-        why = why or growth.offer(node, y)
+    for node, y, prefix in seeds:
+        why = why or growth.offer(node, y, prefix)
     for _ in range(4):
         why = why or growth.grow()
         if why or not growth.fill():
@@ -276,7 +291,7 @@ def invariant_polytope(graph: SwitchingGraph, walk: tuple, rate: float, *,
         why = why or growth.grow()
     if why:
         return Polytope(False, rate, growth.V, math.inf, math.inf,
-                        is_complex, why, growth.gauges)
+                        is_complex, why, growth.gauges, growth.better)
     bound = polytope_bound(graph, growth.V, rate, is_complex)
     if not math.isfinite(bound):
         return Polytope(False, rate, growth.V, math.inf, math.inf,

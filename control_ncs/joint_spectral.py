@@ -22,7 +22,8 @@ import numpy as np
 from control.exception import ControlArgument
 
 from ._checks import positive_real
-from ._jsr_cycles import Cycles, karp_cycle, product_bound, search_cycles
+from ._jsr_cycles import (KARP_MAX_NODES, Cycles, karp_cycle, product_bound,
+                          search_cycles)
 from ._jsr_polytope import invariant_polytope
 from ._jsr_quadratic import node_coordinates, quadratic_bound
 from ._results import Result
@@ -39,6 +40,9 @@ OPTIONS = dict(
     product_depth=30,     # longest products of Gripenberg's upper bound
     solver=None,          # cvxpy solver of the SDPs (Clarabel by default)
 )
+
+#: Invariant polytopes grown at most, each from a new best cycle.
+POLYTOPE_TRIES = 4
 
 #: Lifts and products larger than this many matrix entries are not built.
 MAX_ENTRIES = 1_000_000
@@ -81,7 +85,11 @@ class JSRCertificate:
     memory : int
         Path memory of the lift the certificate lives on.
     length : int
-        Product length of ``'product_norms'`` (1 otherwise).
+        ``'product_norms'``: the longest products examined.
+        ``'quadratic'``: the steps per edge (``T > 1``: the forms live on
+        the ``T``-step graph, whose edges are the walks of ``T`` edges with
+        their products, and ``bound`` is the ``T``-th root of what they
+        prove there).
 
     Examples
     --------
@@ -119,8 +127,10 @@ class JSRCertificate:
             return (f"an {what} polytope ({count} vertices on "
                     f"{len(self.nodes)} node(s))")
         if self.kind == "quadratic":
+            steps = f", {self.length}-step graph" if self.length > 1 else ""
             return (f"a quadratic Lyapunov function per node of the "
-                    f"memory-{self.memory} lift ({len(self.nodes)} nodes)")
+                    f"memory-{self.memory} lift{steps} ({len(self.nodes)} "
+                    f"nodes)")
         if self.kind == "product_norms":
             norm = "the Euclidean norm" if self.P is None else (
                 f"quadratic node norms (memory {self.memory})")
@@ -242,12 +252,15 @@ class JSRResult(Result):
 # -- the plan, per strongly connected component -----------------------------------
 @dataclass
 class _Best:
-    """The running bracket of one component."""
+    """The running bracket of one component; ``floor`` is the best lower
+    bound of the components bracketed before (the graph's radius is at
+    least that, so this one need not be known more closely)."""
 
     graph: SwitchingGraph
     tol: float
     deadline: float
     options: dict
+    floor: float = 0.0
     cycles: Cycles = field(default_factory=Cycles)
     upper: float = math.inf
     certificate: JSRCertificate | None = None
@@ -256,9 +269,14 @@ class _Best:
     started: float = field(default_factory=time.perf_counter)
 
     @property
+    def level(self) -> float:
+        """The radius is at least this (this component's or an earlier)."""
+        return max(self.cycles.rate, self.floor)
+
+    @property
     def exact(self) -> bool:
         return math.isfinite(self.upper) and \
-            self.upper - self.cycles.rate <= self.tol * self.upper
+            self.upper - self.level <= self.tol * self.upper
 
     def late(self) -> bool:
         if time.perf_counter() > self.deadline:
@@ -278,6 +296,8 @@ def _search(best: _Best, mats: np.ndarray | None, budget: int,
             max_length: int) -> None:
     """Iterative deepening of the cycle search up to ``max_length``."""
     g, cyc = best.graph, best.cycles
+    if budget <= 0:
+        return
     length = min(8, max_length)
     used = 0
     while not best.late():
@@ -311,28 +331,37 @@ def _polytope(best: _Best, walk: tuple, rate: float) -> None:
     else:
         best.note(f"{kind} from a cycle of length {len(walk)}: stopped "
                   f"({poly.reason})")
+    if poly.better is not None and poly.better[0] > best.cycles.rate:
+        # the polytope met a faster cycle: the next candidate
+        best.cycles.rate, best.cycles.walk = poly.better
+        best.note(f"a cycle of length {len(poly.better[1])} met on the way: "
+                  f"lower {poly.better[0]:.12g}")
 
 
-def _quadratic(best: _Best, memory: int) -> np.ndarray | None:
-    """Quadratic forms on the memory lift, then Gripenberg's bound in
-    their norms; the edge matrices in those norms' coordinates."""
+def _quadratic(best: _Best, memory: int, steps: int = 1
+               ) -> np.ndarray | None:
+    """Quadratic forms on the memory lift (or its ``steps``-step graph),
+    then Gripenberg's bound in their norms; the edge matrices in those
+    norms' coordinates."""
     g = best.graph
-    if g.walk_count(memory) * g.n ** 2 > MAX_ENTRIES // 8 or \
-            g.walk_count(memory + 1) * g.n ** 2 > MAX_ENTRIES // 8:
-        best.note(f"memory-{memory} lift: too large, skipped")
+    size = max(g.walk_count(memory), g.walk_count(memory + steps))
+    if size * g.n ** 2 > MAX_ENTRIES // 8:
+        best.note(f"memory-{memory}, {steps}-step graph: too large, skipped")
         return None
-    lift = g.lift(memory)
+    lift = g.lift(memory).steps(steps)
     mats = lift.edge_matrices()
     quad = quadratic_bound(mats, lift.source, lift.target, lift.node_count,
-                           best.cycles.rate, rel=max(best.tol, 1e-7),
+                           best.level ** steps, rel=max(best.tol, 1e-7),
                            deadline=best.deadline,
                            solver=best.options["solver"])
     best.late()
-    best.offer(JSRCertificate("quadratic", quad.bound, lift.nodes,
-                              P=quad.P, memory=memory))
-    best.note(f"quadratic, memory {memory} ({quad.solves} SDPs): upper "
-              f"{quad.bound:.12g}")
-    if best.exact or quad.P is None:
+    bound = quad.bound ** (1.0 / steps)
+    best.offer(JSRCertificate("quadratic", bound, lift.nodes, P=quad.P,
+                              memory=memory, length=steps))
+    best.note(f"quadratic, memory {memory}"
+              f"{f', {steps} steps' if steps > 1 else ''} ({quad.solves} "
+              f"SDPs): upper {bound:.12g}")
+    if best.exact or quad.P is None or steps > 1:
         return None
     coords = node_coordinates(mats, lift.source, lift.target, quad.P)
     _products(best, coords, lift, quad.P, memory)
@@ -342,7 +371,7 @@ def _quadratic(best: _Best, memory: int) -> np.ndarray | None:
 def _products(best: _Best, coords: np.ndarray, lift: SwitchingGraph,
               P: np.ndarray | None, memory: int,
               entries: int = MAX_ENTRIES) -> None:
-    beta = best.cycles.rate * (1.0 + best.tol / 2)
+    beta = best.level * (1.0 + best.tol / 2)
     bound, depth = product_bound(coords, lift.source, lift.target,
                                  lift.node_count, beta,
                                  best.options["product_depth"],
@@ -355,11 +384,11 @@ def _products(best: _Best, coords: np.ndarray, lift: SwitchingGraph,
 
 
 def _component(g: SwitchingGraph, tol: float, deadline: float,
-               options: dict) -> _Best:
+               options: dict, floor: float) -> _Best:
     """Bracket one strongly connected component: cheap routes first."""
-    best = _Best(g, tol, deadline, options)
+    best = _Best(g, tol, deadline, options, floor)
     budget, max_length = options["search_budget"], options["max_length"]
-    if g.n == 1:
+    if g.n == 1 and g.node_count <= KARP_MAX_NODES:
         # scalars: the best cycle is the maximum cycle mean, exactly
         rate, walk = karp_cycle(g)
         best.cycles.rate, best.cycles.walk = rate, walk
@@ -372,8 +401,8 @@ def _component(g: SwitchingGraph, tol: float, deadline: float,
 
     def polytope() -> None:
         cyc = best.cycles
-        if not best.exact and cyc.rate > 0 and cyc.walk not in tried \
-                and not best.late():
+        while not best.exact and cyc.rate > 0 and cyc.walk not in tried \
+                and len(tried) < POLYTOPE_TRIES and not best.late():
             tried.add(cyc.walk)
             _polytope(best, cyc.walk, cyc.rate)
 
@@ -384,12 +413,14 @@ def _component(g: SwitchingGraph, tol: float, deadline: float,
     if best.exact or best.late():
         return best
     # deeper cycles, pruned in the quadratic node norms
-    _search(best, coords, budget, max_length)
+    _search(best, coords, budget - best.cycles.visited, max_length)
     polytope()
     for memory in range(1, options["max_memory"] + 1):
         if best.exact or best.late():
             break
         _quadratic(best, memory)
+    if not (best.exact or best.late()):
+        _quadratic(best, 0, steps=2)
     return best
 
 
@@ -531,7 +562,10 @@ def jsr(sys: Any, graph: Any = None, *, tol: float = 1e-6,
         cert = JSRCertificate("no_cycle", 0.0, g.nodes)
         return JSRResult(0.0, 0.0, (), (), cert, (cert,), "no_cycle", True,
                          tol, g.scale, False, ("no cycle in the graph",))
-    results = [_component(part, tol, deadline, opts) for part in parts]
+    results: list[_Best] = []
+    for part in parts:
+        floor = max((b.cycles.rate for b in results), default=0.0)
+        results.append(_component(part, tol, deadline, opts, floor))
     low = max(results, key=lambda b: b.cycles.rate)
     high = max(results, key=lambda b: b.upper)
     stages = tuple(f"component {k}: {s}" if len(results) > 1 else s

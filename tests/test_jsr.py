@@ -44,19 +44,27 @@ def _edges_of(sys, graph):
     return mats, list(dict.fromkeys(edges))
 
 
-def _certificate_graph(cert, edges):
-    """The edges (i, j, mode) of the graph the certificate lives on: the
-    component's edges (memory 0) or its memory lift, rebuilt from names."""
+def _certificate_graph(cert, edges, mats):
+    """The edges (i, j, matrix) of the graph the certificate lives on: the
+    component's edges (memory 0) or its memory lift, rebuilt from names;
+    for a quadratic on the T-step graph, its walks of T edges."""
     index = {name: i for i, name in enumerate(cert.nodes)}
     if cert.memory == 0:
-        return [(index[u], index[v], m) for u, v, m in edges
-                if u in index and v in index]
-    out = []
-    for w in cert.nodes:
-        for e in edges:
-            nxt = w[1:] + (e,)
-            if e[0] == w[-1][1] and nxt in index:
-                out.append((index[w], index[nxt], e[2]))
+        out = [(index[u], index[v], mats[m]) for u, v, m in edges
+               if u in index and v in index]
+    else:
+        out = []
+        for w in cert.nodes:
+            for e in edges:
+                nxt = w[1:] + (e,)
+                if e[0] == w[-1][1] and nxt in index:
+                    out.append((index[w], index[nxt], mats[e[2]]))
+    if cert.kind == "quadratic" and cert.length > 1:
+        walks = out
+        for _ in range(cert.length - 1):
+            walks = [(i, v, B @ A) for i, j, A in walks
+                     for u, v, B in out if u == j]
+        out = walks
     return out
 
 
@@ -100,23 +108,22 @@ def _walks_meet(B, graph, bound, length):
 
 def check_certificate(cert, mats, edges):
     """Re-prove ``cert.bound`` on the graph ``edges`` with ``mats``."""
-    graph = _certificate_graph(cert, edges)
+    graph = _certificate_graph(cert, edges, mats)
     assert graph, "the certificate's graph has no edge"
     if cert.kind == "quadratic":
-        P = cert.P
-        for i, j, m in graph:
-            A = mats[m]
+        P, T = cert.P, cert.length
+        for i, j, A in graph:
             worst = scipy.linalg.eigh(A.T @ P[j] @ A, P[i], eigvals_only=True)
-            assert worst[-1] <= cert.bound ** 2 * (1 + 1e-9)
+            assert worst[-1] <= cert.bound ** (2 * T) * (1 + 1e-9)
     elif cert.kind in ("polytope", "complex_polytope"):
         gauge = _complex_gauge if cert.kind == "complex_polytope" \
             else _real_gauge
         n = next(iter(mats.values())).shape[0]
         for V in cert.vertices:
             assert np.linalg.matrix_rank(V) == n     # a norm, not a seminorm
-        for i, j, m in graph:
+        for i, j, A in graph:
             for y in cert.vertices[i]:
-                z = mats[m] @ y / cert.rate
+                z = A @ y / cert.rate
                 assert gauge(cert.vertices[j], z) <= \
                     cert.bound / cert.rate * (1 + 1e-7)
     elif cert.kind == "product_norms":
@@ -125,7 +132,7 @@ def check_certificate(cert, mats, edges):
             L = [np.eye(n)] * len(cert.nodes)
         else:
             L = [np.linalg.cholesky(P) for P in cert.P]
-        B = [L[j].T @ mats[m] @ np.linalg.inv(L[i].T) for i, j, m in graph]
+        B = [L[j].T @ A @ np.linalg.inv(L[i].T) for i, j, A in graph]
         assert _walks_meet(B, graph, cert.bound, cert.length)
     else:
         assert cert.kind == "no_cycle" and cert.bound == 0.0
@@ -270,6 +277,9 @@ def _brute_force(mats, edges, length=12):
     ``length`` of ‖A_w‖^{1/length}), every walk enumerated."""
     nodes = sorted({e[0] for e in edges} | {e[1] for e in edges}, key=str)
     n = next(iter(mats.values())).shape[0]
+    # both figures scale with the matrices: work at norm 1 (no underflow)
+    scale = max(np.linalg.norm(mats[e[2]], 2) for e in edges) or 1.0
+    mats = {k: A / scale for k, A in mats.items()}
     best_cycle = norms = 0.0
     for start in nodes:
         # every walk from start, grouped by the node it ends at
@@ -286,14 +296,15 @@ def _brute_force(mats, edges, length=12):
                 best_cycle = max(best_cycle, rho ** (1 / k))
         norms = max([norms] + [np.linalg.norm(P, 2, axis=(1, 2)).max()
                                ** (1 / length) for P in frontier.values()])
-    return best_cycle, norms
+    return best_cycle * scale, norms * scale
 
 
 @st.composite
 def _systems(draw):
     n = draw(st.integers(1, 3))
-    entries = st.floats(-2, 2, allow_nan=False, allow_infinity=False,
-                        allow_subnormal=False, width=32)
+    # magnitudes of 1e-3 or more (or 0): products of 12 stay far from
+    # underflow in the brute force
+    entries = st.one_of(st.just(0.0), st.floats(1e-3, 2), st.floats(-2, -1e-3))
     mats = {k: np.array(draw(st.lists(entries, min_size=n * n,
                                       max_size=n * n))).reshape(n, n)
             for k in (0, 1)}
