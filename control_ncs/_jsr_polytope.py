@@ -140,10 +140,11 @@ def _unit(Vt: np.ndarray, is_complex: bool) -> float:
 
 
 def polytope_bound(graph: SwitchingGraph, vertices: list, rate: float,
-                   is_complex: bool) -> float:
+                   is_complex: bool, deadline: float = math.inf) -> float:
     """``r μ``, re-proved from the vertices: every vertex of every node
     through every edge, each image's gauge solved afresh and bounded with
-    its residual. inf when some node's vertices do not span the space."""
+    its residual. inf when some node's vertices do not span the space (or
+    the deadline passes first: nothing is proved then)."""
     mats = graph.edge_matrices() / rate
     Vt = [np.asarray(V).T for V in vertices]
     units = [_unit(V, is_complex) for V in Vt]
@@ -153,6 +154,8 @@ def polytope_bound(graph: SwitchingGraph, vertices: list, rate: float,
     out = graph.out_edges()
     for u in range(graph.node_count):
         for y in vertices[u]:
+            if time.perf_counter() > deadline:
+                return math.inf
             for e in out[u]:
                 v = int(graph.target[e])
                 mu = max(mu, _certain(Vt[v], mats[e] @ y, is_complex,
@@ -292,10 +295,11 @@ def invariant_polytope(graph: SwitchingGraph, walk: tuple, rate: float, *,
     if why:
         return Polytope(False, rate, growth.V, math.inf, math.inf,
                         is_complex, why, growth.gauges, growth.better)
-    bound = polytope_bound(graph, growth.V, rate, is_complex)
+    bound = polytope_bound(graph, growth.V, rate, is_complex, deadline)
     if not math.isfinite(bound):
+        why = "time limit" if time.perf_counter() > deadline else \
+            "the vertices do not span every node"
         return Polytope(False, rate, growth.V, math.inf, math.inf,
-                        is_complex, "the vertices do not span every node",
-                        growth.gauges)
+                        is_complex, why, growth.gauges)
     return Polytope(True, rate, growth.V, bound, bound / rate, is_complex,
                     "", growth.gauges)

@@ -445,3 +445,8 @@ def test_a_huge_lift_is_refused_before_it_is_built():
     g = switching_graph([np.eye(1)] * 8)
     with pytest.raises(ValueError, match="MAX_LIFT"):
         g.lift(6)
+
+
+def test_an_automaton_naming_a_missing_state_is_refused_before_any_search():
+    with pytest.raises(ValueError, match="not one of"):
+        ncs.jsr(GOLDEN, ncs.LossAutomaton(2, [(0, 1, 1), (1, 5, 0)]))
