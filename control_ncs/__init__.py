@@ -18,7 +18,8 @@ from importlib.metadata import PackageNotFoundError, version as _version
 from . import (connect, critical, estimator, exceptions, gain, jump, lq,
                meancov, modes, network, openloop, passivity, performance,
                performance_synthesis, plant, plots, refine, responses,
-               stability, strategies, sweeps, synthesis, verify)
+               stability, strategies, sweeps, switching, synthesis, verify,
+               worstcase)
 from ._lifting import lift
 from .connect import *  # noqa: F403
 from .critical import *  # noqa: F403
@@ -41,14 +42,16 @@ from .responses import *  # noqa: F403
 from .stability import *  # noqa: F403
 from .strategies import *  # noqa: F403
 from .sweeps import *  # noqa: F403
+from .switching import *  # noqa: F403
 from .synthesis import *  # noqa: F403
 from .verify import *  # noqa: F403
+from .worstcase import *  # noqa: F403
 
 __all__ = [name for module in (
     network, modes, jump, openloop, plant, gain, strategies, stability,
     meancov, exceptions, verify, passivity, performance, lq,
     performance_synthesis, synthesis, refine, estimator, responses, plots,
-    connect, sweeps, critical)
+    connect, sweeps, critical, switching, worstcase)
     for name in module.__all__] + ["lift"]
 
 try:
