@@ -19,7 +19,7 @@ from . import (connect, critical, estimator, exceptions, gain, jump, lq,
                meancov, modes, network, openloop, passivity, performance,
                performance_synthesis, plant, plots, refine, responses,
                stability, strategies, sweeps, switching, synthesis, verify,
-               worstcase)
+               worstcase, worstcase_synthesis)
 from ._lifting import lift
 from .connect import *  # noqa: F403
 from .critical import *  # noqa: F403
@@ -46,12 +46,13 @@ from .switching import *  # noqa: F403
 from .synthesis import *  # noqa: F403
 from .verify import *  # noqa: F403
 from .worstcase import *  # noqa: F403
+from .worstcase_synthesis import *  # noqa: F403
 
 __all__ = [name for module in (
     network, modes, jump, openloop, plant, gain, strategies, stability,
     meancov, exceptions, verify, passivity, performance, lq,
     performance_synthesis, synthesis, refine, estimator, responses, plots,
-    connect, sweeps, critical, switching, worstcase)
+    connect, sweeps, critical, switching, worstcase, worstcase_synthesis)
     for name in module.__all__] + ["lift"]
 
 try:

@@ -30,8 +30,11 @@ from scipy.optimize import minimize_scalar
 
 __all__: list[str] = []
 
-#: Uniform frequencies per pattern (on [0, π]) before the local refinement;
-#: the angles of Φ's eigenvalues are added.
+#: Uniform frequencies (on [0, π]) that rank the patterns.
+COARSE = 32
+
+#: Uniform frequencies per pattern ranked among the worst, before the local
+#: refinement; the angles of Φ's eigenvalues are added.
 GRID = 96
 
 #: Patterns whose grid minimum is refined by a bounded local search.
@@ -144,16 +147,17 @@ def pattern_lift(A, B, C, D, modes) -> tuple:
 
 
 def _pi_min(lifted: tuple, Qb, Sb, Rb, omegas: np.ndarray) -> np.ndarray:
-    """``λmin(Π(e^{jω}))`` at each frequency."""
-    Phi, Gam, Psi, Delta = lifted
-    n = Phi.shape[0]
-    z = np.exp(1j * np.asarray(omegas, float))
-    X = np.linalg.solve(z[:, None, None] * np.eye(n) - Phi, Gam)
+    """``λmin(Π(e^{jω}))`` at each frequency; ``lifted`` may hold a stack
+    of patterns of one length (leading axis), then shape (K, F)."""
+    Phi, Gam, Psi, Delta = (np.asarray(X)[..., None, :, :] for X in lifted)
+    n = Phi.shape[-1]
+    z = np.exp(1j * np.asarray(omegas, float))[:, None, None]
+    X = np.linalg.solve(z * np.eye(n) - Phi, Gam)
     G = Delta + Psi @ X
     GH = np.conj(np.swapaxes(G, -1, -2))
     Pi = GH @ Qb @ G + GH @ Sb + Sb.T @ G + Rb
     Pi = 0.5 * (Pi + np.conj(np.swapaxes(Pi, -1, -2)))
-    return np.linalg.eigvalsh(Pi)[:, 0]
+    return np.linalg.eigvalsh(Pi)[..., 0]
 
 
 def _grid(Phi: np.ndarray) -> np.ndarray:
@@ -162,8 +166,11 @@ def _grid(Phi: np.ndarray) -> np.ndarray:
                                      np.clip(angles, 0.0, np.pi)]))
 
 
-def _refine(lifted, Qb, Sb, Rb, grid, values) -> tuple[float, float]:
-    """The grid's minimum, then a bounded local search around it."""
+def _refine(lifted, Qb, Sb, Rb) -> tuple[float, float]:
+    """The minimum over a grid with ``Φ``'s eigenvalue angles, then a
+    bounded local search around it."""
+    grid = _grid(lifted[0])
+    values = _pi_min(lifted, Qb, Sb, Rb, grid)
     j = int(np.argmin(values))
     best, where = float(values[j]), float(grid[j])
     lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
@@ -175,6 +182,10 @@ def _refine(lifted, Qb, Sb, Rb, grid, values) -> tuple[float, float]:
         if res.fun < best:
             best, where = float(res.fun), float(res.x)
     return best, where
+
+
+#: Patterns evaluated together (one stack of lifted systems).
+CHUNK = 64
 
 
 @dataclass(frozen=True)
@@ -225,19 +236,23 @@ def pattern_bound(sys, Q, S, R, max_length: int, *,
         return PatternBound(np.nan if walks and rate >= 1.0 else np.inf, (),
                             np.nan, rate, rate_walk, len(walks))
     modes = sys.graph.edges[:, 2]
+    uniform = np.linspace(0.0, np.pi, COARSE)
     coarse = []
-    for w in walks:
-        L = len(w)
-        lifted = pattern_lift(sys.A, sys.B, sys.C, sys.D, modes[list(w)])
+    for L in sorted({len(w) for w in walks}):
+        group = [w for w in walks if len(w) == L]
         Qb, Sb, Rb = (np.kron(np.eye(L), X) for X in (Q, S, R))
-        grid = _grid(lifted[0])
-        values = _pi_min(lifted, Qb, Sb, Rb, grid)
-        coarse.append((float(values.min()), w, lifted, (Qb, Sb, Rb), grid,
-                       values))
+        for start in range(0, len(group), CHUNK):
+            chunk = group[start:start + CHUNK]
+            lifts = [pattern_lift(sys.A, sys.B, sys.C, sys.D,
+                                  modes[list(w)]) for w in chunk]
+            stack = tuple(np.array(X) for X in zip(*lifts))
+            values = _pi_min(stack, Qb, Sb, Rb, uniform).min(axis=-1)
+            coarse += [(float(v), w, lift, (Qb, Sb, Rb))
+                       for v, w, lift in zip(values, chunk, lifts)]
     coarse.sort(key=lambda item: item[0])
     best = (np.inf, (), np.nan)
-    for value, w, lifted, weights, grid, values in coarse[:REFINED]:
-        level, omega = _refine(lifted, *weights, grid, values)
+    for _, w, lifted, weights in coarse[:REFINED]:
+        level, omega = _refine(lifted, *weights)
         if level < best[0]:
             best = (level, w, omega)
     return PatternBound(best[0], best[1], best[2], rate, rate_walk,

@@ -176,20 +176,20 @@ def design_model(A: np.ndarray, Bu: np.ndarray, Bw: np.ndarray,
 
     Per edge ``(u, v, i)``, with ``W = X_u`` (node gains) or ``G`` (one
     gain), ``H = X_u`` or ``G + Gᵀ − X_u``, ``Â = A_i W + Bu_i Y``,
-    ``Ĉ = Cz_i W + Du_i Y``:
+    ``Ĉ = Cz_i W + Du_i Y`` and a decay rate ``r``:
 
-    * ``supply=None`` (a rate ``r``): ``[[H, Âᵀ/r], [Â/r, X_v]] ≽ ε I``,
-      ``X_u ≽ I``;
+    * ``supply=None``: ``[[r²H, Âᵀ], [Â, X_v]] ≽ ε I``, ``X_u ≽ I``;
     * ``supply=(Q, S, R)``, ``LᵀL = −Q``, maximise ``t``::
 
-        [[H,      ĈᵀS,              Âᵀ,   (LĈ)ᵀ ],
+        [[r²H,    ĈᵀS,              Âᵀ,   (LĈ)ᵀ ],
          [SᵀĈ,    DᵀS+SᵀD+R−tI,     Bwᵀ,  (LD)ᵀ ],
          [Â,      Bw,               X_v,  0     ],
          [LĈ,     LD,               0,    I     ]]  ≽ ε I,   X_u ≽ ε I.
 
     The congruence with ``diag(W⁻¹, I, I, I)`` and
     ``WᵀX_u⁻¹W ≽ G + Gᵀ − X_u`` turns either into the analysis LMI of the
-    closed loop with ``P_u = X_u⁻¹``, ``K = Y W⁻¹``.
+    closed loop with ``P_u = X_u⁻¹``, ``K = Y W⁻¹`` (and ``r²P_u`` in
+    place of ``P_u``: the storage decays at the rate ``r``).
     """
     n, q = A.shape[-1], Bu.shape[-1]
     m = Bw.shape[-1]
@@ -212,12 +212,12 @@ def design_model(A: np.ndarray, Bu: np.ndarray, Bw: np.ndarray,
         H = (G + G.T - X[u]) if common else X[u]
         Ahat = A[i] @ W + Bu[i] @ Yu
         if supply is None:
-            block = cp.bmat([[H, Ahat.T / rate], [Ahat / rate, X[v]]])
+            block = cp.bmat([[rate ** 2 * H, Ahat.T], [Ahat, X[v]]])
             cons.append(_sym(block) >> eps * np.eye(2 * n))
             continue
         Chat = Cz[i] @ W + Du[i] @ Yu
         corner = Dw[i].T @ S + S.T @ Dw[i] + R
-        rows = [[H, Chat.T @ S, Ahat.T],
+        rows = [[rate ** 2 * H, Chat.T @ S, Ahat.T],
                 [S.T @ Chat, corner - t * np.eye(m), Bw[i].T],
                 [Ahat, Bw[i], X[v]]]
         if r:
