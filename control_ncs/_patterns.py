@@ -83,7 +83,7 @@ def closed_walks(graph, max_length: int) -> list[tuple[int, ...]]:
         if not live[s]:
             continue
         dist = _distance_to(graph, s, e0)
-        stack = [(int(E[e0, 1]), (e0,))]
+        stack: list[tuple[int, tuple[int, ...]]] = [(int(E[e0, 1]), (e0,))]
         while stack:
             v, w = stack.pop()
             if v == s and _canonical(w) and _primitive(w):
@@ -133,7 +133,7 @@ def pattern_lift(A, B, C, D, modes) -> tuple:
     # T[k] = A_{k-1}⋯A_0 (state transition to step k); G[j] = the effect of
     # w_j on the present state
     T = np.eye(n)
-    into = []                       # per j: state at the present from w_j
+    into: list[np.ndarray] = []     # per j: state at the present from w_j
     for k, i in enumerate(modes):
         Psi[k * p:(k + 1) * p] = C[i] @ T
         for j, X in enumerate(into):
@@ -161,7 +161,8 @@ def _pi_min(lifted: tuple, Qb, Sb, Rb, omegas: np.ndarray) -> np.ndarray:
 
 
 def _grid(Phi: np.ndarray) -> np.ndarray:
-    angles = np.abs(np.angle(np.linalg.eigvals(Phi))) if Phi.size else []
+    angles = (np.abs(np.angle(np.linalg.eigvals(Phi))) if Phi.size
+              else np.zeros(0))
     return np.unique(np.concatenate([np.linspace(0.0, np.pi, GRID),
                                      np.clip(angles, 0.0, np.pi)]))
 
@@ -250,7 +251,7 @@ def pattern_bound(sys, Q, S, R, max_length: int, *,
             coarse += [(float(v), w, lift, (Qb, Sb, Rb))
                        for v, w, lift in zip(values, chunk, lifts)]
     coarse.sort(key=lambda item: item[0])
-    best = (np.inf, (), np.nan)
+    best: tuple[float, tuple, float] = (np.inf, (), np.nan)
     for _, w, lifted, weights in coarse[:REFINED]:
         level, omega = _refine(lifted, *weights)
         if level < best[0]:

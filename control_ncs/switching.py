@@ -354,15 +354,18 @@ def _graph_for(graph: Any, modes: int) -> SwitchingGraph:
     return G
 
 
-def _statespace_modes(systems: Sequence[Any]) -> tuple:
+def _statespace_modes(systems: Sequence[Any]
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                 np.ndarray]:
     for k, sys in enumerate(systems):
         if not isinstance(sys, ct.StateSpace) or not ct.isdtime(
                 sys, strict=True):
             raise ControlArgument(
                 f"sys[{k}]: expected a discrete-time StateSpace per mode, got "
                 f"{type(sys).__name__}")
-    return tuple(np.array([getattr(sys, X) for sys in systems])
-                 for X in "ABCD")
+    A, B, C, D = (np.array([getattr(sys, X) for sys in systems])
+                  for X in "ABCD")
+    return A, B, C, D
 
 
 @dataclass(frozen=True, eq=False)
@@ -454,9 +457,11 @@ class SwitchingSystem:
             return sys
         if isinstance(sys, (list, tuple)) and sys and all(
                 isinstance(s, ct.LTI) for s in sys):
-            return cls(*_statespace_modes(sys), graph)
+            A, B, C, D = _statespace_modes(sys)
+            return cls(A, B, C, D, graph)
         if isinstance(sys, (list, tuple)) and len(sys) == 4:
-            return cls(*sys, graph)
+            A, B, C, D = sys
+            return cls(A, B, C, D, graph)
         raise ControlArgument(
             f"sys: expected a SwitchingSystem, a tuple (A, B, C, D) of "
             f"per-mode arrays or a sequence of StateSpace, got "

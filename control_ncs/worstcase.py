@@ -32,8 +32,8 @@ from ._results import Result
 from .exceptions import (CERTIFIED, CERTIFIED_SHORTAGE, INFEASIBLE, MESSAGES,
                          NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
                          SUFFICIENT_FAILED, CertificationError)
-from .lmi import check_options, check_solver, solve
-from .lmi.worstcase import rate_model, storage_model
+from .lmi import check_options, check_solver
+from .lmi.worstcase import rate_model, solve_once, storage_model
 from .performance import _supply_weights
 from .switching import GraphLift, SwitchingSystem
 from .verify import _float_margin
@@ -205,15 +205,21 @@ class WorstCaseResult(Result):
 
     @property
     def success(self) -> bool:
-        """True when the figure certifies the spec (a ``'supply'`` level
-        ``t > 0``; any gain; any passivity level, shortage included)."""
+        """True when the figure certifies the spec.
+
+        A ``'supply'`` level ``t > 0``; any gain; any passivity level,
+        shortage included.
+        """
         return self.status in (CERTIFIED, CERTIFIED_SHORTAGE)
 
     @property
     def status(self) -> str:
-        """``'certified'``; ``'certified_shortage'`` for ``η < 0``; for a
+        """One word of :mod:`control_ncs.exceptions`' registry.
+
+        ``'certified'``; ``'certified_shortage'`` for ``η < 0``; for a
         supply with ``t ≤ 0``: ``'infeasible'`` when a pattern proves the
-        supply fails, else ``'sufficient_failed'``."""
+        supply fails, else ``'sufficient_failed'``.
+        """
         if self.spec == "passivity" and self.figure < 0:
             return CERTIFIED_SHORTAGE
         if self.spec == "supply" and not self.level > 0:
@@ -299,14 +305,19 @@ class WorstCaseRate(Result):
 
     @property
     def success(self) -> bool:
-        """True when the certified rate is below 1 (stable for every
-        pattern) and below the rate asked for, if any."""
+        """True when the rate certified is below the goal.
+
+        The goal is 1 (stable for every pattern), or the rate asked for.
+        """
         return self.status == CERTIFIED
 
     @property
     def status(self) -> str:
-        """``'certified'``, or ``'not_mss'`` when a periodic pattern grows
-        (``lower ≥ 1``), else ``'sufficient_failed'``."""
+        """One word of :mod:`control_ncs.exceptions`' registry.
+
+        ``'certified'``, or ``'not_mss'`` when a periodic pattern grows
+        (``lower ≥ 1``), else ``'sufficient_failed'``.
+        """
         goal = 1.0 if self.requested is None else self.requested
         if self.rate < goal:
             return CERTIFIED
@@ -333,9 +344,8 @@ def _common_args(memory: Any, cycle_length: Any, tol: Any, solver: Any,
         raise ValueError(f"memory: expected an int >= 0, got {memory!r}")
     cycle_length = positive_int(cycle_length, "cycle_length")
     tol = positive_real(tol, "tol")
-    name = check_solver(solver)
-    check_options(name, options)
-    return int(memory), cycle_length, tol, name
+    check_options(check_solver(solver), options)
+    return int(memory), cycle_length, tol, solver
 
 
 def _unstable(sys: SwitchingSystem, bound: PatternBound, func: str) -> None:
@@ -352,11 +362,12 @@ def _lifted_system(sys: SwitchingSystem, lift: GraphLift) -> SwitchingSystem:
 
 
 def _solve_storages(sys: SwitchingSystem, lift: GraphLift, weights: tuple,
-                    margin: float, name: str, options: dict,
+                    margin: float, name: str | None, options: dict,
                     func: str) -> tuple:
     model = storage_model(sys.A, sys.B, sys.C, sys.D, lift.graph.edges,
-                          lift.graph.nodes, *weights, margin)
-    report = solve(model.problem, name, **options)
+                          lift.graph.nodes, weights[0], weights[1],
+                          weights[2], margin)
+    report = solve_once(model.problem, name, options)
     if report.infeasible:
         raise CertificationError(
             f"{func}: no storage on the memory-{lift.memory} lift (solver "
@@ -372,11 +383,12 @@ def _solve_storages(sys: SwitchingSystem, lift: GraphLift, weights: tuple,
 
 
 def _dissipativity(sys: SwitchingSystem, weights: tuple, spec: str,
-                   memory: int, cycle_length: int, tol: float, name: str,
+                   memory: int, cycle_length: int, tol: float, name: str | None,
                    margin: float, options: dict,
                    func: str) -> WorstCaseResult:
     """Validated arguments in, a checked result out (see the callers)."""
-    bound = pattern_bound(sys, *weights, cycle_length)
+    bound = pattern_bound(sys, weights[0], weights[1], weights[2],
+                          cycle_length)
     if bound.rate >= 1.0:
         _unstable(sys, bound, func)
     lift = sys.graph.lift(memory)
@@ -651,7 +663,7 @@ def worst_case_passivity(sys: Any, graph: Any = None, *, memory: int = 0,
 
 # -- decay rate -------------------------------------------------------------------
 def _bisect_rate(model, sys: SwitchingSystem, lift: GraphLift, lo: float,
-                 tol: float, name: str, options: dict) -> tuple:
+                 tol: float, name: str | None, options: dict) -> tuple:
     """Smallest rate whose storages pass the exact check, by bisection
     between the periodic patterns' rate ``lo`` and what ``P = I`` proves."""
     edges = lift.graph.edges
@@ -663,7 +675,7 @@ def _bisect_rate(model, sys: SwitchingSystem, lift: GraphLift, lo: float,
         r = 0.5 * (lo + hi)
         iterations += 1
         model.rate2.value = r * r
-        report = solve(model.problem, name, **options)
+        report = solve_once(model.problem, name, options)
         ok = report.status in ("optimal", "optimal_inaccurate") and all(
             X.value is not None for X in model.P)
         found = storage_rate(sys.A, edges, model.storages()) if ok \
@@ -753,10 +765,11 @@ def worst_case_rate(sys: Any, graph: Any = None, *, rate: float | None = None,
                 f"{bound.rate:.6g} >= rate = {rate:.6g}: no certificate "
                 f"exists", INFEASIBLE, dict(lower=bound.rate))
         model.rate2.value = rate * rate
-        report = solve(model.problem, name, **solver_options)
+        report = solve_once(model.problem, name, solver_options)
         ok = report.status in ("optimal", "optimal_inaccurate") and all(
             X.value is not None for X in model.P)
-        P = model.storages() if ok else None
+        P = model.storages() if ok else np.full(
+            (lift.graph.nodes, system.nstates, system.nstates), np.nan)
         found = storage_rate(system.A, lift.graph.edges, P) if ok \
             else math.inf
         iterations = 1

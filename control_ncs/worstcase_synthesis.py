@@ -35,8 +35,8 @@ from ._results import Result
 from .exceptions import (CERTIFIED, CERTIFIED_SHORTAGE, INFEASIBLE,
                          NOT_VERIFIED, SOLVER_FAILED, SUFFICIENT_FAILED,
                          CertificationError, SynthesisError)
-from .lmi import check_options, check_solver, solve
-from .lmi.worstcase import design_model
+from .lmi import check_options, check_solver
+from .lmi.worstcase import design_model, solve_once
 from .switching import ConstrainedPlant, GraphLift, SwitchingSystem
 from .worstcase import (CYCLE_LENGTH, MARGIN, TOL, WorstCaseRate,
                         storage_rate, worst_case_gain, worst_case_passivity,
@@ -155,7 +155,8 @@ def _coerce_plant(plant: Any, graph: Any) -> ConstrainedPlant:
                                   "graph; give one or the other")
         return plant
     if isinstance(plant, (list, tuple)) and len(plant) == 6:
-        return ConstrainedPlant(*plant, graph)
+        A, Bu, Bw, Cz, Du, Dw = plant
+        return ConstrainedPlant(A, Bu, Bw, Cz, Du, Dw, graph)
     raise ControlArgument(
         f"plant: expected a ConstrainedPlant or a tuple (A, Bu, Bw, Cz, Du, "
         f"Dw) of per-mode arrays, got {type(plant).__name__}")
@@ -196,14 +197,14 @@ def _supply(P: ConstrainedPlant, spec: str) -> tuple | None:
 
 
 def _solve_design(P: ConstrainedPlant, lift: GraphLift, spec: str,
-                  common: bool, rate: float, margin: float, name: str,
+                  common: bool, rate: float, margin: float, name: str | None,
                   options: dict) -> tuple:
     # the lifted edges carry the plant's modes
     model = design_model(P.A, P.Bu, P.Bw, P.Cz, P.Du, P.Dw,
                          lift.graph.edges, lift.graph.nodes,
                          supply=_supply(P, spec),
                          rate=rate, common=common, margin=margin)
-    report = solve(model.problem, name, **options)
+    report = solve_once(model.problem, name, options)
     structure = ("one gain for every node (a common slack: sufficient only)"
                  if common else f"gains per node of the memory-{lift.memory} "
                                 f"lift (more memory may find one)")
@@ -225,7 +226,7 @@ def _solve_design(P: ConstrainedPlant, lift: GraphLift, spec: str,
 
 
 def _certify(loop: SwitchingSystem, spec: str, rate: float, X: np.ndarray,
-             cycle_length: int, tol: float, name: str, margin: float,
+             cycle_length: int, tol: float, name: str | None, margin: float,
              options: dict) -> tuple:
     """Analyse the fixed loop; the design's storages ``X⁻¹`` prove a rate
     too (whichever proves less is reported)."""
@@ -346,8 +347,8 @@ def worst_case_design(plant: Any, graph: Any = None, *, spec: str = "gain",
     cycle_length = positive_int(cycle_length, "cycle_length")
     tol = positive_real(tol, "tol")
     margin = positive_real(margin, "margin")
-    name = check_solver(solver)
-    check_options(name, solver_options)
+    check_options(check_solver(solver), solver_options)
+    name = solver
     P = _coerce_plant(plant, graph)
     _supply(P, spec)                                   # checks the shapes
     _uncontrolled_proof(P, rate, cycle_length)

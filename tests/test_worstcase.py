@@ -291,9 +291,8 @@ def test_passivity_needs_square_loops():
 
 def test_the_lift_remembers_the_last_edges():
     lift = ncs.SwitchingGraph(ONE_LOSS_IN_A_ROW).lift(2)
-    for (u, tail), (a, b, i), e in zip(
-            [lift.walks[a] for a in lift.graph.edges[:, 0]],
-            lift.graph.edges, lift.origin):
+    for (a, b, i), e in zip(lift.graph.edges, lift.origin):
+        u, tail = lift.walks[a]
         v, nxt = lift.walks[b]
         assert nxt == (tail + (int(e),))[-2:]
         assert ONE_LOSS_IN_A_ROW[e][:2] == (u, v)

@@ -20,15 +20,32 @@ storages exactly (:mod:`control_ncs.worstcase`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import cvxpy as cp
 
-from ._core import data_scale
+from ._core import SolveReport, data_scale, fallback_solver, solve
 
 __all__ = ["StorageModel", "storage_model", "RateModel", "rate_model",
-           "DesignModel", "design_model"]
+           "DesignModel", "design_model", "solve_once"]
+
+
+def solve_once(problem: cp.Problem, solver: str | None,
+               options: dict) -> SolveReport:
+    """Solve, and when the default solver fails without settling the
+    question (an error, not infeasibility), ask the fallback solver once
+    (:data:`control_ncs.lmi.FALLBACK_SOLVER`, only when none was named)."""
+    report = solve(problem, solver, **options)
+    if report.status in ("optimal", "optimal_inaccurate") or \
+            report.infeasible:
+        return report
+    other = fallback_solver(solver)
+    if other is None:
+        return report
+    again = solve(problem, other)
+    return again if again.status in ("optimal", "optimal_inaccurate") or \
+        again.infeasible else report
 
 
 def _sym(M: Any) -> Any:
@@ -207,9 +224,9 @@ def design_model(A: np.ndarray, Bu: np.ndarray, Bw: np.ndarray,
         L = _factor(Q)
         r = L.shape[0]
     for u, v, i in edges:
-        W = G if common else X[u]
+        W: Any = G if G is not None else X[u]
         Yu = Y[0] if common else Y[u]
-        H = (G + G.T - X[u]) if common else X[u]
+        H = (G + G.T - X[u]) if G is not None else X[u]
         Ahat = A[i] @ W + Bu[i] @ Yu
         if supply is None:
             block = cp.bmat([[rate ** 2 * H, Ahat.T], [Ahat, X[v]]])
@@ -218,7 +235,7 @@ def design_model(A: np.ndarray, Bu: np.ndarray, Bw: np.ndarray,
         Chat = Cz[i] @ W + Du[i] @ Yu
         corner = Dw[i].T @ S + S.T @ Dw[i] + R
         rows = [[rate ** 2 * H, Chat.T @ S, Ahat.T],
-                [S.T @ Chat, corner - t * np.eye(m), Bw[i].T],
+                [S.T @ Chat, corner - cast(Any, t) * np.eye(m), Bw[i].T],
                 [Ahat, Bw[i], X[v]]]
         if r:
             LC, LD = L @ Chat, L @ Dw[i]
