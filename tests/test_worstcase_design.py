@@ -187,3 +187,12 @@ def test_bad_arguments_are_refused_by_name():
         ncs.worst_case_design(theory_plant(), memory=-1)
     with pytest.raises(ControlArgument, match="graph"):
         ncs.worst_case_design(theory_plant(), ONE_LOSS_IN_A_ROW)
+
+
+def test_results_survive_pickling():
+    import pickle
+    res = ncs.worst_case_design(theory_plant(), spec="gain")
+    again = pickle.loads(pickle.dumps(res))
+    assert again.figure == res.figure and again.status == res.status
+    assert np.array_equal(again.K, res.K)
+    assert again.analysis.cycle == res.analysis.cycle

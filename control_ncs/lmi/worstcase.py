@@ -13,8 +13,11 @@ graph, one inequality per edge (:ref:`theory-worst-case-dissipativity`):
   or one gain for all (``Y = K G`` with a common slack ``G``), for a rate or
   a supply level.
 
-Nothing here decides whether an answer is true: the callers check the
-storages exactly (:mod:`control_ncs.worstcase`).
+Every inequality is symmetric by construction (``Fᵀ P F`` with ``P``
+symmetric, blocks beside their transposes), never symmetrised explicitly:
+that would double cvxpy's compilation, which dominates these programs'
+time. Nothing here decides whether an answer is true: the callers check
+the storages exactly (:mod:`control_ncs.worstcase`).
 """
 
 from __future__ import annotations
@@ -46,10 +49,6 @@ def solve_once(problem: cp.Problem, solver: str | None,
     again = solve(problem, other)
     return again if again.status in ("optimal", "optimal_inaccurate") or \
         again.infeasible else report
-
-
-def _sym(M: Any) -> Any:
-    return 0.5 * (M + M.T)
 
 
 def _factor(Q: np.ndarray) -> np.ndarray:
@@ -105,6 +104,7 @@ def storage_model(A: np.ndarray, B: np.ndarray, C: np.ndarray,
         H = np.hstack([C[i], D[i]])
         fixed = (-H.T @ Q @ H - H.T @ S @ E_w.T - E_w @ S.T @ H
                  - E_w @ R @ E_w.T)
+        fixed = 0.5 * (fixed + fixed.T)             # data: exactly symmetric
         top = cp.bmat([[P[u], np.zeros((n, m))],
                        [np.zeros((m, n)), np.zeros((m, m))]])
         M = F.T @ P[v] @ F - top + fixed + t * (E_w @ E_w.T)
@@ -112,7 +112,7 @@ def storage_model(A: np.ndarray, B: np.ndarray, C: np.ndarray,
         # recomputed from the storage, so the (2,2) block needs none
         slack = cp.bmat([[P[u], np.zeros((n, m))],
                          [np.zeros((m, n)), np.zeros((m, m))]])
-        cons.append(_sym(M + eps * slack) << 0)
+        cons.append(M + eps * slack << 0)
     return StorageModel(cp.Problem(cp.Maximize(t), cons), P, t)
 
 
@@ -147,7 +147,7 @@ def rate_model(A: np.ndarray, edges: np.ndarray, nodes: int) -> RateModel:
          for u in range(nodes)]
     cons = [X >> np.eye(n) for X in P]
     for u, v, i in edges:
-        cons.append(_sym(A[i].T @ P[v] @ A[i] - r2 * P[u]) << 0)
+        cons.append(A[i].T @ P[v] @ A[i] - r2 * P[u] << 0)
     return RateModel(cp.Problem(cp.Minimize(0), cons), P, r2)
 
 
@@ -230,10 +230,11 @@ def design_model(A: np.ndarray, Bu: np.ndarray, Bw: np.ndarray,
         Ahat = A[i] @ W + Bu[i] @ Yu
         if supply is None:
             block = cp.bmat([[rate ** 2 * H, Ahat.T], [Ahat, X[v]]])
-            cons.append(_sym(block) >> eps * np.eye(2 * n))
+            cons.append(block >> eps * np.eye(2 * n))
             continue
         Chat = Cz[i] @ W + Du[i] @ Yu
         corner = Dw[i].T @ S + S.T @ Dw[i] + R
+        corner = 0.5 * (corner + corner.T)
         rows = [[rate ** 2 * H, Chat.T @ S, Ahat.T],
                 [S.T @ Chat, corner - cast(Any, t) * np.eye(m), Bw[i].T],
                 [Ahat, Bw[i], X[v]]]
@@ -244,6 +245,6 @@ def design_model(A: np.ndarray, Bu: np.ndarray, Bw: np.ndarray,
             rows[2].append(np.zeros((n, r)))
             rows.append([LC, LD, np.zeros((r, n)), np.eye(r)])
         size = 2 * n + m + r
-        cons.append(_sym(cp.bmat(rows)) >> eps * np.eye(size))
+        cons.append(cp.bmat(rows) >> eps * np.eye(size))
     objective = cp.Maximize(t) if t is not None else cp.Minimize(0)
     return DesignModel(cp.Problem(objective, cons), X, Y, G, t)
