@@ -364,7 +364,8 @@ def worst_case_design(plant: Any, graph: Any = None, *, spec: str = "gain",
     cycle = tuple(int(P.graph.edges[e, 2]) for e in cycle_edges)
     rate_lower = (analysis.lower if isinstance(analysis, WorstCaseRate)
                   else analysis.rate_lower)
-    exact = bool(analysis.exact)
+    exact = bool(abs(figure - bound) <= tol * max(abs(figure), abs(bound),
+                                                  1e-300))
     return WorstCaseDesign(
         K, gain, spec, figure, bound, exact, proven, rate_lower, cycle,
         cycle_edges, int(memory), lift.walks, loop, analysis,
