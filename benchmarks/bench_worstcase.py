@@ -73,7 +73,7 @@ def worstcase_section(quick: bool) -> Section:
     sec = Section("Worst-case gain over a weakly-hard (2, 5) loss budget")
     sizes = [2] if quick else [2, 4, 8]
     memories = (1,) if quick else (1, 2)
-    cycle_length = 5 if quick else 8
+    cycle_length = 4 if quick else 8
     design_rows, analysis_rows = [], []
     for n in sizes:
         P = _plant(n)
