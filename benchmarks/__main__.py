@@ -38,6 +38,7 @@ SECTIONS = [
     ("bench_delays", "delayed_design_section"),
     ("bench_structured", "structured_design_section"),
     ("bench_jsr", "jsr_section"),
+    ("bench_worstcase", "worstcase_section"),
 ]
 
 

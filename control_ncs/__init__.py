@@ -19,7 +19,7 @@ from . import (automata, connect, critical, estimator, exceptions, gain,
                joint_spectral, jump, loop, lq, meancov, modes, network,
                openloop, passivity, performance, performance_synthesis, plant,
                plots, refine, responses, stability, strategies, sweeps,
-               synthesis, verify)
+               switching, synthesis, verify, worstcase, worstcase_synthesis)
 from ._lifting import lift
 from .automata import *  # noqa: F403
 from .connect import *  # noqa: F403
@@ -45,14 +45,18 @@ from .responses import *  # noqa: F403
 from .stability import *  # noqa: F403
 from .strategies import *  # noqa: F403
 from .sweeps import *  # noqa: F403
+from .switching import *  # noqa: F403
 from .synthesis import *  # noqa: F403
 from .verify import *  # noqa: F403
+from .worstcase import *  # noqa: F403
+from .worstcase_synthesis import *  # noqa: F403
 
 __all__ = [name for module in (
     network, modes, jump, openloop, plant, gain, strategies, loop, stability,
     meancov, exceptions, verify, passivity, performance, lq,
     performance_synthesis, synthesis, refine, estimator, responses, plots,
-    connect, sweeps, critical, automata, joint_spectral)
+    connect, sweeps, critical, automata, joint_spectral, switching,
+    worstcase, worstcase_synthesis)
     for name in module.__all__] + ["lift"]
 
 try:

@@ -31,6 +31,10 @@ def _jss(**kw):
 
 G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], True)
 
+
+def _switching():
+    return ncs.SwitchingSystem([[[0.5]], [[0.2]]], 1.0, 1.0, 1.0)
+
 #: name -> a call that succeeds without the bogus keyword
 CALLS = {
     "JumpStateSpace": lambda **kw: ncs.JumpStateSpace(
@@ -106,6 +110,18 @@ CALLS = {
     "lift_lti": lambda **kw: ncs.lift_lti(G, 2, **kw),
     "interconnect": lambda **kw: ncs.interconnect(
         [_loop()], inplist=["w[0]"], outlist=["z[0]"], **kw),
+    "worst_case_dissipativity": lambda **kw: ncs.worst_case_dissipativity(
+        _switching(), 0.0, 1.0, 0.0, cycle_length=2, **kw),
+    "worst_case_gain": lambda **kw: ncs.worst_case_gain(
+        _switching(), cycle_length=2, **kw),
+    "worst_case_passivity": lambda **kw: ncs.worst_case_passivity(
+        _switching(), cycle_length=2, **kw),
+    "worst_case_rate": lambda **kw: ncs.worst_case_rate(
+        _switching(), cycle_length=2, tol=1e-3, **kw),
+    "worst_case_design": lambda **kw: ncs.worst_case_design(
+        ncs.ConstrainedPlant.lossy(1.5, 1.0, 1.0, 1.0, 0.0, 1.0,
+                                   [(0, 0, 1), (0, 1, 0), (1, 0, 1)]),
+        cycle_length=2, **kw),
 }
 
 #: not a keyword funnel: the gain's info travels to the closed loop
