@@ -15,16 +15,17 @@ reference simulator (``protocol``) export nothing here.
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from . import (connect, critical, estimator, exceptions, gain, jump, lq,
-               meancov, modes, network, openloop, passivity, performance,
-               performance_synthesis, plant, plots, refine, responses,
-               stability, strategies, sweeps, synthesis, verify)
+from . import (connect, critical, estimator, exceptions, gain, intersample,
+               jump, lq, meancov, modes, network, openloop, passivity,
+               performance, performance_synthesis, plant, plots, refine,
+               responses, stability, strategies, sweeps, synthesis, verify)
 from ._lifting import lift
 from .connect import *  # noqa: F403
 from .critical import *  # noqa: F403
 from .estimator import *  # noqa: F403
 from .exceptions import *  # noqa: F403
 from .gain import *  # noqa: F403
+from .intersample import *  # noqa: F403
 from .performance_synthesis import *  # noqa: F403
 from .jump import *  # noqa: F403
 from .lq import *  # noqa: F403
@@ -48,7 +49,7 @@ __all__ = [name for module in (
     network, modes, jump, openloop, plant, gain, strategies, stability,
     meancov, exceptions, verify, passivity, performance, lq,
     performance_synthesis, synthesis, refine, estimator, responses, plots,
-    connect, sweeps, critical)
+    connect, sweeps, critical, intersample)
     for name in module.__all__] + ["lift"]
 
 try:

@@ -48,6 +48,7 @@ from .jump import JumpStateSpace
 from .modes import age_chain
 from .network import BurstyDelay, RandomDelay
 from .plant import NetworkedStateSpace
+from ._sampling import sampling_entry
 
 __all__: list[str] = []
 
@@ -225,10 +226,6 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
     delay = P.input_delay
     Lu = max(Ds if controller == "predictor" else 0,
              1 if actuator == "hold" or delay is not None else 0)
-    if delay is not None and np.any(np.asarray(P.D12) != 0):
-        raise ControlArgument(
-            "P: with sub-sample input delays z must not depend on u "
-            "(D12 = 0): the input of step k is applied after the sample")
     taus = 1 if delay is None else delay.taus.size
     # a measurement with noise (D21 ≠ 0) is buffered with its noise: the
     # past disturbances w_{k-1..k-Ds} it may still carry join the state
@@ -333,11 +330,17 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
                 A0[ub(j), ub(j - 1)] = np.eye(m2)
         C0 = np.zeros((p1, nX))
         C0[:, xb(0)] = C1
-        C0 += D12 @ U0
+        if delay is not None and delay.taus[c] > 0:
+            # z at the sample sees the input held until τ: u_{k-1}
+            C0[:, ub(1)] += D12
+            LC = np.zeros((p1, m2))
+        else:
+            C0 += D12 @ U0
+            LC = fresh * D12
         if estimator:       # x̂_{k+1} = A x̂'_k + B2 u_k (u known by ack)
             A0[eb(0)] = B2 @ U0
             L[eb(0)] = fresh * B2
-        return A0, L, Bm, C0, fresh * D12
+        return A0, L, Bm, C0, LC, U0, fresh
 
     def corrected(ap: int, a: int) -> tuple[list, list]:
         """The estimates after a new measurement of age ``a`` (new: fresher
@@ -361,6 +364,7 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
         return [r[0] for r in rows], [r[1] for r in rows]
 
     modes_A, modes_B, modes_C, modes_D, names = [], [], [], [], []
+    inputs: list[tuple[np.ndarray, np.ndarray]] = []
     parts: list[tuple] = []
     # the estimator's mode is the pair (previous age, age): whether the
     # freshest measurement is new depends on both
@@ -386,7 +390,7 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
             V, Vw = G[min(a, Ds)] @ S, G[min(a, Ds)] @ Sw
         for b in actuator_ages:
             for c in range(taus):
-                A0, L, Bm, C0, LC = assemble(b, c)
+                A0, L, Bm, C0, LC, U0, fresh = assemble(b, c)
                 if lti:
                     A0[xcb] = Bc @ Y
                     A0[xcb, xcb] += Ac
@@ -402,6 +406,8 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
                     parts.append((A0, L, S, 0, C0, LC, Bm))
                 else:
                     parts.append((A0, L, S, min(int(a), Ds), C0, LC, Bm))
+                # the input applied after τ in this mode (intersample cost)
+                inputs.append((U0 + fresh * V, fresh * Vw))
                 modes_A.append(A0 + L @ V)
                 modes_B.append(Bm + L @ Vw)
                 modes_C.append(C0 + LC @ V)
@@ -448,4 +454,13 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
                   sensor_delay=P.sensor_delay,
                   actuator_delay=P.actuator_delay,
                   input_delay=None if delay is None else delay.taus))
+    if P.continuous is not None:
+        prev = np.zeros((m2, nX))
+        if Lu:
+            prev[:, ub(1)] = np.eye(m2)
+        tau = (np.zeros(len(names)) if delay is None else
+               np.array([name[-1] for name in names], float))
+        CL.info["sampling"] = sampling_entry(
+            P, x=xb(0), u=[u for u, _ in inputs], u_w=[w for _, w in inputs],
+            u_prev=[prev] * len(names), tau=tau, period=N)
     return CL, parts

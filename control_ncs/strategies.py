@@ -31,6 +31,7 @@ from .delays import delayed_loop
 from .openloop import JumpPlant
 from ._lti import lti_operand
 from .plant import NetworkedStateSpace
+from ._sampling import undelayed_entry
 
 __all__ = ["build", "feedback", "loop_closes", "require_state_measured"]
 
@@ -785,6 +786,10 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     effective = _warn_unused_gains(P, plant, gains, controller)
     CL = plant.close(gains)
     CL.info["effective_gains"] = effective
+    if P.continuous is not None:        # for the cost between the samples
+        CL.info["sampling"] = undelayed_entry(P, CL, lambda Q: build(
+            Q, controller, actuator, period=N,
+            estimator_gain=estimator_gain).close(gains))
     return CL
 
 
@@ -866,4 +871,9 @@ def _feedback_lti(P: NetworkedStateSpace, K: Any, controller: str | None,
     plant = build(P, "lti", actuator or "zero", sensor=sensor or "zero",
                   controller_order=Kss.nstates)
     gains = np.tile(realisation, (P.period, 1, 1))
-    return plant.close(gains, controller_system=Kss)
+    CL = plant.close(gains, controller_system=Kss)
+    if P.continuous is not None:        # for the cost between the samples
+        CL.info["sampling"] = undelayed_entry(P, CL, lambda Q: build(
+            Q, "lti", actuator or "zero", sensor=sensor or "zero",
+            controller_order=Kss.nstates).close(gains))
+    return CL
