@@ -36,7 +36,7 @@ def sampling_entry(P: NetworkedStateSpace, *, x: slice | np.ndarray,
     or per phase and mode (N, M, ., .); ``tau``: (M,) or (N, M); ``omega``:
     None (the plant's noise enters at ``x`` only) or like ``u``.
     """
-    sys = P.continuous
+    sys = _continuous(P)
     N = period
     entry = dict(
         h=float(P.dt),
@@ -65,8 +65,7 @@ def undelayed_entry(P: NetworkedStateSpace, CL: JumpStateSpace,
     ``z`` (checked).
     """
     n, m1, m2, p1 = P.nstates, P.B1.shape[1], P.ncon, P.C1.shape[0]
-    sys = P.continuous
-    B2c = np.asarray(sys.B, float)[:, m1:]
+    B2c = np.asarray(_continuous(P).B, float)[:, m1:]
     D12 = np.asarray(P.D12, float)
     Z = np.zeros
     B = np.hstack([P.B1, np.eye(n), P.B2])
@@ -115,14 +114,21 @@ def undelayed_entry(P: NetworkedStateSpace, CL: JumpStateSpace,
             u[k, j] = wide.C[k, i, iu]
             u_w[k, j] = wide.D[k, i, iu, :m1]
             omega[k, j] = wide.B[k, i, :, m1:m1 + n]
-    x: slice | np.ndarray = x_rows[0, 0]
-    if not np.all(x_rows == x):
+    rows = x_rows[0, 0]
+    if not np.all(x_rows == rows):
         raise RuntimeError("the plant's state moves within the loop state "
                            "from mode to mode")
-    if np.array_equal(x[:, :n], np.eye(n)) and not np.any(x[:, n:]):
+    x: slice | np.ndarray = rows
+    if np.array_equal(rows[:, :n], np.eye(n)) and not np.any(rows[:, n:]):
         x = slice(0, n)
     return sampling_entry(P, x=x, u=u, u_w=u_w, u_prev=np.zeros_like(u),
                           tau=np.zeros((N, M)), period=N, omega=omega)
+
+
+def _continuous(P: NetworkedStateSpace) -> Any:
+    if P.continuous is None:
+        raise ValueError("P: a discrete plant has no cost between samples")
+    return P.continuous
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:

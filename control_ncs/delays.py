@@ -290,10 +290,12 @@ def _build(P: NetworkedStateSpace, K: Any, controller: str, actuator: str,
                     S[:, ub(i)] += powers[i - 1] @ B2
         return S, Sw
 
-    def assemble(b: int, c: int) -> tuple[np.ndarray, ...]:
+    def assemble(b: int, c: int) -> tuple[Any, ...]:
         """Mode ``(·, b, τ_c)`` affine in the command ``v_k``:
         ``A = A0 + L v``, ``C = C0 + LC v`` (the sensor age enters only
-        through ``v``)."""
+        through ``v``), and the input applied after ``τ``, ``U0 X +
+        fresh v``. With ``τ > 0`` the sampled ``z`` sees the input held
+        until then, ``u_{k-1}``."""
         U0 = np.zeros((m2, nX))         # the applied input, v_k aside
         if 1 <= b <= Da:
             U0[:, vb(b)] = np.eye(m2)

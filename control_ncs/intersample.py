@@ -541,7 +541,8 @@ def _plan(sys: JumpStateSpace, record: dict) -> _Plan:
         for i in range(M):
             key = (float(s[k, i]), float(tau[k, i]))
             if key not in cache:
-                cache[key] = _timing(A, B1, B2, C1, D12, h, R1d, *key)
+                cache[key] = _timing(A, B1, B2, C1, D12, h, R1d, *key,
+                                     late)
             W[k, i], root, Z, Sigma = cache[key]
             p = modes.probabilities[k, i]
             # the late sample's noise: in ψ (u_k's rows), against the
@@ -561,14 +562,14 @@ def _plan(sys: JumpStateSpace, record: dict) -> _Plan:
 
 
 def _timing(A: np.ndarray, B1: np.ndarray, B2: np.ndarray, C1: np.ndarray,
-            D12: np.ndarray, h: float, R1d: np.ndarray, s: float, tau: float
-            ) -> tuple[np.ndarray, ...]:
+            D12: np.ndarray, h: float, R1d: np.ndarray, s: float, tau: float,
+            late: bool) -> tuple[np.ndarray, ...]:
     """The integrals of one timing ``(s, τ)``: ``W(τ)``, a square root of the covariance of the noise reaching ``X_{k+1}``
-    (``[ω; n_s]`` with a late sample, else ``ω``), the cross term's
-    ``Z = Σ(s) e^{Aᵀ(τ-s)} Y`` and ``Σ(s)``."""
+    (``[ω; n_s]`` when some sample of the loop is late, else ``ω``), the
+    cross term's ``Z = Σ(s) e^{Aᵀ(τ-s)} Y`` and ``Σ(s)``."""
     W, Y = _weights(A, B2, C1, D12, h, tau)
     Sigma = _gramian(A, B1, s)
-    if s > 0:
+    if late:
         E = scipy.linalg.expm(A * (h - s))
         cov = np.block([[R1d, E @ Sigma], [Sigma @ E.T, Sigma]])
         Z = Sigma @ scipy.linalg.expm(A.T * (tau - s)) @ Y
