@@ -143,7 +143,8 @@ def _monte_carlo(G, h, L, timings, controller, *, nmeas, ncon, paths=200,
     C2, D21 = C[p1:], D[p1:, :m1]
     delta = h / L
     Ed, Gd = _flow(A, B2, delta)
-    R = np.linalg.cholesky(_noise_by_ode(A, B1, delta)[0])
+    vals, vecs = np.linalg.eigh(_noise_by_ode(A, B1, delta)[0])
+    R = vecs * np.sqrt(np.clip(vals, 0.0, None))      # R Rᵀ = Σ(δ)
     pts = np.array([t for t, _ in timings])
     pr = np.array([q for _, q in timings])
     x = np.zeros((paths, n))
