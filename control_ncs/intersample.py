@@ -512,11 +512,18 @@ def _plan(sys: JumpStateSpace, record: dict) -> _Plan:
     u, u_w, u_prev = (np.asarray(record[k], float)
                       for k in ("u", "u_w", "u_prev"))
     tau = np.asarray(record["tau"], float)
-    if (rows.shape != (n, nX) or u.shape != (N, M, m2, nX)
+    changed = [k for k in ("algebra", "feedback", "interconnect")
+               if k in sys.info]
+    if changed or (
+            rows.shape != (n, nX) or u.shape != (N, M, m2, nX)
             or u_prev.shape != u.shape or u_w.shape != (N, M, m2, m1)
-            or tau.shape != (N, M) or modes.B.shape[-1] != m1):
-        raise ValueError("sys: info['sampling'] does not fit the loop's "
-                         "modes, state and inputs")
+            or tau.shape != (N, M) or modes.B.shape[-1] != m1
+            or modes.C.shape[-2] != p1):
+        raise ValueError(
+            "sys: info['sampling'] was recorded for the loop as "
+            "feedback() closed it, and this system was changed since "
+            f"({', '.join(changed) or 'its modes, state or signals differ'}); "
+            "compute the cost of the loop feedback() returns")
     omega = np.asarray(record.get("omega", np.broadcast_to(
         rows.T, (N, M, nX, n))), float)
     s = np.asarray(record.get("s", np.zeros((N, M))), float)

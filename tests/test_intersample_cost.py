@@ -582,6 +582,13 @@ def test_a_noise_both_continuous_and_sampled_is_refused_by_name():
         ncs.cost(CL)
 
 
+def test_a_loop_changed_after_it_was_closed_is_refused():
+    P = ncs.nss(_integrator(), nmeas=1, ncon=1, dt=0.5)
+    CL = ncs.feedback(P, [[-2.0]])
+    with pytest.raises(ValueError, match="changed"):
+        ncs.cost(2.0 * CL)
+
+
 def test_cost_result_states_its_verdict_and_survives_pickling():
     P = ncs.nss(_integrator(), nmeas=1, ncon=1, dt=0.5)
     CL = pickle.loads(pickle.dumps(ncs.feedback(P, [[-2.0]])))
