@@ -103,9 +103,10 @@ def undelayed_entry(P: NetworkedStateSpace, CL: JumpStateSpace,
                    for other in seen[1:]):
                 raise ValueError(
                     "P: modes the loop merged apply inputs that move the "
-                    "continuous plant differently (is e^{A h} - I singular "
-                    "on the range of B2?); the cost between the samples is "
-                    "not defined by the merged loop")
+                    "continuous plant differently (A has an eigenvalue "
+                    "2πik/h, k ≠ 0: sampling at h hides the difference); "
+                    "the merged loop does not define the cost between the "
+                    "samples")
             i = found[0]
             if np.any(wide.D[k, i, ix, :m1] != 0):
                 raise RuntimeError("the plant's state depends on the noise "

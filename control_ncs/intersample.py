@@ -50,8 +50,9 @@ Sampling jitter (the sample taken ``s`` after ``kh``, ``0 ≤ s ≤ τ``) adds,
 optionally: ``s`` (N, M); ``u_n`` (N, M, ncon, n), the rows of ``u_k`` on
 ``n_s``, the noise the plant gathered from ``kh`` to the sample (it
 reaches ``u_k`` through ``y_k = C2 x(kh + s)``); ``n_noise`` (N, M, nX, n),
-where ``n_s`` enters ``X_{k+1}`` other than through ``x_{k+1}``, which
-``omega`` carries with the whole period's noise.
+where ``n_s`` enters ``X_{k+1}`` through the loop (what the controller read,
+and ``Γ0(τ) u_k``); its share of the period's own noise ``ω_k = n(h)`` is
+``omega``'s.
 """
 
 from __future__ import annotations
@@ -244,9 +245,8 @@ def sampled_loss(A: Any, B2: Any, C1: Any, D12: Any, h: float
     (1.0, 0.5, 0.333333)
     """
     W = intersample_weight(A, B2, C1, D12, h)
-    n = np.shape(A)[0]
-    m = W.shape[0] - n
-    m //= 2
+    n = np.shape(np.atleast_2d(A))[0]
+    m = (W.shape[0] - n) // 2
     return W[:n, :n], W[:n, n + m:], W[n + m:, n + m:]
 
 
