@@ -490,6 +490,25 @@ def test_a_measurement_one_step_late_costs_what_a_delaying_controller_costs():
     assert J_late == pytest.approx(J_ctrl, rel=1e-10)
 
 
+@pytest.mark.parametrize("controller", ["estimator", "lti", "lti-hold"])
+def test_a_link_that_never_delays_costs_what_the_lossy_link_costs(controller):
+    """The two builders record the loop in different coordinates (buffers
+    and estimates against the estimator's [x̂; e], a stored measurement);
+    a delay law with all its mass at 0 is the Bernoulli link."""
+    A, B = _servo()
+    h = 0.2
+    G = _plant(A, np.hstack([B, np.zeros((2, 1))]), B, [[1.0, 0.0], [0.0, 0.0]],
+               [[0.0], [0.3]], [[1.0, 0.0]], [[0.0, 0.1]])
+    K = -ct.dlqr(*_flow(A, B, h), np.eye(2), np.eye(1))[0]
+    kw = (dict(K=K, estimator_gain=[[0.5], [0.8]]) if controller == "estimator"
+          else dict(K=ct.ss([[0.0]], [[1.0]], [[2.0]], [[-5.0]], h),
+                    sensor="hold" if controller == "lti-hold" else "zero"))
+    delayed = ncs.nss(G, nmeas=1, ncon=1, dt=h, sensor_delay=[0.8])
+    lossy = ncs.nss(G, nmeas=1, ncon=1, dt=h, sensor_loss=0.2)
+    J = [ncs.cost(ncs.feedback(P, **kw)).cost for P in (delayed, lossy)]
+    assert J[0] == pytest.approx(J[1], rel=1e-10)
+
+
 def _late_sample_loop(G, h, K, timings):
     """A static gain ``u_k = K y_k`` reading ``y_k = C2 x(kh + s)``, the
     input switching at ``kh + τ`` (``s ≤ τ``), as a jump system on
