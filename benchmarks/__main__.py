@@ -39,6 +39,7 @@ SECTIONS = [
     ("bench_structured", "structured_design_section"),
     ("bench_jsr", "jsr_section"),
     ("bench_worstcase", "worstcase_section"),
+    ("bench_intersample", "intersample_section"),
 ]
 
 

@@ -16,10 +16,11 @@ reference simulator (``protocol``) export nothing here.
 from importlib.metadata import PackageNotFoundError, version as _version
 
 from . import (automata, connect, critical, estimator, exceptions, gain,
-               joint_spectral, jump, loop, lq, meancov, modes, network,
-               openloop, passivity, performance, performance_synthesis, plant,
-               plots, refine, responses, stability, strategies, sweeps,
-               switching, synthesis, verify, worstcase, worstcase_synthesis)
+               intersample, joint_spectral, jump, loop, lq, meancov, modes,
+               network, openloop, passivity, performance,
+               performance_synthesis, plant, plots, refine, responses,
+               stability, strategies, sweeps, switching, synthesis, verify,
+               worstcase, worstcase_synthesis)
 from ._lifting import lift
 from .automata import *  # noqa: F403
 from .connect import *  # noqa: F403
@@ -27,6 +28,7 @@ from .critical import *  # noqa: F403
 from .estimator import *  # noqa: F403
 from .exceptions import *  # noqa: F403
 from .gain import *  # noqa: F403
+from .intersample import *  # noqa: F403
 from .performance_synthesis import *  # noqa: F403
 from .joint_spectral import *  # noqa: F403
 from .jump import *  # noqa: F403
@@ -56,7 +58,7 @@ __all__ = [name for module in (
     meancov, exceptions, verify, passivity, performance, lq,
     performance_synthesis, synthesis, refine, estimator, responses, plots,
     connect, sweeps, critical, automata, joint_spectral, switching,
-    worstcase, worstcase_synthesis)
+    worstcase, worstcase_synthesis, intersample)
     for name in module.__all__] + ["lift"]
 
 try:

@@ -20,6 +20,10 @@ from .modes import apply_groups, merge_groups
 
 __all__ = ["JumpPlant"]
 
+#: The per-mode entries of a sampling record (tau as (N, M, 1, 1) while
+#: modes are merged).
+_MODE_RECORD = ("x", "u", "u_w", "u_prev", "omega", "tau")
+
 
 @dataclass(frozen=True, eq=False)
 class JumpPlant:
@@ -87,6 +91,14 @@ class JumpPlant:
     description : mapping, optional
         The network's description (losses, links), copied into the closed
         loop's ``info``.
+    sampling : mapping, optional
+        For a plant sampled from a continuous-time one: the open loop's
+        record of where the plant state and its input sit, per phase and
+        mode (``x``, ``u``, ``u_w``, ``u_v`` the rows of ``u_k`` on the
+        command, ``u_prev``, ``omega``, ``tau``, with ``h``, ``plant``,
+        ``nmeas``, ``ncon``); :meth:`close` gives the closed loop's
+        ``info['sampling']``, which :func:`control_ncs.cost` reads
+        (:mod:`control_ncs.intersample` defines the entries).
 
     Attributes
     ----------
@@ -142,6 +154,7 @@ class JumpPlant:
     Ew: np.ndarray | None = None
     Gw: np.ndarray | None = None
     description: Mapping = field(default_factory=dict)
+    sampling: Mapping | None = None
 
     _FIELDS = ("A", "Bu", "Bw", "Cz", "Du", "Dw")
 
@@ -292,6 +305,7 @@ class JumpPlant:
             B = B + self.Bu @ Fw
             D = D + self.Du @ Fw
         loop = (A, B, C, D)
+        record = self._record(F, None if Ew is None else Fw)
         if self.transition is not None:
             # Markov modes are not merged (their futures differ, theory: Markov
             # losses)
@@ -300,14 +314,73 @@ class JumpPlant:
                                   nominal=self.nominal,
                                   inputs=self.inputs, outputs=self.outputs,
                                   states=self.states, name=name,
-                                  info=dict(self.info, gains=K, **info))
-        # merge before building: the lifted face is then built once
-        groups, nominal = merge_groups(loop, self.probabilities, self.nominal)
-        (A, B, C, D), p = apply_groups(loop, self.probabilities, groups)
+                                  info=self._info(K, info, record))
+        # merge before building: the lifted face is then built once; modes
+        # whose sampling rows differ move the continuous plant differently
+        extra = [] if record is None else [
+            record[f] if f != "tau" else record[f][..., None, None]
+            for f in _MODE_RECORD]
+        groups, nominal = merge_groups(list(loop) + extra,
+                                       self.probabilities, self.nominal)
+        merged, p = apply_groups(list(loop) + extra, self.probabilities,
+                                 groups)
+        if record is not None:
+            record = dict(record, **dict(zip(_MODE_RECORD, merged[4:])))
+            record["tau"] = record["tau"][:, :, 0, 0]
+        A, B, C, D = merged[:4]
         return JumpStateSpace(A, B, C, D, p, self.dt, nominal=nominal,
                               inputs=self.inputs, outputs=self.outputs,
                               states=self.states, name=name,
-                              info=dict(self.info, gains=K, **info))
+                              info=self._info(K, info, record))
+
+    def _info(self, K: np.ndarray, info: dict, record: dict | None) -> dict:
+        out = dict(self.info, gains=K, **info)
+        if record is not None:
+            # the plant state sits in the same place in every mode: its rows
+            # once, or a slice where they are a block of the identity
+            rows = record["x"].reshape((-1,) + record["x"].shape[-2:])
+            if not np.all(rows == rows[0]):
+                raise ValueError("the plant state moves within the loop "
+                                 "state from mode to mode: the sampling "
+                                 "record cannot describe this loop")
+            x = rows[0]
+            n = x.shape[0]
+            start = int(np.argmax(x[0])) if x.size else 0
+            block = np.zeros_like(x)
+            block[:, start:start + n] = np.eye(n)
+            out["sampling"] = dict(record, x=slice(start, start + n)
+                                   if np.array_equal(x, block) else x)
+        return out
+
+    def _record(self, F: np.ndarray, Fw: np.ndarray | None,
+                Gw: np.ndarray | None = None) -> dict | None:
+        """The closed loop's sampling record (:mod:`control_ncs.intersample`)
+        with the feedback rows ``F = K E`` (and ``Fw = K Ew``; ``Gw`` the
+        noise the state carries from the last message), per phase and mode
+        (or previous and current mode, when ``F`` has that axis)."""
+        s = self.sampling
+        if s is None:
+            return None
+        pairs = F.ndim == 5
+        lift = (lambda X: X[:, None]) if pairs else (lambda X: X)
+        u = lift(s["u"]) + lift(s["u_v"]) @ F
+        u_w = lift(s["u_w"]) + (0.0 if Fw is None else lift(s["u_v"]) @ Fw)
+        if Gw is not None:
+            # step k acts on ξ + Gw[k, ℓ] w: the input too; the plant state
+            # and the held input never carry that noise (checked)
+            if np.any(s["x"][:, None] @ Gw[:, :, None]) or \
+                    np.any(s["u_prev"][:, None] @ Gw[:, :, None]):
+                raise ValueError("the noise a message carried reaches the "
+                                 "plant state: the sampling record cannot "
+                                 "describe this loop")
+            u_w = u_w + u @ Gw[:, :, None]
+        shape = u.shape[:-2]
+        out = dict(s, u=u, u_w=u_w)
+        out.pop("u_v")
+        for f in ("x", "u_prev", "omega"):
+            out[f] = np.broadcast_to(lift(s[f]), shape + s[f].shape[-2:])
+        out["tau"] = np.broadcast_to(lift(s["tau"]), shape)
+        return out
 
     def transitions(self) -> np.ndarray:
         """``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``, shape (N, M, M).
@@ -339,14 +412,19 @@ class JumpPlant:
         :meth:`pair_modes` (also recorded as ``info['pair_modes']``). The
         initial law is the stationary one.
         """
-        A, B, C, D, where, padded = self._lumped_pairs(K)
+        A, B, C, D, where, padded, record = self._lumped_pairs(K)
         N, M = self.probabilities.shape
         T = self.transitions()
         G = len(padded[0])
         cur = np.array([[i for i, _ in g] for g in padded])
-        Ap, Bp, Cp, Dp = (np.array([[X[k, ell, i] for i, ell in g]
-                                    for k, g in enumerate(padded)])
-                          for X in (A, B, C, D))
+
+        def pick(X: np.ndarray) -> np.ndarray:
+            return np.array([[X[k, ell, i] for i, ell in g]
+                             for k, g in enumerate(padded)])
+        Ap, Bp, Cp, Dp = (pick(X) for X in (A, B, C, D))
+        if record is not None:
+            record = dict(record, **{f: pick(record[f])
+                                     for f in _MODE_RECORD})
         Tp = np.zeros((N, G, G))
         for k in range(N):
             for s, (i, _) in enumerate(padded[k]):
@@ -361,8 +439,8 @@ class JumpPlant:
                               nominal=nominal, inputs=self.inputs,
                               outputs=self.outputs, states=self.states,
                               name=name,
-                              info=dict(self.info, gains=K, pair_modes=cur,
-                                        **info))
+                              info=self._info(K, dict(info, pair_modes=cur),
+                                              record))
 
     def pair_modes(self, gains: np.ndarray) -> np.ndarray:
         """The current plant mode of each lumped pair mode.
@@ -404,6 +482,9 @@ class JumpPlant:
         if self.Gw is not None:
             B = B + np.einsum("klmxy,klyw->klmxw", A, self.Gw)
             D = D + np.einsum("klmzy,klyw->klmzw", C, self.Gw)
+        record = self._record(F, None if Ew is None else Fw, self.Gw)
+        extra = () if record is None else tuple(
+            record[f] for f in _MODE_RECORD)
         # lumped mode of the pair (ℓ, i) at each phase; first member kept
         where: list = []
         groups: list = []
@@ -414,7 +495,7 @@ class JumpPlant:
             for i in range(M):
                 for ell in range(M):
                     key = (i,) + tuple(X[k, ell, i].tobytes()
-                                       for X in (A, B, C, D))
+                                       for X in (A, B, C, D) + extra)
                     if key not in index:
                         index[key] = len(groups[k])
                         groups[k].append((i, ell))
@@ -422,7 +503,7 @@ class JumpPlant:
         G = max(map(len, groups))
         # unreachable copies keep the shape (N, G): no flow enters them
         padded = [g + [g[-1]] * (G - len(g)) for g in groups]
-        return A, B, C, D, where, padded
+        return A, B, C, D, where, padded, record
 
     def merged(self) -> "JumpPlant":
         """The same plant with coinciding modes merged.

@@ -124,6 +124,11 @@ class NetworkedStateSpace(ct.StateSpace):
         Sub-sample delays of the control input; give
         ``input_delay=(taus, probabilities)`` to :func:`nss` with a
         continuous-time plant, which computes this object.
+    continuous : control.StateSpace or (A, B, C, D), optional
+        The continuous-time generalized plant these matrices sample with a
+        zero-order hold at ``dt`` (:func:`nss` sets it), for the cost
+        between the samples (:func:`control_ncs.cost`). Checked against
+        ``A, B, C, D``: give ``continuous=None`` with new matrices.
     name, inputs, outputs, states : optional
         As for :class:`control.StateSpace`.
     **kwargs
@@ -146,6 +151,8 @@ class NetworkedStateSpace(ct.StateSpace):
         The delay models as given (None: no delay).
     input_delay : InputDelay or None
         Sub-sample delays of the control input (made by :func:`nss`).
+    continuous : control.StateSpace or None
+        The continuous-time plant that was sampled (None: a discrete plant).
     period : int
         Least common multiple of the two schedules' periods.
 
@@ -170,6 +177,7 @@ class NetworkedStateSpace(ct.StateSpace):
                  actuator_loss: float = 0.0, shared_channel: bool = False,
                  sensor_delay: Any = None, actuator_delay: Any = None,
                  input_delay: InputDelay | None = None,
+                 continuous: Any = None,
                  name: str | None = None, inputs: Any = None,
                  outputs: Any = None, states: Any = None, **kwargs: Any):
         no_extra_kwargs("NetworkedStateSpace", kwargs)
@@ -295,6 +303,7 @@ class NetworkedStateSpace(ct.StateSpace):
         # inside an analysis)
         for X in (self.A, self.B, self.C, self.D):
             X.setflags(write=False)
+        self.continuous = _continuous(continuous, self)
 
     # -- partition (theory: plant) --------------------------------------------
     @property
@@ -434,15 +443,20 @@ class NetworkedStateSpace(ct.StateSpace):
                     shared_channel=self.shared_channel,
                     sensor_delay=self.sensor_delay,
                     actuator_delay=self.actuator_delay,
-                    input_delay=self.input_delay, name=self.name,
+                    input_delay=self.input_delay,
+                    continuous=self.continuous, name=self.name,
                     inputs=list(self.input_labels),
                     outputs=list(self.output_labels),
                     states=list(self.state_labels))
 
     # -- python protocol -----------------------------------------------------
     def __reduce__(self) -> tuple:
-        # control.StateSpace holds lambdas and cannot be pickled.
-        return (_restore_nss, (self._init_args(),))
+        # control.StateSpace holds lambdas and cannot be pickled: the
+        # continuous plant travels as its matrices
+        args = self._init_args()
+        if self.continuous is not None:
+            args["continuous"] = _matrices(self.continuous)
+        return (_restore_nss, (args,))
 
     def equals(self, other: object) -> bool:
         """Whether ``other`` is the same networked plant, value by value.
@@ -460,6 +474,11 @@ class NetworkedStateSpace(ct.StateSpace):
         if type(other) is not type(self):
             return False
         a, b = self._init_args(), other._init_args()
+        ca, cb = a.pop("continuous"), b.pop("continuous")
+        if (ca is None) != (cb is None) or (ca is not None and not all(
+                np.array_equal(x, y)
+                for x, y in zip(_matrices(ca), _matrices(cb)))):
+            return False
         return all(np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray)
                    else a[k] == b[k] for k in a)
 
@@ -502,6 +521,44 @@ def _restore_nss(args: dict) -> NetworkedStateSpace:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ScheduleWarning)
         return NetworkedStateSpace(**args)
+
+
+def _matrices(sys: ct.StateSpace) -> tuple:
+    return tuple(np.array(X, float) for X in (sys.A, sys.B, sys.C, sys.D))
+
+
+def _continuous(value: Any, P: NetworkedStateSpace) -> ct.StateSpace | None:
+    """``continuous=`` checked: a continuous-time plant whose zero-order-hold
+    sampling at ``P.dt`` gives ``P``'s matrices (a copy is kept)."""
+    if value is None:
+        return None
+    if isinstance(value, (tuple, list)) and len(value) == 4:
+        value = ct.ss(*value)
+    if not isinstance(value, ct.StateSpace) or not value.isctime(strict=True):
+        raise ControlArgument(
+            f"continuous: expected the continuous-time control.StateSpace "
+            f"that was sampled, got {value!r}")
+    if P.dt is True:
+        raise ValueError("continuous: the sampled plant needs dt = h > 0")
+    A, B, C, D = _matrices(value)
+    if A.shape != P.A.shape or B.shape != P.B.shape or C.shape != P.C.shape:
+        raise ControlDimension(
+            f"continuous: {A.shape[0]} states, {B.shape[1]} inputs and "
+            f"{C.shape[0]} outputs, the plant has {P.nstates}, {P.ninputs} "
+            f"and {P.noutputs}")
+    n, m = B.shape
+    M = np.zeros((n + m, n + m))
+    M[:n, :n], M[:n, n:] = A, B
+    E = scipy.linalg.expm(M * float(P.dt))[:n]
+    scale = 1.0 + np.abs(E).max()
+    if not (np.allclose(E, np.hstack([P.A, P.B]), rtol=1e-9,
+                        atol=1e-12 * scale)
+            and np.array_equal(C, P.C) and np.array_equal(D, P.D)):
+        raise ValueError(
+            f"continuous: the plant's matrices are not its zero-order-hold "
+            f"sampling at dt = {P.dt}; give continuous=None with new matrices")
+    return ct.ss(A, B, C, D, name=value.name, inputs=value.input_labels,
+                 outputs=value.output_labels, states=value.state_labels)
 
 
 def _count(value: Any, name: str, total: int, what: str) -> int:
@@ -596,6 +653,8 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         if delays is not None:
             kwargs["input_delay"] = _input_delay(cont, continuous, sys.dt,
                                                  delays, kwargs.get("ncon"))
+        if continuous:
+            kwargs.setdefault("continuous", cont)
         kwargs.setdefault("inputs", list(sys.input_labels))
         kwargs.setdefault("outputs", list(sys.output_labels))
         kwargs.setdefault("states", list(sys.state_labels))

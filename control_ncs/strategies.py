@@ -158,16 +158,24 @@ class Layout:
 
 
 class Rows:
-    """Linear expressions in ``[ξ_k; w_k; v_k; w_{k+1}]``: a matrix per
-    quantity, columns in that order (``v`` the controller's output,
-    ``w_{k+1}`` the noise a measurement of the next step carries)."""
+    """Linear expressions in ``[ξ_k; w_k; v_k; w_{k+1}; ω_k]``: a matrix
+    per quantity, columns in that order (``v`` the controller's output,
+    ``w_{k+1}`` the noise a measurement of the next step carries, ``ω_k``
+    a disturbance added to the plant's next state: where the noise of a
+    continuous plant's period goes, :ref:`theory-intersample-cost`)."""
 
-    def __init__(self, layout: Layout, nw: int, nv: int):
+    def __init__(self, layout: Layout, nw: int, nv: int, n: int):
         self.layout, self.nw, self.nv = layout, nw, nv
-        self.width = layout.size + 2 * nw + nv
         self.iw = slice(layout.size, layout.size + nw)
         self.iv = slice(self.iw.stop, self.iw.stop + nv)
-        self.inext = slice(self.iv.stop, self.width)
+        self.inext = slice(self.iv.stop, self.iv.stop + nw)
+        self.iomega = slice(self.inext.stop, self.inext.stop + n)
+        self.width = self.iomega.stop
+
+    def omega(self) -> np.ndarray:
+        out = self.zeros(self.iomega.stop - self.iomega.start)
+        out[:, self.iomega] = np.eye(out.shape[0])
+        return out
 
     def zeros(self, rows: int) -> np.ndarray:
         return np.zeros((rows, self.width))
@@ -240,7 +248,7 @@ class Context:
         """``x_{k+1}`` as rows: ``A x + B1 w + B2 u``, or with a sub-sample
         delay ``τ_c``, ``Φ x + B1 w + Γ0(τ) u + Γ1(τ) u_{k-1}``."""
         P, r = self.P, self.rows
-        step = P.A @ x + P.B1 @ r.noise()
+        step = P.A @ x + P.B1 @ r.noise() + r.omega()
         delay = P.input_delay
         if delay is None:
             return step + P.B2 @ u
@@ -278,12 +286,16 @@ class Context:
 
 @dataclass
 class Mode:
-    """One mode's matrices before the gain, as rows on ``[ξ; w; v; w⁺]``."""
+    """One mode's matrices before the gain, as rows on ``[ξ; w; v; w⁺; ω]``,
+    with the plant state ``x_k`` and the input ``u_k`` it applies (for the
+    cost between the samples of a continuous plant)."""
 
     nxt: dict
     z: np.ndarray
     E: np.ndarray
     Ew: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
 
 
 # -- one function per controller kind ---------------------------------------------
@@ -306,7 +318,7 @@ def _static_mode(ctx: Context, k: int, a: int, b: int, c: int,
         xa = x if a == 0 else r.state(f"x{a}")
         read[a * p2:(a + 1) * p2] = S1 @ ctx.measurement(xa, a)
     L = r.layout.size
-    return Mode(nxt, ctx.output(x, u), read[:, :L], read[:, r.iw])
+    return Mode(nxt, ctx.output(x, u), read[:, :L], read[:, r.iw], x, u)
 
 
 def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int,
@@ -339,7 +351,7 @@ def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int,
     E = np.vstack([Hs.T @ r.state("y_rcv"), r.state("xc")])
     L = r.layout.size
     return Mode(nxt, ctx.output(x, u), E[:, :L],
-                np.zeros((p2 + nc, P.B1.shape[1])))
+                np.zeros((p2 + nc, P.B1.shape[1])), x, u)
 
 
 def _model_mode(ctx: Context, k: int, a: int, b: int, c: int,
@@ -380,7 +392,7 @@ def _model_mode(ctx: Context, k: int, a: int, b: int, c: int,
         E = np.vstack([E, ctx.H.T @ r.state("u_prev")])
     nX = r.layout.size
     return Mode(nxt, ctx.output(x, u), E[:, :nX],
-                np.zeros((E.shape[0], P.B1.shape[1])))
+                np.zeros((E.shape[0], P.B1.shape[1])), x, u)
 
 
 def _heard(S1: np.ndarray) -> np.ndarray:
@@ -549,7 +561,7 @@ def _plan(P: Any, controller: Any, actuator: Any, period: Any, sensor: Any,
     L = opts.get("L")
     if controller == "predictor":
         L = np.eye(n)[None]
-    ctx = Context(P, N, Rows(layout, m1, nv), Ds, Da, Dw, H, hold,
+    ctx = Context(P, N, Rows(layout, m1, nv, n), Ds, Da, Dw, H, hold,
                   S1, S2, L, sensor_hold=sensor == "hold")
     return ctx, net, opts
 
@@ -561,8 +573,9 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
     layout = r.layout
     mode = MODE_BUILDERS[controller]
     M = net.count
-    fields: dict[str, list] = {f: [] for f in ("A", "Bu", "Bw", "Cz", "Du", "Dw", "E", "Ew",
-                              "Gnext")}
+    fields: dict[str, list] = {f: [] for f in (
+        "A", "Bu", "Bw", "Cz", "Du", "Dw", "E", "Ew", "Gnext", "x", "u",
+        "u_w", "u_v", "u_prev", "omega")}
     cache: dict = {}
     for k in range(N):
         for i in range(M):
@@ -572,7 +585,7 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
             key = _phase_key(ctx, controller, k, (a, b, c, a_prev))
             if key not in cache:
                 cache[key] = _assemble(mode(ctx, k, a, b, c, a_prev), layout,
-                                       r)
+                                       r, ctx.previous_input())
             for f, value in cache[key].items():
                 fields[f].append(value)
     arr = {f: np.array(v).reshape((N, M) + v[0].shape)
@@ -588,6 +601,7 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
         Gw = np.roll(arr["Gnext"], 1, axis=0)
     if not np.any(Ew):
         Ew = None
+    sampling = None if P.continuous is None else _sampling(P, net, arr)
     description = _description(P, net)
     if controller == "lti":
         description["sensor"] = "hold" if ctx.sensor_hold else "zero"
@@ -598,7 +612,22 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
         name=P.name, controller=controller, actuator=actuator,
         observed=None if T is None else net.observed(),
         estimator_gain=options.get("L"), Ew=Ew, Gw=Gw,
-        description=description)
+        description=description, sampling=sampling)
+
+
+def _sampling(P: NetworkedStateSpace, net: Network, arr: dict) -> dict:
+    """What the cost between the samples needs of the open loop
+    (:mod:`control_ncs.intersample`'s record, before the gain): per phase
+    and mode the rows of ``x_k``, of ``u_k`` on the state, the noise and
+    the command, of ``u_{k-1}``, where ``ω_k`` enters, and the delay."""
+    sys: Any = P.continuous
+    taus = (np.zeros(1) if P.input_delay is None
+            else np.asarray(P.input_delay.taus, float))
+    return dict(h=float(P.dt), plant=tuple(np.array(X, float) for X in (
+        sys.A, sys.B, sys.C, sys.D)), nmeas=P.nmeas, ncon=P.ncon,
+        x=arr["x"], u=arr["u"], u_w=arr["u_w"], u_v=arr["u_v"],
+        u_prev=arr["u_prev"], omega=arr["omega"],
+        tau=taus[net.emissions[:, :, 2]])
 
 
 def _phase_key(ctx: Context, controller: str, k: int, emissions: tuple
@@ -617,15 +646,20 @@ def _phase_key(ctx: Context, controller: str, k: int, emissions: tuple
     return (a, b, c, a_prev, *rows)
 
 
-def _assemble(m: Mode, layout: Layout, r: Rows) -> dict:
-    """A mode's rows as the JumpPlant's matrices."""
+def _assemble(m: Mode, layout: Layout, r: Rows, u_prev: np.ndarray
+              ) -> dict:
+    """A mode's rows as the JumpPlant's matrices, and its sampling rows:
+    ``x_k``, ``u_k`` (on ``ξ``, ``w`` and the command), ``u_{k-1}`` and
+    where ``ω_k`` enters ``ξ_{k+1}``."""
     nX = layout.size
     nxt = np.zeros((nX, r.width))
     for name, rows in m.nxt.items():
         nxt[layout.slices[name]] = rows
     return dict(A=nxt[:, :nX], Bw=nxt[:, r.iw], Bu=nxt[:, r.iv],
                 Gnext=nxt[:, r.inext], Cz=m.z[:, :nX], Dw=m.z[:, r.iw],
-                Du=m.z[:, r.iv], E=m.E, Ew=m.Ew)
+                Du=m.z[:, r.iv], E=m.E, Ew=m.Ew, x=m.x[:, :nX],
+                u=m.u[:, :nX], u_w=m.u[:, r.iw], u_v=m.u[:, r.iv],
+                u_prev=u_prev[:, :nX], omega=nxt[:, r.iomega])
 
 
 def _per_phase_reading(E: np.ndarray, Ew: np.ndarray, Bu: np.ndarray,
