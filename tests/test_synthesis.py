@@ -19,7 +19,8 @@ from hypothesis import given, settings, strategies as st
 
 import control_ncs
 from control_ncs import SynthesisError, feedback, ispassive, nss, passivesyn
-from control_ncs import _synthesis_routes, lmi
+from control_ncs import lmi
+from control_ncs.synthesis import _routes as _synthesis_routes
 
 from helpers import kron_ms_radius
 

@@ -13,12 +13,12 @@ from typing import Any
 
 import numpy as np
 
-from .gain import PeriodicGain
-from .openloop import JumpPlant
-from .lmi import (SolveReport)
-from ._results import Result
-from .exceptions import (CERTIFIED, CERTIFIED_SHORTAGE, MESSAGES)
-from .verify import (Certificate)
+from ..gain import PeriodicGain
+from ..openloop import JumpPlant
+from ..lmi import (SolveReport)
+from .._results import Result
+from ..exceptions import (CERTIFIED, CERTIFIED_SHORTAGE, MESSAGES)
+from ..verify import (Certificate)
 
 
 #: What helps a design whose certified level is negative (see

@@ -18,22 +18,23 @@ from typing import Any
 import numpy as np
 from control.exception import ControlDimension
 
-from ._checks import (positive_int, positive_real)
-from .jump import JumpStateSpace
-from .stability import ms_radius
-from .openloop import JumpPlant
-from .driver import RETRIES, drive
-from .lmi import (SolveReport, balancing_scale,
+from .._checks import (positive_int, positive_real)
+from ..jump import JumpStateSpace
+from ..stability import ms_radius
+from ..openloop import JumpPlant
+from ..driver import RETRIES, drive
+from ..lmi import (SolveReport, balancing_scale,
                   data_scale, gain_kinds,
                   read_gains, solve, synthesis_model)
-from .refine import _refine, autonomous_rate
-from .riccati import riccati_synthesis
-from .exceptions import (INFEASIBLE, NOT_FOUND,
+from ._local import autonomous_rate
+from .refine import _refine
+from ..riccati import riccati_synthesis
+from ..exceptions import (INFEASIBLE, NOT_FOUND,
                          NOT_VERIFIED, SOLVER_FAILED, SUFFICIENT_FAILED,
                          TIME_LIMIT, SynthesisError)
-from .verify import (certify_index, check_certificate,
+from ..verify import (certify_index, check_certificate,
                      feedthrough_bound)
-from ._synthesis_result import _finish
+from ._result import _finish
 
 
 #: A maximised η below -ETA_FLOOR × the data's scale is a solver failure:

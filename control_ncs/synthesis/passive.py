@@ -24,20 +24,20 @@ from typing import Any
 
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import (caller_stacklevel, choice, decay_bound, finite_real,
+from .._checks import (caller_stacklevel, choice, decay_bound, finite_real,
                       positive_real, real_array)
-from .stability import ms_radius
-from .gain import PeriodicGain, actuators, controllers
-from .jump import JumpStateSpace
-from .openloop import JumpPlant
-from .lmi import (DEFAULT_MARGIN, GAINS, check_options, check_solver, gain_kinds)
-from .plant import NetworkedStateSpace
-from .strategies import build, require_state_measured
-from .exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
-from .verify import (level_floor)
-from ._lifting import unseen_modes
-from ._synthesis_result import _SHORTAGE_HELP, SynthesisResult
-from ._synthesis_routes import (_feedthrough, _open_loop_bound, _plant_arrays,
+from ..stability import ms_radius
+from ..gain import PeriodicGain, actuators, controllers
+from ..jump import JumpStateSpace
+from ..openloop import JumpPlant
+from ..lmi import (DEFAULT_MARGIN, GAINS, check_options, check_solver, gain_kinds)
+from ..plant import NetworkedStateSpace
+from ..strategies import build, require_state_measured
+from ..exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
+from ..verify import (level_floor)
+from .._lifting import unseen_modes
+from ._result import _SHORTAGE_HELP, SynthesisResult
+from ._routes import (_feedthrough, _open_loop_bound, _plant_arrays,
                                 _refine_route, _riccati_options, _routes)
 
 
@@ -567,7 +567,7 @@ def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
     modes, a given ``L`` whose error loop alone is too slow). Over bursty
     links the estimator gain and the error loop are those of the Markov
     sensor chain, and the loop is built on the joint chain of both links."""
-    from .estimator import (EstimatorGain, estimation_error_loop,
+    from ..estimator import (EstimatorGain, estimation_error_loop,
                             estimator_gain)
     r = decay_bound(decay)
     N = P.period

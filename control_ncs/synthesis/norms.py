@@ -23,22 +23,22 @@ from typing import Any, ClassVar
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import choice, positive_real
-from ._h2_design import H2Objective, local_h2
-from ._hinf_design import GainObjective
-from .refine import _bfgs
-from ._results import CertifiedResult
-from .exceptions import (NOT_FOUND, NOT_MSS, SOLVER_FAILED,
+from .._checks import choice, positive_real
+from ._h2 import H2Objective, local_h2
+from ._hinf import GainObjective
+from ._local import bfgs
+from .._results import CertifiedResult
+from ..exceptions import (NOT_FOUND, NOT_MSS, SOLVER_FAILED,
                          CertificationError, SynthesisError)
-from .gain import PeriodicGain, actuators
-from .jump import JumpStateSpace
-from .lmi import (DEFAULT_MARGIN, check_options, check_solver, gain_kinds,
+from ..gain import PeriodicGain, actuators
+from ..jump import JumpStateSpace
+from ..lmi import (DEFAULT_MARGIN, check_options, check_solver, gain_kinds,
                   h2_model, hinf_model, solve)
-from .performance import GainResult, l2_gain, norm
-from .plant import NetworkedStateSpace
-from .stability import ms_radius
-from .strategies import build
-from ._synthesis_routes import _open_loop_bound
+from ..performance import GainResult, l2_gain, norm
+from ..plant import NetworkedStateSpace
+from ..stability import ms_radius
+from ..strategies import build
+from ._routes import _open_loop_bound
 
 __all__ = ["h2syn", "H2Result", "hinfsyn"]
 
@@ -369,7 +369,7 @@ def _local_h2syn(P: NetworkedStateSpace, controller: str, actuator: str,
                  estimator_gain: Any, initial_gain: Any,
                  time_limit: float | None
                  ) -> tuple[PeriodicGain, JumpStateSpace, float]:
-    """h2syn's local search (:mod:`control_ncs._h2_design`) on a structured
+    """h2syn's local search (:mod:`control_ncs.synthesis._h2`) on a structured
     loop; the figure is the exact norm of the loop it returns."""
     K, CL, rate, _ = _local_design(P, controller, actuator, estimator_gain,
                                    initial_gain, time_limit, "h2syn")
@@ -383,7 +383,7 @@ def _local_design(P: NetworkedStateSpace, controller: str, actuator: str,
                   time_limit: float | None, who: str) -> tuple:
     """The structured loop's local search: on the exact H2 norm, and for
     ``who='hinfsyn'`` then on the bounded real lemma's optimum
-    (:mod:`control_ncs._hinf_design`) from there. Returns ``(K, CL,
+    (:mod:`control_ncs.synthesis._hinf`) from there. Returns ``(K, CL,
     ms_radius, gamma_result)`` (the last for hinfsyn: the certified bound
     of the better of the two loops, else None)."""
     deadline = None if time_limit is None else \
@@ -407,7 +407,7 @@ def _local_design(P: NetworkedStateSpace, controller: str, actuator: str,
         candidates = [x]
         if deadline is None or time.perf_counter() < deadline:
             gain = GainObjective(loop, *mats)
-            x2, _, _, _ = _bfgs(gain.value, x, -math.inf, deadline,
+            x2, _, _, _ = bfgs(gain.value, x, -math.inf, deadline,
                                 HINF_ITERATIONS)
             candidates.append(x2)
         best = None
@@ -445,8 +445,8 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
     closing and its starts: the full-information design
     restricted to what the gain sees, the mean-square LQ gain restricted,
     and zero."""
-    from .estimator import estimator_gain as default_estimator
-    from .refine import _Loop, _lq_gain, _projected, _restrict
+    from ..estimator import estimator_gain as default_estimator
+    from ._local import Loop, lq_gain, projected, restrict
     L = None
     if controller == "estimator":
         L = estimator_gain if estimator_gain is not None else \
@@ -462,13 +462,13 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
             f"controller={controller!r} the noise arrives with the next "
             f"step: design for D21 = 0 and analyse the loop with the noise, "
             f"feedback(P, K, controller={controller!r})")
-    loop = _Loop(plant, plant.probabilities, plant.transition)
+    loop = Loop(plant, plant.probabilities, plant.transition)
     mats = (plant.Cz, plant.Du, plant.Bw, plant.Dw, plant.probabilities,
             plant.readings()[1])
-    G = _lq_gain(plant, plant.probabilities)
-    projected = _projected(plant, loop, G)
-    starts = ([] if projected is None else [projected]) + [
-        _restrict(loop, G), np.zeros(loop.free.size)]
+    G = lq_gain(plant, plant.probabilities)
+    near = projected(plant, loop, G)
+    starts = ([] if near is None else [near]) + [
+        restrict(loop, G), np.zeros(loop.free.size)]
     if controller == "static" and plant.shape["nx"] == P.nstates and \
             not P.shared_channel and np.array_equal(P.C2, np.eye(P.nstates)):
         # the exact design with every sensor sending, if that is exact
@@ -478,7 +478,7 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
             try:
                 K0 = h2syn(full)[0].gains
                 if K0.ndim == 3 and K0.shape[0] == plant.period:
-                    starts.insert(0, _restrict(loop, K0))
+                    starts.insert(0, restrict(loop, K0))
             except SynthesisError:
                 pass
     return mats, loop, plant.gain_shape(), plant.close, starts, L
