@@ -682,8 +682,8 @@ def test_synthesis_result_has_verdict_status_message_and_a_one_line_repr(
     assert res.verdict is True and res.status == "certified"
     assert "certified" in res.message
     text = repr(res)
-    assert "\n" not in text and text.startswith("<SynthesisResult: certified")
-    assert f"period = {K.period}" in text and "method = " in text
+    assert "\n" not in text and text.startswith("<DesignResult: certified")
+    assert f"period = {K.period}" in text and "route = " in text
     assert res.certificate.summary().splitlines()[0] in res.summary()
 
 

@@ -36,12 +36,12 @@ from ..strategies import build, require_state_measured
 from ..exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
 from ..verify import (level_floor)
 from .._lifting import unseen_modes
-from ._result import _SHORTAGE_HELP, SynthesisResult
+from ._result import SHORTAGE_HELP, DesignResult
 from ._routes import (_feedthrough, _open_loop_bound, _plant_arrays,
                                 _refine_route, _riccati_options, _routes)
 
 
-__all__ = ["passivesyn", "SynthesisResult"]
+__all__ = ["passivesyn", "DesignResult"]
 
 
 #: Default time budget of :func:`passivesyn`, seconds.
@@ -252,7 +252,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``K.gains`` has shape ``(N, m2, nk)``, or ``(N, M, m2, nk)`` for
         gains on the previous mode (Markov links, ``gain='mode'``), applied
         as ``u = K_k ŷ`` (no minus sign); ``K.result`` is the
-        :class:`SynthesisResult`.
+        :class:`DesignResult`.
     CL : JumpStateSpace
         The closed loop ``w → z``; ``CL.info['synthesis']`` is the result.
     eta : float
@@ -509,16 +509,16 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             # are, and a phase gain of the LMI is its first start
             # a given start replaces the sufficient LMI's gain (a sweep has
             # solved that LMI already)
-            K, CL, got = _refine_route(plant, eta, decay, deadline, None if
+            design = _refine_route(plant, eta, decay, deadline, None if
                 initial_gain is not None else dict(
                     margin=margin, structure=structure,
                     structure0=structure0, form=form, solver=solver,
                     solver_options=solver_options, riccati=riccati,
                     gain=gain), initial_gain)
         else:
-            K, CL, got = _routes(plant, eta, decay, margin, structure,
-                                 structure0, form, solver, solver_options,
-                                 deadline, riccati, gain)
+            design = _routes(plant, eta, decay, margin, structure,
+                             structure0, form, solver, solver_options,
+                             deadline, riccati, gain)
     except SynthesisError as err:
         if requested == eta or err.reason != INFEASIBLE:
             raise
@@ -538,26 +538,28 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ) from crash
     if requested != eta:
         # Θ(η) ≼ Θ(η0) for η ≤ η0: the certificate at η0 proves η exactly
-        K.result.eta = K.result.eta_solver = got = float(requested)
+        design = design.with_fields(value=float(requested),
+                                    solver_value=float(requested))
     hidden = [k for k, kind in enumerate(kinds) if kind == "phase"]
-    if gain == "mode" and hidden and K.gains.ndim == 4:
+    if gain == "mode" and hidden and design.gains.ndim == 4:
         # gain='mode' kept K_{k,ℓ} where ℓ is observed; say where it is not
         note = "; ".join(filter(None, [note, (
             f"phases {hidden}: a link idle the step before hides part of the "
             "previous mode, so one gain serves every previous mode there "
             "(sufficient, theory: Markov losses)")]))
-    if note:
-        K.result.note = note
-    K.result.exact = bool(exact and K.result.method == "lmi"
-                          and K.result.structure == "full")
+    f = design.fields
+    design = design.with_fields(note=note, exact=bool(
+        exact and f["method"] in ("lmi", "riccati")
+        and f["structure"] == "full"))
+    got = design.value
     if requested is None and got < 0.0:
         # the best certified level is a shortage: true, but not passivity
         warnings.warn(NotPassiveWarning(
             f"passivesyn: the certified level eta = {got:.6g} is negative: "
             f"the loop is mean-square stable and dissipative with an "
-            f"input-feedforward shortage, not passive; {_SHORTAGE_HELP}"),
+            f"input-feedforward shortage, not passive; {SHORTAGE_HELP}"),
             stacklevel=caller_stacklevel())
-    return K, CL, got
+    return design.finish()
 
 
 def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
