@@ -178,37 +178,174 @@ class RefineResult(Result):
 
 
 # -- the driver -----------------------------------------------------------------
-def _refine(plant: JumpPlant, eta: float | None, decay: float,
-            given: np.ndarray | None, rng: np.random.Generator,
-            deadline: float | None, max_iterations: int) -> RefineResult:
-    """Stages 1 and 2 on checked arguments."""
-    began = time.perf_counter()
-    loop = Loop(plant, plant.probabilities, plant.transition)
-    bound = min(1.0, decay ** 2)
-    target = math.log(TARGET_FRACTION * bound)
-    edge = math.log(bound)
-    iterations = 0
-    tried: list[tuple] = []
+class _Search:
+    """The two stages (module docstring) on checked arguments, with what
+    they measured on the way."""
 
-    def out_of_time():
-        return deadline is not None and time.perf_counter() > deadline
+    def __init__(self, plant: JumpPlant, eta: float | None, decay: float,
+                 rng: np.random.Generator, deadline: float | None,
+                 max_iterations: int):
+        self.plant, self.eta, self.decay = plant, eta, decay
+        self.rng, self.deadline = rng, deadline
+        self.max_iterations = max_iterations
+        self.loop = Loop(plant, plant.probabilities, plant.transition)
+        bound = min(1.0, decay ** 2)
+        self.bound = bound
+        self.target = math.log(TARGET_FRACTION * bound)
+        self.edge = math.log(bound)
+        self.iterations = 0
+        self.tried: list[tuple] = []
+        self.certified: dict = {}
+        self.stopped = "converged"
+        self.ends: list[tuple] = []     # (f, x, start, f at the start)
 
-    certified: dict = {}
+    def out_of_time(self) -> bool:
+        return self.deadline is not None and \
+            time.perf_counter() > self.deadline
 
-    def settled(f, x):
+    def certificate(self, x: np.ndarray) -> Any:
+        """The analysis certificate of the gain ``x`` at ``eta`` (cached)."""
+        key = x.tobytes()
+        if key not in self.certified:
+            self.certified[key] = certificate_of(
+                self.plant.close(self.loop.gains(x)), self.eta, self.decay)
+        return self.certified[key]
+
+    def settled(self, f: float, x: np.ndarray) -> bool:
         """At the target rate, or (a level given) already certified there:
         further starts are not needed."""
-        if f <= target:
+        if f <= self.target:
             return True
-        if eta is None or not f < edge:
+        if self.eta is None or not f < self.edge:
             return False
-        key = x.tobytes()
-        if key not in certified:
-            certified[key] = certificate_of(plant.close(loop.gains(x)), eta,
-                                       decay)
-        return certified[key] is not None
+        return self.certificate(x) is not None
 
-    # starting points, best (lowest rate) first
+    def descend(self, rate: Any, x: np.ndarray, target: float
+                ) -> tuple[np.ndarray, float]:
+        x, f, its, why = bfgs(rate, x, target, self.deadline,
+                              self.max_iterations)
+        self.iterations += its
+        if why == TIME_LIMIT:
+            self.stopped = TIME_LIMIT
+        return x, f
+
+    def end(self, name: str, x: np.ndarray, f: float, f0: float) -> None:
+        self.tried.append((name, math.exp(f0), math.exp(f)))
+        self.ends.append((f, x, name, f0))
+
+    def best(self) -> tuple:
+        return min(self.ends, key=lambda e: e[0])
+
+    def stage1(self, starts: list[tuple[str, np.ndarray]]) -> None:
+        """Stage 1 from every start, lowest rate first, then a
+        continuation in the loss and seeded restarts until one settles."""
+        loop = self.loop
+        scored = sorted(((loop.rate(x)[0], j, name, x)
+                         for j, (name, x) in enumerate(starts)),
+                        key=lambda s: (s[0], s[1]))
+        for f0, _, name, x in scored:
+            if self.out_of_time():
+                self.stopped = TIME_LIMIT
+                break
+            x, f = self.descend(loop.rate, x, self.target)
+            self.end(name, x, f, f0)
+            if self.stopped == TIME_LIMIT or self.settled(f, x):
+                break
+        if not self.ends:
+            f0, _, name, x = scored[0]
+            self.end(name, x, f0, f0)
+        best = self.best()
+        if not self.settled(best[0], best[1]) and not self.out_of_time() \
+                and self.plant.nominal is not None:
+            self._continuation(dict(starts)[best[2]] if best[2] in
+                               dict(starts) else best[1])
+        self._restarts()
+
+    def _continuation(self, x: np.ndarray) -> None:
+        """Modes interpolated from the loss-free ones to the plant's, each
+        level started from the last."""
+        f0 = self.loop.rate(x)[0]
+        for t in CONTINUATION:
+            level = Loop(self.plant, *continued(self.plant, t))
+            x, _ = self.descend(level.rate, x,
+                                self.target if t == 1.0 else -np.inf)
+            self.loop.evaluations += level.evaluations
+            if self.stopped == TIME_LIMIT:
+                break
+        self.end("continuation", x, self.loop.rate(x)[0], f0)
+
+    def _restarts(self) -> None:
+        for restart in range(RESTARTS):
+            best = self.best()
+            if self.settled(best[0], best[1]) or self.out_of_time():
+                break
+            scale = max(1.0, float(np.abs(best[1]).max(initial=0.0)))
+            spread = RESTART_SCALES[restart % len(RESTART_SCALES)]
+            x = best[1] + spread * scale * self.rng.standard_normal(
+                best[1].size)
+            f0 = self.loop.rate(x)[0]
+            x, f = self.descend(self.loop.rate, x, self.target)
+            self.end("restart", x, f, f0)
+
+    def stage2(self) -> tuple:
+        """Certify every mean-square stable end of stage 1 (the lowest
+        rate first) and climb the certified level from each; the best
+        certified gain wins, and the search stops at a level asked for.
+        Returns ``(K, certificate, η at its start, end)``."""
+        loop, eta = self.loop, self.eta
+        found: tuple | None = None
+        for end in sorted(self.ends, key=lambda e: e[0]):
+            f, x = end[0], end[1]
+            if not f < self.edge or (found is not None and
+                                     self.out_of_time()):
+                continue
+            cert = self.certificate(x)
+            before = float(cert.eta) if cert is not None else float("nan")
+            K, cert = self._climb(loop.gains(x), cert)
+            if cert is not None and cert.verified and (
+                    found is None or cert.eta > found[1].eta):
+                found = (K, cert, before, end)
+            if found is not None and (eta is not None or self.out_of_time()):
+                break
+        if found is None:
+            best = self.best()
+            cert = self.certificate(best[1]) if best[0] < self.edge else None
+            return (loop.gains(best[1]), cert, float("nan") if cert is None
+                    else float(cert.eta), best)
+        return found
+
+    def _climb(self, K: np.ndarray, cert: Any) -> tuple:
+        """Stage 2 from one stable gain: the analysis LMI's optimum η*(K)
+        by its envelope gradient (i.i.d. modes), the certified level itself
+        derivative-free (Markov modes)."""
+        eta, loop, plant = self.eta, self.loop, self.plant
+        if not (cert is None or eta is None) or self.out_of_time():
+            return K, cert
+        if not plant.is_iid:
+            return certified_search(plant, loop, K, cert, eta, self.decay,
+                                    self.deadline)
+        index = IndexObjective(plant, loop, self.decay)
+        x0 = K.flat[loop.free].copy()
+        goal = -np.inf if eta is None else -(eta + ETA_STEP * max(
+            1.0, abs(eta)))
+        x2, _, its, why = bfgs(index.value, x0, goal, self.deadline,
+                               min(self.max_iterations, STAGE2_ITERATIONS))
+        self.iterations += its
+        loop.evaluations += index.evaluations
+        if why == TIME_LIMIT:
+            self.stopped = TIME_LIMIT
+        if not np.array_equal(x2, x0):
+            K2 = loop.gains(x2)
+            cert2 = certificate_of(plant.close(K2), eta, self.decay)
+            if cert2 is not None and (cert is None or cert2.eta > cert.eta):
+                return K2, cert2
+        return K, cert
+
+
+def _starts(plant: JumpPlant, loop: Loop, given: np.ndarray | None
+            ) -> list[tuple[str, np.ndarray]]:
+    """Stage 1's starting points: a given gain, the full-information LQ
+    gain projected on what the gain reads and restricted to it, zero."""
     starts = []
     if given is not None:
         starts.append(("given", given.flat[loop.free].copy()))
@@ -218,119 +355,47 @@ def _refine(plant: JumpPlant, eta: float | None, decay: float,
         starts.append(("projected", near))
     starts.append(("full", restrict(loop, G)))
     starts.append(("zero", np.zeros(loop.free.size)))
-    scored = sorted(((loop.rate(x)[0], j, name, x)
-                     for j, (name, x) in enumerate(starts)),
-                    key=lambda s: (s[0], s[1]))
-    best = None            # (f, x, start, f at start)
-    stopped = "converged"
-    for f0, _, name, x in scored:
-        if out_of_time():
-            stopped = TIME_LIMIT
-            break
-        x, f, its, why = bfgs(loop.rate, x, target, deadline,
-                               max_iterations)
-        iterations += its
-        tried.append((name, math.exp(f0), math.exp(f)))
-        if best is None or f < best[0]:
-            best = (f, x, name, f0)
-        if why == TIME_LIMIT:
-            stopped = TIME_LIMIT
-        if why == TIME_LIMIT or settled(f, x):
-            break
-    if best is None:
-        f0, _, name, x = scored[0]
-        best = (f0, x, name, f0)
-    if (not settled(best[0], best[1]) and plant.nominal is not None
-            and not out_of_time()):
-        # continuation in the loss probability from the best start
-        x = starts[[s[0] for s in starts].index(best[2])][1]
-        f0 = loop.rate(x)[0]
-        for t in CONTINUATION:
-            level = Loop(plant, *continued(plant, t))
-            x, f, its, why = bfgs(level.rate, x,
-                                   target if t == 1.0 else -np.inf,
-                                   deadline, max_iterations)
-            iterations += its
-            loop.evaluations += level.evaluations
-            if why == TIME_LIMIT:
-                stopped = TIME_LIMIT
-                break
-        f = loop.rate(x)[0]
-        tried.append(("continuation", math.exp(f0), math.exp(f)))
-        if f < best[0]:
-            best = (f, x, "continuation", f0)
-    for restart in range(RESTARTS):
-        if settled(best[0], best[1]) or out_of_time():
-            break
-        scale = max(1.0, float(np.abs(best[1]).max(initial=0.0)))
-        spread = RESTART_SCALES[restart % len(RESTART_SCALES)]
-        x = best[1] + spread * scale * rng.standard_normal(best[1].size)
-        f0 = loop.rate(x)[0]
-        x, f, its, why = bfgs(loop.rate, x, target, deadline,
-                               max_iterations)
-        iterations += its
-        tried.append(("restart", math.exp(f0), math.exp(f)))
-        if f < best[0]:
-            best = (f, x, "restart", f0)
-    f, x, start, f0 = best
-    K = loop.gains(x)
+    return starts
 
-    def result(K, cert, eta_before, stopped, message):
-        rate = exact_ms_radius(plant.close(K))
+
+def _refine(plant: JumpPlant, eta: float | None, decay: float,
+            given: np.ndarray | None, rng: np.random.Generator,
+            deadline: float | None, max_iterations: int) -> RefineResult:
+    """Stages 1 and 2 on checked arguments, as a :class:`RefineResult`."""
+    began = time.perf_counter()
+    search = _Search(plant, eta, decay, rng, deadline, max_iterations)
+    search.stage1(_starts(plant, search.loop, given))
+    K, cert, eta_before, (f, x, start, f0) = search.stage2()
+    stopped = search.stopped
+
+    def result(cert: Any, stopped: str, message: str) -> RefineResult:
         ok = cert is not None and cert.verified
         return RefineResult(
-            K, ok, cert, float(cert.eta) if ok else float("nan"), rate,
-            start, math.exp(f0), eta_before, iterations, loop.evaluations,
-            stopped, message, tried, time.perf_counter() - began)
+            K, ok, cert, float(cert.eta) if ok else float("nan"),
+            exact_ms_radius(plant.close(K)), start, math.exp(f0),
+            eta_before, search.iterations, search.loop.evaluations, stopped,
+            message, search.tried, time.perf_counter() - began)
 
-    if not f < edge:
+    if not f < search.edge:
         why = ("the time limit was reached" if stopped == TIME_LIMIT else
                "the local search converged")
-        return result(K, None, float("nan"), stopped,
+        return result(None, stopped,
                       f"refinement found no mean-square stabilising gain: "
                       f"{why} at ms_radius {math.exp(f):.6g} >= "
-                      f"{bound:.6g} (a local method: nothing is proven)")
-    cert = certified.get(x.tobytes()) if x.tobytes() in certified \
-        else certificate_of(plant.close(K), eta, decay)
-    eta_before = float(cert.eta) if cert is not None else float("nan")
-    if (cert is None or eta is None) and plant.is_iid and not out_of_time():
-        # stage 2: the certified η of a fixed gain is the analysis LMI's;
-        # climb its optimum η*(K) (the LMI of theory: passivity is written for
-        # i.i.d. modes: Markov loops keep the stage-1 gain)
-        index = IndexObjective(plant, loop, decay)
-        x0 = K.flat[loop.free].copy()
-        goal = -np.inf if eta is None else -(eta + ETA_STEP * max(
-            1.0, abs(eta)))
-        x2, _, its, why = bfgs(index.value, x0, goal, deadline,
-                                min(max_iterations, STAGE2_ITERATIONS))
-        iterations += its
-        loop.evaluations += index.evaluations
-        if why == TIME_LIMIT:
-            stopped = TIME_LIMIT
-        if not np.array_equal(x2, x0):
-            K2 = loop.gains(x2)
-            cert2 = certificate_of(plant.close(K2), eta, decay)
-            if cert2 is not None and (cert is None or cert2.eta > cert.eta):
-                K, cert = K2, cert2
-    elif (cert is None or eta is None) and not out_of_time():
-        # Markov modes: the gradient above is written for i.i.d. modes; a
-        # derivative-free search on the certified η itself, keeping the best
-        # certified loop it meets
-        K, cert = certified_search(plant, loop, K, cert, eta, decay,
-                                    deadline)
+                      f"{search.bound:.6g} (a local method: nothing is "
+                      f"proven)")
     if cert is not None and cert.verified:
-        if stopped != TIME_LIMIT:
-            stopped = CERTIFIED
+        stopped = TIME_LIMIT if stopped == TIME_LIMIT else CERTIFIED
         what = ("certified" if stopped == CERTIFIED else
                 "certified before the time limit stopped the refinement")
-        return result(K, cert, eta_before, stopped,
+        return result(cert, stopped,
                       f"refinement {what}: eta = {cert.eta:.6g}, ms_radius "
                       f"{math.exp(f0):.6g} at the start ({start}) -> "
                       f"{cert.ms_radius:.6g}")
-    why = ("the time limit was reached" if stopped == TIME_LIMIT or
-           out_of_time() else "no certificate was found")
-    return result(K, None, eta_before,
-                  TIME_LIMIT if out_of_time() else stopped,
+    out = search.out_of_time()
+    why = ("the time limit was reached" if stopped == TIME_LIMIT or out
+           else "no certificate was found")
+    return result(None, TIME_LIMIT if out else stopped,
                   f"refinement reached ms_radius {math.exp(f):.6g} but "
                   f"{why} at eta = {eta} (a local method: nothing is "
                   f"proven)")
