@@ -1,0 +1,222 @@
+"""The certified Perron root of a map that keeps the PSD cone.
+
+(:ref:`theory-mss`.) A linear map ``𝒯`` on ``M``-tuples of symmetric
+``n × n`` matrices that maps positive semidefinite tuples to positive
+semidefinite tuples (the second-moment operator of a jump system) has its
+spectral radius ``ρ`` as an eigenvalue with a PSD eigenvector (Krein–Rutman).
+For ``μ > ρ`` its resolvent ``(μ - 𝒯)⁻¹ = Σ_k 𝒯ᵏ / μᵏ⁺¹`` maps the cone
+into itself. One linear solve at ``μ`` therefore decides on which side of
+``μ`` the radius lies, whatever the accuracy of the solve:
+
+* ``X ≻ 0`` and ``F = μX - 𝒯(X) ≻ 0``: then ``𝒯(X) ≺ μX``, a
+  Collatz–Wielandt certificate, and ``ρ < μ``;
+* ``F = μX - 𝒯(X) ⪰ 0`` and ``X`` not PSD: ``X`` is the solution of
+  ``(μ - 𝒯)X = F``, which for ``μ > ρ`` would be PSD, so ``ρ ≥ μ``.
+
+``F`` is recomputed from the ``X`` at hand with the exact map (matrix
+products of the data, not the solver's matrix), and each sign is claimed
+only beyond a bound on the rounding errors of that computation. The solve
+(``X ≈ (μ - 𝒯)⁻¹ I``, a shifted inverse-iteration step from ``I``, so
+``X`` leans on the Perron eigenvector and stays positive definite) is only
+asked to make ``F`` close enough to ``I``. A search (:func:`certify`) sets
+such probes just above and just below an estimate of ``ρ`` and moves the
+estimate when a probe disproves it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+__all__: list[str] = []
+
+#: Relative half-width the search aims for around the radius.
+RADIUS_RTOL = 1e-12
+
+#: Probes at most per bracket (two suffice when the estimate is right).
+MAX_PROBES = 40
+
+_EPS = np.finfo(float).eps
+
+
+def rounding(M: np.ndarray) -> float:
+    """Rounding bound of a symmetric eigenvalue computation of ``M``
+    (backward stable: ``16·n·eps·‖M‖₂``), as in :mod:`control_ncs.verify`."""
+    return 16 * M.shape[-1] * _EPS * max(float(np.linalg.norm(M, 2)), 1e-300)
+
+
+@dataclass(frozen=True)
+class Probe:
+    """What one solve at ``mu`` proved.
+
+    ``side``: ``'below'`` (``ρ < μ``, ``X ≻ 0`` is the certificate),
+    ``'above'`` (``ρ ≥ μ``) or None (the solve was not accurate enough to
+    decide). ``quotient``: ``μ - <X, F> / <X, X>``, an estimate of the
+    eigenvalue nearest ``μ`` (nan when undecided); ``pole``:
+    ``1 / Σ_j tr X_j``, whose root is ``ρ`` when the Perron term dominates. ``excess``: the rounding
+    bound over ``λmin(F)`` (a probe needs it below 1; it scales like
+    ``1/|μ - ρ|``), inf when ``F`` is not even positive as computed.
+    """
+
+    mu: float
+    side: str | None
+    X: np.ndarray
+    quotient: float
+    excess: float = math.inf
+    pole: float = math.nan
+
+
+def probe(apply: Callable[[np.ndarray], tuple[np.ndarray, float]],
+          X: np.ndarray, mu: float) -> Probe:
+    """Decide the side of ``mu`` from an approximate solution ``X``.
+
+    ``X``: shape (M, n, n), symmetrised here. ``apply(X)`` returns
+    ``𝒯(X)`` and a bound on the spectral norm of its rounding error.
+    """
+    X = 0.5 * (X + X.swapaxes(-1, -2))
+    if not np.all(np.isfinite(X)):
+        return Probe(mu, None, X, math.nan)
+    Y, err = apply(X)
+    F = mu * X - Y
+    F = 0.5 * (F + F.swapaxes(-1, -2))
+    # the subtraction's own rounding, then the product's
+    err += 2 * _EPS * max(mu * float(np.linalg.norm(Xj, 2)) +
+                          float(np.linalg.norm(Yj, 2))
+                          for Xj, Yj in zip(X, Y))
+    F_min = min(float(np.linalg.eigvalsh(Fj)[0]) for Fj in F)
+    err += max(rounding(Fj) for Fj in F)
+    excess = err / F_min if F_min > 0 else math.inf
+    if not excess < 1:
+        return Probe(mu, None, X, math.nan, excess)
+    X_low = [float(np.linalg.eigvalsh(Xj)[0]) for Xj in X]
+    X_tol = [rounding(Xj) for Xj in X]
+    quotient = mu - float(np.vdot(X, F)) / float(np.vdot(X, X))
+    trace = float(np.trace(X, axis1=-2, axis2=-1).sum())
+    pole = 1.0 / trace if trace else math.nan
+    if all(v > t for v, t in zip(X_low, X_tol)):
+        return Probe(mu, "below", X, quotient, excess, pole)
+    if any(v < -t for v, t in zip(X_low, X_tol)):
+        return Probe(mu, "above", X, quotient, excess, pole)
+    return Probe(mu, None, X, math.nan, excess)
+
+
+@dataclass(frozen=True)
+class Bracket:
+    """``lower ≤ ρ < upper`` (per period), proven by the probes.
+
+    ``upper_X``: the Collatz–Wielandt certificate of the upper end
+    (``X ≻ 0``, ``𝒯(X) ≺ upper·X``), None when no upper probe passed
+    (``upper = inf``); ``lower_X``: the solution that is not PSD at
+    ``lower`` (None when ``lower = 0``, which needs no proof).
+    """
+
+    lower: float
+    upper: float
+    estimate: float
+    upper_X: np.ndarray | None
+    lower_X: np.ndarray | None
+    probes: int
+
+
+def _next_estimate(lo: float, hi: float, seen: list[Probe],
+                   jump: float) -> float:
+    """Where the radius probably is, given the decided probes ``seen``.
+
+    ``1/tr X(μ)`` (``X(μ) = (μ - 𝒯)⁻¹ I``) has a simple root at ``ρ``
+    when the Perron term dominates the resolvent: the secant through the
+    nearest probe on each side (or the last two) finds it superlinearly.
+    Then the last probe's quotient, the middle of the bracket, or (no upper
+    end yet) ``lo·(1 + jump)``.
+    """
+    # the latest probe and the latest one clearly apart from it
+    last = seen[-1] if seen else None
+    apart = [r for r in seen[:-1]
+             if last is not None and abs(r.mu - last.mu) > 1e-9 * last.mu]
+    if last is not None and apart:
+        (m1, g1), (m2, g2) = (apart[-1].mu, apart[-1].pole), (last.mu,
+                                                               last.pole)
+        if g1 != g2 and np.isfinite(g1) and np.isfinite(g2):
+            root = m2 - g2 * (m2 - m1) / (g2 - g1)
+            if lo < root < hi:
+                return root
+    if seen and lo < seen[-1].quotient < hi:
+        return seen[-1].quotient
+    if hi < math.inf:
+        return 0.5 * (lo + hi)
+    return lo * (1 + jump)
+
+
+def certify(apply: Callable[[np.ndarray], tuple[np.ndarray, float]],
+            solve: Callable[[float], np.ndarray], estimate: float, *,
+            atol: float = 0.0, rtol: float = RADIUS_RTOL,
+            max_probes: int = MAX_PROBES) -> Bracket:
+    """Bracket ``ρ(𝒯)`` by probes around ``estimate``.
+
+    ``apply`` as for :func:`probe`; ``solve(mu)`` returns an approximation
+    of ``(μ - 𝒯)⁻¹ I`` (shape (M, n, n)). Probes go to ``est·(1 + s)``
+    and ``est·(1 - s)``, the step ``s`` from ``rtol`` up: an undecided
+    probe raises it by its ``excess`` (the rounding bound shrinks like
+    ``s``), at least tenfold. A probe on the wrong side of the estimate
+    moves it (:func:`_next_estimate`). Done when the width is at most
+    ``2.5·rtol`` relative or ``atol`` absolute (a scale for ``ρ ≈ 0``), or
+    no probe can narrow it.
+    """
+    lo, hi = 0.0, math.inf
+    est = max(float(estimate), atol, 1e-300)
+    step, jump = rtol, 1e-6
+    lo_X = hi_X = None
+    seen: list[Probe] = []
+    count = 0
+    trusted = True          # an eigensolver's estimate: probe beside it
+    while count < max_probes:
+        if hi < math.inf and hi - lo <= max(2.5 * rtol * hi, atol):
+            break
+        if not lo < est < hi:
+            new = _next_estimate(lo, hi, seen, jump)
+            if hi == math.inf:
+                jump *= 10
+            # a small move means the estimates converge: bracket it next
+            trusted = abs(new - est) <= 100 * step * est
+            est = new
+        up, down = est * (1 + step), est * (1 - step)
+        can_up, can_down = up < hi, down > lo and step < 0.5
+        if not trusted:
+            mu = est            # one probe: which side, and a new secant
+        # coming from above, the estimate is most likely still above
+        elif can_down and (not can_up or seen and seen[-1].side == "below"):
+            mu = down
+        elif can_up:
+            mu = up
+        else:
+            break
+        res = probe(apply, solve(mu), mu)
+        count += 1
+        if res.side is None:
+            step *= min(max(10.0, 2 * res.excess), 1e6)
+            trusted = True
+            continue
+        if res.side == "below":
+            hi, hi_X = mu, res.X
+        else:
+            lo, lo_X = mu, res.X
+        seen.append(res)
+    point = min(max(est, lo), hi)
+    return Bracket(lo, hi, point, hi_X, lo_X, count)
+
+
+def power_estimate(apply: Callable[[np.ndarray], np.ndarray],
+                   start: np.ndarray, steps: int = 30) -> float:
+    """A rough ``ρ`` from the growth of ``𝒯ᵏ(start)`` (a fallback estimate
+    when no eigensolver answered; the probes correct it)."""
+    X = start
+    ratio = 0.0
+    for _ in range(steps):
+        Y = apply(X)
+        a, b = float(np.abs(Y).sum()), float(np.abs(X).sum())
+        if a == 0.0 or b == 0.0:
+            return 0.0
+        ratio, X = a / b, Y / a
+    return ratio
