@@ -41,7 +41,7 @@ __all__: list[str] = []
 RICCATI_MAX_SIZE = 1600
 
 #: Newton steps at most per level.
-NEWTON_STEPS = 80
+NEWTON_STEPS = 60
 
 #: Strictness terms ``ε`` tried per level, relative to the size of the
 #: storage: the certificate's Schur complement is ``-εI``, which must clear
@@ -172,15 +172,23 @@ def stage_cost(d: LoopData, W: np.ndarray, z: float, w: float,
 def solve_level(d: LoopData, gamma: float, eps: float,
                 start: np.ndarray | None = None
                 ) -> tuple[np.ndarray, np.ndarray] | None:
-    """The stabilizing solution ``(P, W)`` at ``γ`` (with ``ε``), or None
-    when Newton's iteration breaks down (the ``w`` block not negative
-    definite, a singular step) or does not converge. ``start``: a policy
-    whose loop is mean-square stable (default ``W = 0``, the loop itself;
-    the policy of a higher level also is)."""
+    """The stabilizing solution ``(P, W)`` at ``γ`` (with ``ε``), or None.
+
+    Newton–Kleinman for the maximising input from ``start``, a policy whose
+    loop is mean-square stable (default ``W = 0``, the loop itself; the
+    policy of a higher level also is). Each step evaluates the policy
+    (``P = 𝒜_W(P) + Q_W``) and improves it (``W = -M22⁻¹ M21``); while
+    the improved policies keep the loop mean-square stable the storages
+    increase (the improved policy does at least as well on the old
+    storage). None, not a proof, when the ``w`` block is not negative
+    definite, a storage decreases (the policy's loop left mean-square
+    stability: ``γ`` is below the level), a step is singular, or
+    ``NEWTON_STEPS`` pass.
+    """
     N, L, n, m = d.shape
     gamma2 = gamma * gamma
     W = np.zeros((N, L, m, n)) if start is None else start
-    last = math.inf
+    last, previous = math.inf, None
     for _ in range(NEWTON_STEPS):
         with np.errstate(all="ignore"):
             try:
@@ -191,6 +199,10 @@ def solve_level(d: LoopData, gamma: float, eps: float,
             if not np.all(np.isfinite(P)):
                 return None
             M = bellman(d, P, gamma2)
+        scale = float(np.abs(P).max())
+        if previous is not None and np.linalg.eigvalsh(
+                P - previous)[..., 0].min() < -1e-9 * scale:
+            return None
         M22, M21 = M[..., n:, n:], M[..., n:, :n]
         if np.any(np.linalg.eigvalsh(M22)[..., -1] >= 0):
             return None
@@ -198,10 +210,9 @@ def solve_level(d: LoopData, gamma: float, eps: float,
         # the Riccati residual, zero at the fixed point
         S = M[..., :n, :n] + M21.swapaxes(-1, -2) @ W
         res = float(np.abs(S + eps * np.eye(n) - P).max())
-        scale = float(np.abs(P).max())
-        if res <= 1e-14 * scale or (res <= 1e-9 * scale and res >= last):
+        if res <= 1e-13 * scale or (res <= 1e-9 * scale and res >= last):
             return P, W
-        last = res
+        last, previous = res, P
     return None
 
 
@@ -377,6 +388,12 @@ def _level_search(d: LoopData, lower: float
     return hi, W, count
 
 
+def gain_bracket_size(J: JumpStateSpace) -> int:
+    """Unknowns of the policy evaluation: ``L·n²``."""
+    N, L, n, _ = LoopData.of(J).shape
+    return L * n * n
+
+
 def gain_bracket(J: JumpStateSpace, lower: float) -> GainBracket | None:
     """The certified level closest to the gain and the best worst input
     below it; None when the loop is too large for the dense policy
@@ -399,11 +416,12 @@ def gain_bracket(J: JumpStateSpace, lower: float) -> GainBracket | None:
     scale = 1.0
     for rel in 10.0 ** np.arange(-8, 1):
         count += 1
-        found = certify_level(J, d, level * (1 + rel), scale, W)
+        found = certify_level(J, d, level * (1 + rel), scale)
         if found is not None and found.certified:
             witness = edge_witness(d, W)
-            return GainBracket(found.gamma, min(max(lower, witness),
-                                                found.gamma), found, count)
+            return GainBracket(float(found.gamma),
+                               float(min(max(lower, witness), found.gamma)),
+                               found, count)
         if found is not None:
             scale = max(scale, float(np.abs(found.P).max()))
     return None

@@ -757,8 +757,9 @@ def stationary_covariances(sys: Any, *, method: str = "auto",
     Raises
     ------
     ValueError
-        If ``sys`` is not mean-square stable (no steady state), or GMRES
-        does not reach ``tol``.
+        If ``sys`` is not proven mean-square stable (no steady state, or
+        the radius' certified bracket contains 1), or GMRES does not reach
+        ``tol``.
 
     Examples
     --------
@@ -773,9 +774,11 @@ def stationary_covariances(sys: Any, *, method: str = "auto",
     sys = as_jump(sys)
     choice(method, "method", ("auto", "dense", "matrix-free"))
     tol = positive_real(tol, "tol")
-    if not ms_radius(sys) < 1.0:
-        raise ValueError("sys: not mean-square stable (ms_radius >= 1): the "
-                         "noise-driven second moment has no steady state")
+    radius = ms_radius(sys, bracket=True)
+    if radius.stable is not True:
+        raise ValueError(f"sys: not proven mean-square stable "
+                         f"({radius.message}): the noise-driven second "
+                         "moment has no steady state")
     return _stationary(sys, method, tol)
 
 
@@ -825,12 +828,12 @@ def output_power(sys: Any, *, method: str = "auto",
     Averaged over the period: ``(1/N) Σ_k Σ_i [tr(C_ki Q_ki C_kiᵀ) +
     p_ki tr(D_ki D_kiᵀ)]`` with the covariances of
     :func:`stationary_covariances` (:ref:`theory-performance`); ``inf``
-    when ``sys`` is not mean-square stable.
+    when ``sys`` is not proven mean-square stable.
     """
     sys = as_jump(sys)
     choice(method, "method", ("auto", "dense", "matrix-free"))
     tol = positive_real(tol, "tol")
-    if not ms_radius(sys) < 1.0:
+    if ms_radius(sys, bracket=True).stable is not True:
         return float("inf")
     Q = _stationary(sys, method, tol)
     m = sys.modes
