@@ -30,8 +30,8 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import (choice, decay_bound, no_extra_kwargs,
                       positive_int, positive_real, real_array)
-from .exceptions import (CERTIFIED, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
-                         CertificationError)
+from .exceptions import (CERTIFIED, INFEASIBLE, NOT_MSS, NOT_VERIFIED,
+                         SOLVER_FAILED, CertificationError)
 from .lmi import (DEFAULT_MARGIN, check_options, check_solver,
                   quadratic_supply_model, solve)
 from ._results import CertifiedResult, Result
@@ -40,7 +40,8 @@ from .jump import as_jump
 from .montecarlo import root_entropy
 from ._gain import RICCATI_MAX_SIZE, gain_bracket, gain_bracket_size
 from .stability import ms_radius, output_power
-from .verify import gain_certificate_check, supply_certificate_check
+from .verify import (gain_certificate_check, supply_certificate_check,
+                     supply_dual_check)
 
 __all__ = ["norm", "l2_gain", "GainResult", "lyapunov_exponent",
            "LyapunovResult", "dissipativity", "SupplyResult"]
@@ -524,10 +525,17 @@ class SupplyResult(Result):
     theta_max, P_min : ndarray or None
         As checked.
     reason : str
-        ``'certified'``, or why not: the solver's status
-        (``'solver_failed'``) or ``'not_verified'`` (a candidate that
-        failed the exact check). Never a proof that the supply fails.
+        ``'certified'``; ``'infeasible'``, a proof that no storage exists
+        (the solver's Farkas certificate passed
+        :func:`control_ncs.verify.supply_dual_check`: for a fixed loop the
+        lemma is exact, so the loop is not strictly dissipative for this
+        supply); or, proving nothing, the solver's failure
+        (``'solver_failed'``) or ``'not_verified'`` (a candidate that failed
+        the exact check).
     report : SolveReport or None
+    proof : dict or None
+        With ``'infeasible'``: the multipliers ``Z``, ``value``
+        (``Σ <Θ⁰, Z> ≥ 0``) and ``Y_min`` (``≥ 0``), as checked.
 
     Examples
     --------
@@ -544,6 +552,7 @@ class SupplyResult(Result):
     P_min: np.ndarray | None
     reason: str
     report: Any
+    proof: dict[str, Any] | None = None
 
     _repr_fields: ClassVar[tuple[str, ...]] = ("dissipative", "reason")
 
@@ -562,11 +571,17 @@ class SupplyResult(Result):
         """One sentence."""
         if self.dissipative:
             return "dissipative for this supply (storage checked exactly)"
+        if self.reason == INFEASIBLE:
+            return ("proven: no storage exists for this supply (the "
+                    "solver's Farkas certificate passed the exact check)")
         status = getattr(self.report, "status", None)
         return ("no certificate: not a proof that the supply fails "
                 f"({self.reason}, solver status {status!r})")
 
     def _details(self) -> list[str]:
+        if self.proof is not None:
+            return [f"Σ <Θ⁰, Z> = {self.proof['value']:.3e} ≥ 0, "
+                    f"min λmin(Y) = {self.proof['Y_min']:.3e} ≥ 0"]
         if self.theta_max is None or self.P_min is None:
             return []
         return [f"max λmax(Θ) = {self.theta_max.max():.3e}, "
@@ -642,16 +657,17 @@ def dissipativity(sys: Any, Q: Any, S: Any, R: Any, *, decay: float = 1.0,
     Examples
     --------
     ``x⁺ = a x + w``, ``z = x + w``, ``a = 0.5`` or ``0.9``: passive with
-    dissipation 0.2 (``Q = 0, S = 1, R = -0.4``), and a sector bound
-    ``(z - 0.5w)(2w - z) ≥ 0`` (``Q = -1, S = 1.25, R = -1``) has no
-    certificate.
+    dissipation 0.2 (``Q = 0, S = 1, R = -0.4``); for the sector bound
+    ``(z - 0.5w)(2w - z) ≥ 0`` (``Q = -1, S = 1.25, R = -1``) no storage
+    exists, and the solver's infeasibility certificate proves it.
 
     >>> import control_ncs as ncs
     >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[1.0]], [0.5, 0.5])
     >>> ncs.dissipativity(sys, 0.0, 1.0, -0.4).dissipative
     True
-    >>> ncs.dissipativity(sys, -1.0, 1.25, -1.0).dissipative
-    False
+    >>> res = ncs.dissipativity(sys, -1.0, 1.25, -1.0)
+    >>> res.dissipative, res.status
+    (False, 'infeasible')
     """
     J = as_jump(sys)
     nz, nw = J.modes.C.shape[-2], J.modes.B.shape[-1]
@@ -662,6 +678,16 @@ def dissipativity(sys: Any, Q: Any, S: Any, R: Any, *, decay: float = 1.0,
     margin = positive_real(margin, "margin")
     model = quadratic_supply_model(J, Q, S, R, margin, decay=decay)
     report = solve(model.problem, name, **solver_options)
+    if report.status in ("infeasible", "infeasible_inaccurate"):
+        # the solver's Farkas certificate, checked exactly: a proof
+        Z = model.theta_duals()
+        if Z is not None:
+            proven, value, Y_min = supply_dual_check(J, Z, Q, S, R,
+                                                     decay=decay)
+            if proven:
+                return SupplyResult(False, None, None, None, INFEASIBLE,
+                                    report, dict(value=value, Y_min=Y_min,
+                                                 Z=Z))
     if report.status not in ("optimal", "optimal_inaccurate"):
         return SupplyResult(False, None, None, None, SOLVER_FAILED, report)
     try:
