@@ -42,12 +42,6 @@ MAX_PROBES = 40
 _EPS = np.finfo(float).eps
 
 
-def rounding(M: np.ndarray) -> float:
-    """Rounding bound of a symmetric eigenvalue computation of ``M``
-    (backward stable: ``16·n·eps·‖M‖₂``), as in :mod:`control_ncs.verify`."""
-    return 16 * M.shape[-1] * _EPS * max(float(np.linalg.norm(M, 2)), 1e-300)
-
-
 @dataclass(frozen=True)
 class Probe:
     """What one solve at ``mu`` proved.
@@ -69,38 +63,93 @@ class Probe:
     pole: float = math.nan
 
 
-def probe(apply: Callable[[np.ndarray], tuple[np.ndarray, float]],
-          X: np.ndarray, mu: float) -> Probe:
+#: ``residual(X, mu, wide)``: ``F = μX - 𝒯(X)`` and a bound on the
+#: spectral norm of its error, in extended precision when ``wide``.
+Residual = Callable[[np.ndarray, float, bool], tuple[np.ndarray, float]]
+
+
+def _residual_excess(residual: Residual, X: np.ndarray, mu: float,
+                     wide: bool) -> tuple[np.ndarray, float]:
+    """``F`` and its rounding bound over ``λmin(F)`` (inf unless
+    positive)."""
+    F, err = residual(X, mu, wide)
+    F = 0.5 * (F + F.swapaxes(-1, -2))
+    lf = np.linalg.eigvalsh(F)
+    err += 16 * X.shape[-1] * _EPS * float(np.abs(lf).max())
+    F_min = float(lf[:, 0].min())
+    return F, (err / F_min if F_min > 0 else math.inf)
+
+
+def probe(residual: Residual, X: np.ndarray, mu: float) -> Probe:
     """Decide the side of ``mu`` from an approximate solution ``X``.
 
-    ``X``: shape (M, n, n), symmetrised here. ``apply(X)`` returns
-    ``𝒯(X)`` and a bound on the spectral norm of its rounding error.
+    ``X``: shape (M, n, n), symmetrised here. The residual is formed in
+    double precision, and again in extended precision when that does not
+    decide.
     """
     X = 0.5 * (X + X.swapaxes(-1, -2))
     if not np.all(np.isfinite(X)):
         return Probe(mu, None, X, math.nan)
-    Y, err = apply(X)
-    F = mu * X - Y
-    F = 0.5 * (F + F.swapaxes(-1, -2))
-    # the subtraction's own rounding, then the product's
-    err += 2 * _EPS * max(mu * float(np.linalg.norm(Xj, 2)) +
-                          float(np.linalg.norm(Yj, 2))
-                          for Xj, Yj in zip(X, Y))
-    F_min = min(float(np.linalg.eigvalsh(Fj)[0]) for Fj in F)
-    err += max(rounding(Fj) for Fj in F)
-    excess = err / F_min if F_min > 0 else math.inf
+    F, excess = _residual_excess(residual, X, mu, False)
+    if not excess < 1:
+        F, excess = _residual_excess(residual, X, mu, True)
     if not excess < 1:
         return Probe(mu, None, X, math.nan, excess)
-    X_low = [float(np.linalg.eigvalsh(Xj)[0]) for Xj in X]
-    X_tol = [rounding(Xj) for Xj in X]
+    lx = np.linalg.eigvalsh(X)
+    size_x = np.abs(lx).max(axis=-1)
+    eig_round = 16 * X.shape[-1] * _EPS
+    X_low, X_tol = lx[:, 0], eig_round * size_x
     quotient = mu - float(np.vdot(X, F)) / float(np.vdot(X, X))
     trace = float(np.trace(X, axis1=-2, axis2=-1).sum())
     pole = 1.0 / trace if trace else math.nan
-    if all(v > t for v, t in zip(X_low, X_tol)):
+    # the eigenvalues decide when they clear their rounding; near the
+    # radius X is ill-conditioned, and a Cholesky factorisation or a
+    # quadratic form in extended precision decides
+    if np.all((X_low > X_tol) | [X_low[j] > 0 and definite(X[j])
+                                 for j in range(len(X))]):
         return Probe(mu, "below", X, quotient, excess, pole)
-    if any(v < -t for v, t in zip(X_low, X_tol)):
+    if np.any(X_low < -X_tol) or any(X_low[j] < 0 and indefinite(X[j])
+                                     for j in range(len(X))):
         return Probe(mu, "above", X, quotient, excess, pole)
     return Probe(mu, None, X, math.nan, excess)
+
+
+_WIDE = np.longdouble
+_UNIT = float(np.finfo(_WIDE).eps) / 2          # unit roundoff
+
+
+def definite(X: np.ndarray) -> bool:
+    """True only if the symmetric ``X`` is positive definite: Cholesky of
+    ``X - cI`` in extended precision runs to completion, with
+    ``c = 2γ_{n+1} tr(X)`` (Rump, *Verification of positive definiteness*,
+    BIT 2006: the floating-point factorisation is exact for a matrix within
+    ``γ_{n+1} tr(X)`` of it)."""
+    n = X.shape[0]
+    gamma = (n + 1) * _UNIT / (1 - (n + 1) * _UNIT)
+    d = np.diag(X)
+    if np.any(d <= 0):
+        return False
+    A = X.astype(_WIDE) - _WIDE(2 * gamma * float(d.sum()) + 1e-300) * \
+        np.eye(n, dtype=_WIDE)
+    L = np.zeros((n, n), dtype=_WIDE)
+    for j in range(n):
+        s = A[j, j] - L[j, :j] @ L[j, :j]
+        if not s > 0:
+            return False
+        L[j, j] = np.sqrt(s)
+        L[j + 1:, j] = (A[j + 1:, j] - L[j + 1:, :j] @ L[j, :j]) / L[j, j]
+    return True
+
+
+def indefinite(X: np.ndarray) -> bool:
+    """True only if the symmetric ``X`` has a negative direction: ``yᵀXy``
+    for the eigenvector of its least eigenvalue, in extended precision,
+    below minus its rounding bound ``γ_{n+1} |y|ᵀ|X||y|``."""
+    n = X.shape[0]
+    y = np.linalg.eigh(X)[1][:, 0]
+    value = float(y.astype(_WIDE) @ X.astype(_WIDE) @ y.astype(_WIDE))
+    bound = 2 * (n + 1) * _UNIT * float(np.abs(y) @ np.abs(X) @ np.abs(y))
+    return value < -bound
 
 
 @dataclass(frozen=True)
@@ -149,18 +198,20 @@ def _next_estimate(lo: float, hi: float, seen: list[Probe],
     return lo * (1 + jump)
 
 
-def certify(apply: Callable[[np.ndarray], tuple[np.ndarray, float]],
-            solve: Callable[[float], np.ndarray], estimate: float, *,
-            atol: float = 0.0, rtol: float = RADIUS_RTOL,
-            max_probes: int = MAX_PROBES) -> Bracket:
+def certify(residual: Residual, solve: Callable[[float], np.ndarray],
+            estimate: float, *, atol: float = 0.0,
+            rtol: float = RADIUS_RTOL, max_probes: int = MAX_PROBES,
+            refine: Callable[[float, np.ndarray], np.ndarray] | None = None
+            ) -> Bracket:
     """Bracket ``ρ(𝒯)`` by probes around ``estimate``.
 
-    ``apply`` as for :func:`probe`; ``solve(mu)`` returns an approximation
+    ``residual`` as for :func:`probe`; ``solve(mu)`` returns an approximation
     of ``(μ - 𝒯)⁻¹ I`` (shape (M, n, n)). Probes go to ``est·(1 + s)``
     and ``est·(1 - s)``, the step ``s`` from ``rtol`` up: an undecided
     probe raises it by its ``excess`` (the rounding bound shrinks like
-    ``s``), at least tenfold. A probe on the wrong side of the estimate
-    moves it (:func:`_next_estimate`). Done when the width is at most
+    ``s``), at least tenfold, after one step of ``refine(mu, X)`` (an
+    improved solution) when given. A probe on the wrong side of the
+    estimate moves it (:func:`_next_estimate`). Done when the width is at most
     ``2.5·rtol`` relative or ``atol`` absolute (a scale for ``ρ ≈ 0``), or
     no probe can narrow it.
     """
@@ -192,10 +243,16 @@ def certify(apply: Callable[[np.ndarray], tuple[np.ndarray, float]],
             mu = up
         else:
             break
-        res = probe(apply, solve(mu), mu)
+        res = probe(residual, solve(mu), mu)
         count += 1
+        if res.side is None and refine is not None and \
+                np.all(np.isfinite(res.X)):
+            res = probe(residual, refine(mu, res.X), mu)
         if res.side is None:
-            step *= min(max(10.0, 2 * res.excess), 1e6)
+            # the rounding bound shrinks like the step: jump to where it
+            # clears; a failed solve (no excess) only tenfold
+            grow = 2 * res.excess if math.isfinite(res.excess) else 10.0
+            step *= min(max(10.0, grow), 1e6)
             trusted = True
             continue
         if res.side == "below":

@@ -3,13 +3,14 @@ and the top Lyapunov exponent (:ref:`theory-performance`).
 
 * :func:`norm` mirrors :func:`control.norm`: for a jump system the H2 norm
   is the stationary output power under unit white noise, exact, from the
-  linear fixed point of :func:`control_ncs.stability_covariances`; it is
+  linear fixed point of :func:`control_ncs.stationary_covariances`; it is
   not the mean system's H2 norm (the StateSpace face's, which
   ``ct.norm(CL, 2)`` would compute: it refuses a jump system and names this
   function).
-* :func:`l2_gain` brackets the ℓ2 gain (H∞ norm): a certified upper bound
-  from the bounded real lemma (an LMI, checked exactly) and the mean
-  system's gain below it.
+* :func:`l2_gain` brackets the ℓ2 gain (H∞ norm) to within 1 %: a
+  certified upper bound from the bounded real lemma (its Riccati equation
+  bisected, the storage checked exactly) and the exact gain of a worst
+  input below it (:mod:`control_ncs._gain`).
 * :func:`lyapunov_exponent` estimates the almost-sure growth rate
   ``lim (1/t) log ‖ξ_t‖`` from renormalised products along sample paths,
   with a confidence interval; exact in the scalar case. It can lie far

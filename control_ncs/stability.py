@@ -334,16 +334,22 @@ def _identity(sys: JumpStateSpace) -> np.ndarray:
     return np.broadcast_to(np.eye(n), (count, n, n)).copy()
 
 
+#: Up to this many states the probes' residual ``μX - 𝒯(X)`` is formed in
+#: extended precision (``numpy.longdouble``, where it is wider than double):
+#: the width of the bracket is set by the rounding of that residual.
+EXTENDED_MAX_STATES = 64
+
+
 class _TupleMap:
     """The monodromy on (L, n, n) stacks by matrix products: the map every
     probe checks with, and a bound on its rounding.
 
     Rounding (first order): phase ``k`` computes ``Σ_i w_i A_i Q_k A_iᵀ``
     with an error of Frobenius norm at most
-    ``γ Σ_i w_i ‖A_i‖_F² ‖Q_k‖_F`` (``γ = 2(n + M)·eps``: two products of
-    length ``n``, a sum over the modes); the later phases carry it with
-    norm ``‖tail_k(I)‖₂`` (a positive map's norm is its value at ``I``,
-    Russo–Dye), computed once here.
+    ``γ Σ_i w_i ‖A_i‖_F² ‖Q_k‖_F`` (``γ = 2(n + M)·u``, ``u`` the unit
+    roundoff: two products of length ``n``, a sum over the modes); the
+    later phases carry it with norm ``‖tail_k(I)‖₂`` (a positive map's
+    norm is its value at ``I``, Russo–Dye), computed once here.
     """
 
     def __init__(self, sys: JumpStateSpace):
@@ -353,7 +359,13 @@ class _TupleMap:
                   else sys.modes.probabilities)
         n, M = self.A.shape[-1], self.A.shape[1]
         self.fro = np.sum(self.A ** 2, axis=(-2, -1))        # ‖A_ki‖_F²
-        self.gamma = 2 * (n + M) * _EPS
+        wide = np.finfo(np.longdouble).eps < _EPS and \
+            n <= EXTENDED_MAX_STATES
+        self.dtype = np.longdouble if wide else np.float64
+        self.unit = float(np.finfo(self.dtype).eps)
+        self.gamma = 2 * (n + M) * self.unit
+        self.A_wide = self.A.astype(self.dtype)
+        self.W_wide = self.W.astype(self.dtype)
         E = _identity(sys)
         self.tails = [self._norm(self._run(E, k + 1))
                       for k in range(self.N)]
@@ -362,12 +374,17 @@ class _TupleMap:
 
     @staticmethod
     def _norm(X: np.ndarray) -> float:
-        return max(float(np.linalg.norm(Xj, 2)) for Xj in X)
+        """Largest spectral norm of a stack of PSD matrices."""
+        return float(np.linalg.eigvalsh(0.5 * (X + X.swapaxes(-1, -2)))
+                     .max(initial=0.0))
 
-    def _phase(self, k: int, Q: np.ndarray) -> np.ndarray:
+    def _phase(self, k: int, Q: np.ndarray, A: np.ndarray | None = None,
+               W: np.ndarray | None = None) -> np.ndarray:
+        A = self.A[k] if A is None else A
+        W = self.W[k] if W is None else W
         if self.markov:
-            return phase_map(self.A[k], self.W[k], Q, True)
-        return phase_map(self.A[k], self.W[k], Q[0], False)[None]
+            return phase_map(A, W, Q, True)
+        return phase_map(A, W, Q[0], False)[None]
 
     def _run(self, X: np.ndarray, first: int) -> np.ndarray:
         for k in range(first, self.N):
@@ -378,18 +395,35 @@ class _TupleMap:
         """``𝒯(X)``."""
         return self._run(X, 0)
 
-    def checked(self, X: np.ndarray) -> tuple[np.ndarray, float]:
-        """``𝒯(X)`` and a bound on the spectral norm of its rounding."""
+    def residual(self, X: np.ndarray, mu: float, wide: bool = False
+                 ) -> tuple[np.ndarray, float]:
+        """``F = μX - 𝒯(X)`` (double) and a bound on the spectral norm of
+        its error: the products' rounding, the subtraction's and the final
+        rounding to double; in extended precision when ``wide`` (and
+        ``n ≤ EXTENDED_MAX_STATES``)."""
+        dtype = self.dtype if wide else np.float64
+        unit = float(np.finfo(dtype).eps)
+        gamma = self.gamma / self.unit * unit
+        A = self.A_wide if wide else self.A
+        W = self.W_wide if wide else self.W
         err = 0.0
+        Q = X.astype(dtype)
         for k in range(self.N):
-            size = np.sqrt(np.sum(X ** 2, axis=(-2, -1)))     # ‖Q_k,i‖_F
+            size = np.sqrt(np.sum(np.asarray(Q, float) ** 2,
+                                  axis=(-2, -1)))          # ‖Q_k,i‖_F
             if self.markov:     # per next mode j: Σ_i T[i, j] ‖A_i‖² ‖Q_i‖
                 local = self.W[k].T @ (self.fro[k] * size)
             else:
                 local = (self.W[k] @ self.fro[k]) * size
-            err += self.tails[k] * self.gamma * float(local.max())
-            X = self._phase(k, X)
-        return X, err
+            err += self.tails[k] * gamma * float(local.max())
+            Q = self._phase(k, Q, A[k], W[k])
+        exact = dtype(mu) * X.astype(dtype) - Q
+        scale = mu * float(np.sqrt(np.sum(X ** 2, axis=(-2, -1))).max()) + \
+            float(np.sqrt(np.sum(np.asarray(Q, float) ** 2,
+                                 axis=(-2, -1))).max())
+        F = np.asarray(exact, float)
+        err += 2 * unit * scale + _EPS * float(np.abs(F).sum(axis=-1).max())
+        return F, err
 
 
 def _stein(Phi: np.ndarray, mu: float, F: np.ndarray) -> np.ndarray:
@@ -466,46 +500,73 @@ def _gmres_solver(sys: JumpStateSpace, apply: Callable[[np.ndarray],
     return solve
 
 
-def _dense_solver(sys: JumpStateSpace) -> tuple[Callable[[float],
-                                                          np.ndarray], float]:
-    """``μ ↦ (μ - 𝒯)⁻¹ I`` by LU of the Kronecker monodromy, and the
-    largest modulus of its eigenvalues (the estimate)."""
+def _dense_solver(sys: JumpStateSpace) -> tuple[
+        Callable[[float, np.ndarray], np.ndarray], float]:
+    """``(μ, F) ↦ (μ - 𝒯)⁻¹ F`` by LU of the Kronecker monodromy (one
+    factorisation per ``μ``), and the largest modulus of its eigenvalues
+    (the estimate)."""
     T = _dense_monodromy(sys)
-    E = _identity(sys)
     est = float(np.max(np.abs(np.linalg.eigvals(T))))
+    factors: dict[float, Any] = {}
 
-    def solve(mu: float) -> np.ndarray:
+    def solve(mu: float, F: np.ndarray) -> np.ndarray:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", LinAlgWarning)
             try:
-                x = lu_solve(lu_factor(mu * np.eye(T.shape[0]) - T),
-                             E.ravel())
+                if mu not in factors:
+                    factors.clear()
+                    factors[mu] = lu_factor(mu * np.eye(T.shape[0]) - T)
+                x = lu_solve(factors[mu], F.ravel())
             except (np.linalg.LinAlgError, ValueError):
-                return np.full_like(E, np.nan)
-        return x.reshape(E.shape)
+                return np.full_like(F, np.nan)
+        return x.reshape(F.shape)
 
     return solve, est
+
+
+def _refinement(solve: Callable[[float, np.ndarray], np.ndarray],
+                apply: _TupleMap, E: np.ndarray
+                ) -> Callable[[float, np.ndarray], np.ndarray]:
+    """``(μ, X) ↦ X + (μ - 𝒯)⁻¹(I - F)``: one step of iterative
+    refinement, the residual ``F`` formed as the probes form it (extended
+    precision); near the radius ``X`` is huge and a plain solve's residual
+    is what decides."""
+    def refine(mu: float, X: np.ndarray) -> np.ndarray:
+        F, _ = apply.residual(X, mu, True)
+        return X + solve(mu, E - F)
+    return refine
 
 
 def _arpack_estimate(sys: JumpStateSpace, apply: Callable[[np.ndarray],
                                                           np.ndarray],
                      tol: float) -> float:
-    """The largest modulus among ARPACK's two leading Ritz values (a
-    close second eigenvalue then comes with the first), or a power
-    estimate if ARPACK fails; the probes correct either."""
+    """ARPACK's leading Ritz value, or a power estimate if ARPACK fails;
+    the probes correct either.
+
+    The radius of this positive map is a real positive eigenvalue of
+    largest modulus: a leading Ritz value that is complex or negative
+    means ARPACK found another eigenvalue first (of that modulus or, when
+    the top ones are close, below it), so three are asked for then.
+    """
     E = _identity(sys)
     size = E.size
     op = LinearOperator((size, size), dtype=float,
                         matvec=lambda v: apply(v.reshape(E.shape)).ravel())
-    k = min(2, size - 2)
-    try:
-        vals = eigs(op, k=k, which="LM", v0=E.ravel(), tol=tol,
-                    ncv=min(size - 1, max(2 * k + 1, 30)), maxiter=5000,
-                    return_eigenvectors=False)
-    except ArpackNoConvergence as err:
-        vals = err.eigenvalues
-    except ArpackError:
-        vals = np.zeros(0)
+    vals = np.zeros(0)
+    for k in (1, 3):
+        k = min(k, size - 2)
+        try:
+            vals = eigs(op, k=k, which="LM", v0=E.ravel(), tol=tol,
+                        ncv=min(size - 1, max(2 * k + 1, 30)),
+                        maxiter=5000, return_eigenvectors=False)
+        except ArpackNoConvergence as err:
+            vals = err.eigenvalues
+        except ArpackError:
+            vals = np.zeros(0)
+        top = vals[np.argmax(np.abs(vals))] if len(vals) else None
+        if top is not None and top.real > 0 and \
+                abs(top.imag) <= 1e-8 * abs(top):
+            break
     if len(vals):
         return float(np.max(np.abs(vals)))
     return power_estimate(apply, E)
@@ -527,22 +588,30 @@ def _bracket(sys: JumpStateSpace, method: str, tol: float) -> RadiusBracket:
         _deterministic_monodromy(sys)
     size = E.size
     solve: Callable[[float], np.ndarray]
+    direct: Callable[[float, np.ndarray], np.ndarray]
     if phi is not None:
         route = "deterministic"
         est = float(np.max(np.abs(np.linalg.eigvals(phi)))) ** 2
         monodromy = phi
 
-        def solve(mu: float) -> np.ndarray:
-            return _stein(monodromy, mu, np.eye(n))[None]
+        def stein(mu: float, F: np.ndarray) -> np.ndarray:
+            return _stein(monodromy, mu, F[0])[None]
+        direct = stein
     elif method == "dense" or (method == "auto" and
                                size <= DENSE_MAX_STATES ** 2) or size <= 4:
         route = "dense"
-        solve, est = _dense_solver(sys)
+        direct, est = _dense_solver(sys)
     else:
         route = "matrix-free"
         est = _arpack_estimate(sys, apply, tol)
         solve = _gmres_solver(sys, apply)
-    b = certify(apply.checked, solve, est,
+    refine = None
+    if route != "matrix-free":
+        refine = _refinement(direct, apply, E)
+
+        def solve(mu: float) -> np.ndarray:
+            return direct(mu, E)
+    b = certify(apply.residual, solve, est, refine=refine,
                 atol=RADIUS_ATOL * apply.norm)
     X = None if b.upper_X is None else (
         b.upper_X if markov else b.upper_X[0])
