@@ -50,9 +50,10 @@ class Probe:
     ``'above'`` (``ρ ≥ μ``) or None (the solve was not accurate enough to
     decide). ``quotient``: ``μ - <X, F> / <X, X>``, an estimate of the
     eigenvalue nearest ``μ`` (nan when undecided); ``pole``:
-    ``1 / Σ_j tr X_j``, whose root is ``ρ`` when the Perron term dominates. ``excess``: the rounding
-    bound over ``λmin(F)`` (a probe needs it below 1; it scales like
-    ``1/|μ - ρ|``), inf when ``F`` is not even positive as computed.
+    ``1 / Σ_j tr X_j``, whose root is ``ρ`` when the Perron term
+    dominates. ``excess``: the rounding bound over ``λmin(F)`` (a probe
+    needs it below 1; it scales like ``1/|μ - ρ|``), inf when ``F`` is not
+    even positive as computed.
     """
 
     mu: float
@@ -105,11 +106,11 @@ def probe(residual: Residual, X: np.ndarray, mu: float) -> Probe:
     # the eigenvalues decide when they clear their rounding; near the
     # radius X is ill-conditioned, and a Cholesky factorisation or a
     # quadratic form in extended precision decides
-    if np.all((X_low > X_tol) | [X_low[j] > 0 and definite(X[j])
-                                 for j in range(len(X))]):
+    if all(X_low[j] > X_tol[j] or (X_low[j] > 0 and definite(X[j]))
+           for j in range(len(X))):
         return Probe(mu, "below", X, quotient, excess, pole)
-    if np.any(X_low < -X_tol) or any(X_low[j] < 0 and indefinite(X[j])
-                                     for j in range(len(X))):
+    if any(X_low[j] < -X_tol[j] or (X_low[j] < 0 and indefinite(X[j]))
+           for j in range(len(X))):
         return Probe(mu, "above", X, quotient, excess, pole)
     return Probe(mu, None, X, math.nan, excess)
 
@@ -211,9 +212,9 @@ def certify(residual: Residual, solve: Callable[[float], np.ndarray],
     probe raises it by its ``excess`` (the rounding bound shrinks like
     ``s``), at least tenfold, after one step of ``refine(mu, X)`` (an
     improved solution) when given. A probe on the wrong side of the
-    estimate moves it (:func:`_next_estimate`). Done when the width is at most
-    ``2.5·rtol`` relative or ``atol`` absolute (a scale for ``ρ ≈ 0``), or
-    no probe can narrow it.
+    estimate moves it (:func:`_next_estimate`). Done when the width is at
+    most ``2.5·rtol`` relative or ``atol`` absolute (a scale for
+    ``ρ ≈ 0``), or no probe can narrow it.
     """
     lo, hi = 0.0, math.inf
     est = max(float(estimate), atol, 1e-300)

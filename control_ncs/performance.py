@@ -41,8 +41,8 @@ from .jump import as_jump
 from .montecarlo import root_entropy
 from ._gain import RICCATI_MAX_SIZE, gain_bracket, gain_bracket_size
 from .stability import ms_radius, output_power
-from .verify import (gain_certificate_check, supply_certificate_check,
-                     supply_dual_check)
+from ._farkas import supply_dual_check
+from .verify import gain_certificate_check, supply_certificate_check
 
 __all__ = ["norm", "l2_gain", "GainResult", "lyapunov_exponent",
            "LyapunovResult", "dissipativity", "SupplyResult"]
@@ -528,7 +528,7 @@ class SupplyResult(Result):
     reason : str
         ``'certified'``; ``'infeasible'``, a proof that no storage exists
         (the solver's Farkas certificate passed
-        :func:`control_ncs.verify.supply_dual_check`: for a fixed loop the
+        :func:`control_ncs._farkas.supply_dual_check`: for a fixed loop the
         lemma is exact, so the loop is not strictly dissipative for this
         supply); or, proving nothing, the solver's failure
         (``'solver_failed'``) or ``'not_verified'`` (a candidate that failed

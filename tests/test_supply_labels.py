@@ -4,7 +4,7 @@
 import numpy as np
 
 import control_ncs as ncs
-from control_ncs.verify import supply_dual_check
+from control_ncs._farkas import supply_dual_check
 
 
 def sector_loop():

@@ -135,3 +135,17 @@ def test_an_unstable_loop_has_no_gain_and_an_undecided_one_says_so():
     with pytest.raises(CertificationError, match="undecided") as info:
         ncs.l2_gain(edge)
     assert info.value.reason == "not_verified"
+
+
+def test_hinfsyn_reports_its_loops_true_gain_on_the_dc_motor():
+    # the design leaves the angle's integrator a hair inside the unit
+    # circle (ms_radius 1 - 3e-7): the certified figure must still be tight
+    P = dc_motor()
+    K, CL, gamma = ncs.hinfsyn(P)
+    assert ncs.ms_radius(CL, bracket=True).stable is True
+    z = np.exp(1j * np.linspace(0, np.pi, 400001))
+    A, B, C, D = (np.asarray(X) for X in (CL.A, CL.B, CL.C, CL.D))
+    sweep = np.abs(C @ np.linalg.solve(z[:, None, None] * np.eye(2) - A, B)
+                   + D).max()
+    assert sweep <= gamma <= 1.01 * sweep
+    assert K.result.tight

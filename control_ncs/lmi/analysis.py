@@ -241,7 +241,7 @@ class QuadraticSupplyModel:
     def theta_duals(self) -> np.ndarray | None:
         """The multipliers of the ``Θ_{k,ℓ}`` constraints, (N, L, n + m,
         n + m): after an ``'infeasible'`` status, the solver's Farkas
-        certificate (:func:`control_ncs.verify.supply_dual_check` checks
+        certificate (:func:`control_ncs._farkas.supply_dual_check` checks
         it); None when the solver gave none. The model adds ``Θ_{k,ℓ}``
         then ``P_{k,ℓ}`` for each phase and row."""
         duals = [c.dual_value for c in self.problem.constraints[0::2]]
