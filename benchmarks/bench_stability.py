@@ -197,9 +197,10 @@ def lightly_damped_loop(n: int, seed: int = 1, gain: float = 0.01,
     """``x⁺ = 0.9 Q x + θ b k x`` with ``Q`` orthogonal and a small gain lost
     with probability ``loss``: the top eigenvalues of the second-moment
     operator lie within ~1e-4 of each other (where one Ritz value may be
-    the wrong one)."""
+    the wrong one: at n = 60, seed 1, it is off by 8.8e-4, as in
+    tests/test_certified_radius.py)."""
     from control_ncs import jss
-    rng = np.random.default_rng([seed, n, 33])
+    rng = np.random.default_rng(seed)
     Q = np.linalg.qr(rng.standard_normal((n, n)))[0]
     A = 0.9 * Q
     B = rng.standard_normal((n, 1))
