@@ -51,7 +51,7 @@ STRICTNESS = (1e-11, 1e-9, 1e-7)
 _EPS = float(np.finfo(float).eps)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LoopData:
     """The per-mode arrays the Riccati equation reads, rows included."""
 
@@ -75,7 +75,7 @@ class LoopData:
         return cls(m.A, m.B, m.C, m.D, supply_rows(m), not m.is_iid)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Level:
     """The Riccati solution at one ``γ``: storage, worst policy, check."""
 
@@ -87,7 +87,7 @@ class Level:
     P_min: np.ndarray
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class GainBracket:
     """``lower ≤ gain < upper``: the certified level and the worst input's
     gain; ``level`` None when no level was certified."""

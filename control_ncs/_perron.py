@@ -42,7 +42,7 @@ MAX_PROBES = 40
 _EPS = np.finfo(float).eps
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Probe:
     """What one solve at ``mu`` proved.
 
@@ -153,7 +153,7 @@ def indefinite(X: np.ndarray) -> bool:
     return value < -bound
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Bracket:
     """``lower ≤ ρ < upper`` (per period), proven by the probes.
 

@@ -223,7 +223,7 @@ GMRES_RESTART = 60
 GMRES_CYCLES = 5
 
 
-@dataclass(frozen=True, repr=False)
+@dataclass(frozen=True, repr=False, eq=False)
 class RadiusBracket(Result):
     """The mean-square radius with a certified bracket around it.
 

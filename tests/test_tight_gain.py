@@ -149,3 +149,19 @@ def test_hinfsyn_reports_its_loops_true_gain_on_the_dc_motor():
                    + D).max()
     assert sweep <= gamma <= 1.01 * sweep
     assert K.result.tight
+
+
+def test_a_bracket_left_wide_says_why(monkeypatch):
+    # a loop beyond the dense Riccati route (here: the limit lowered) falls
+    # back on the LMI; its lower end is then only the mean system's
+    import control_ncs._gain as gain
+    import control_ncs.performance as performance
+    monkeypatch.setattr(gain, "RICCATI_MAX_SIZE", 1)
+    monkeypatch.setattr(performance, "RICCATI_MAX_SIZE", 1)
+    J = at_radius(random_jump(np.random.default_rng(0), n=3, N=1, M=2,
+                              radius=0.9), 0.99)
+    res = ncs.l2_gain(J)
+    assert res.method == "lmi" and not res.tight
+    assert "too large for the dense Riccati route" in res.note
+    assert "not tight" in res.message
+    assert gain_certificate_check(J, res.P, res.gamma)[0]
