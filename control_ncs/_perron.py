@@ -202,13 +202,14 @@ def _next_estimate(lo: float, hi: float, seen: list[Probe],
 def certify(residual: Residual, solve: Callable[[float], np.ndarray],
             estimate: float, *, atol: float = 0.0,
             rtol: float = RADIUS_RTOL, max_probes: int = MAX_PROBES,
-            refine: Callable[[float, np.ndarray], np.ndarray] | None = None
-            ) -> Bracket:
+            refine: Callable[[float, np.ndarray], np.ndarray] | None = None,
+            first_step: float = 0.0) -> Bracket:
     """Bracket ``ρ(𝒯)`` by probes around ``estimate``.
 
     ``residual`` as for :func:`probe`; ``solve(mu)`` returns an approximation
     of ``(μ - 𝒯)⁻¹ I`` (shape (M, n, n)). Probes go to ``est·(1 + s)``
-    and ``est·(1 - s)``, the step ``s`` from ``rtol`` up: an undecided
+    and ``est·(1 - s)``, the step ``s`` from ``max(rtol, first_step)``
+    (a prediction of where the rounding bound clears) up: an undecided
     probe raises it by its ``excess`` (the rounding bound shrinks like
     ``s``), at least tenfold, after one step of ``refine(mu, X)`` (an
     improved solution) when given. A probe on the wrong side of the
@@ -218,7 +219,7 @@ def certify(residual: Residual, solve: Callable[[float], np.ndarray],
     """
     lo, hi = 0.0, math.inf
     est = max(float(estimate), atol, 1e-300)
-    step, jump = rtol, 1e-6
+    step, jump = max(rtol, first_step), 1e-6
     lo_X = hi_X = None
     seen: list[Probe] = []
     count = 0

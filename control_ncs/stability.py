@@ -611,8 +611,12 @@ def _bracket(sys: JumpStateSpace, method: str, tol: float) -> RadiusBracket:
 
         def solve(mu: float) -> np.ndarray:
             return direct(mu, E)
+    # the rounding bound per unit of X, at X = I: a probe at μ = ρ(1 ± s)
+    # has ‖X‖ ≈ ‖I‖/(sρ), so it decides once s ≳ 2·err(I)/ρ
+    _, err = apply.residual(E, 0.0, True)
     b = certify(apply.residual, solve, est, refine=refine,
-                atol=RADIUS_ATOL * apply.norm)
+                atol=RADIUS_ATOL * apply.norm,
+                first_step=min(2 * err / max(est, 1e-300), 1e-3))
     X = None if b.upper_X is None else (
         b.upper_X if markov else b.upper_X[0])
     root = 1.0 / N
