@@ -39,6 +39,9 @@ RADIUS_RTOL = 1e-12
 #: Probes at most per bracket (two suffice when the estimate is right).
 MAX_PROBES = 40
 
+#: The least ``μ`` probed: a radius below it is bracketed by ``[0, TINY]``.
+TINY = 1e-150
+
 _EPS = np.finfo(float).eps
 
 
@@ -214,18 +217,22 @@ def certify(residual: Residual, solve: Callable[[float], np.ndarray],
     ``s``), at least tenfold, after one step of ``refine(mu, X)`` (an
     improved solution) when given. A probe on the wrong side of the
     estimate moves it (:func:`_next_estimate`). Done when the width is at
-    most ``2.5·rtol`` relative or ``atol`` absolute (a scale for
-    ``ρ ≈ 0``), or no probe can narrow it.
+    most ``2.5·rtol`` relative, or the upper end at most ``atol`` (a scale
+    for ``ρ ≈ 0``, at least ``TINY``), or no probe can narrow it.
     """
     lo, hi = 0.0, math.inf
-    est = max(float(estimate), atol, 1e-300)
+    # below TINY a probe's X (≈ I/μ) and its squares would overflow; a
+    # radius under it is reported as [0, TINY]
+    atol = max(atol, TINY)
+    est = max(float(estimate), atol)
     step, jump = max(rtol, first_step), 1e-6
     lo_X = hi_X = None
     seen: list[Probe] = []
     count = 0
     trusted = True          # an eigensolver's estimate: probe beside it
     while count < max_probes:
-        if hi < math.inf and hi - lo <= max(2.5 * rtol * hi, atol):
+        if hi < math.inf and (hi - lo <= 2.5 * rtol * hi or
+                              hi <= atol * (1 + 10 * rtol)):
             break
         if not lo < est < hi:
             new = _next_estimate(lo, hi, seen, jump)
@@ -262,7 +269,8 @@ def certify(residual: Residual, solve: Callable[[float], np.ndarray],
         else:
             lo, lo_X = mu, res.X
         seen.append(res)
-    point = min(max(est, lo), hi)
+    first = float(estimate)
+    point = first if lo <= first <= hi else min(max(est, lo), hi)
     return Bracket(lo, hi, point, hi_X, lo_X, count)
 
 

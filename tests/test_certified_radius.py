@@ -172,3 +172,12 @@ def test_bracket_refuses_a_non_bool():
     sys = jss([[[0.5]]], [[1.0]], [[1.0]], [[0.0]], [1.0])
     with pytest.raises(ValueError, match="bracket"):
         ms_radius(sys, bracket="yes")
+
+
+def test_a_radius_below_the_float_range_of_the_probes_is_bracketed_by_zero():
+    # 𝒯(I) is subnormal (ρ ≈ 4.7e-316): the bracket is [0, 1e-150], stable
+    sys = jss([[[0.0]], [[3.058071450654324e-158]]], [[1.0]], [[1.0]],
+              [[0.0]], [0.5, 0.5])
+    res = ms_radius(sys, bracket=True)
+    assert res.lower == 0.0 and 0 < res.upper <= 1.0000001e-150
+    assert res.lower <= res.radius <= res.upper and res.stable is True
