@@ -171,10 +171,6 @@ class GainResult(CertifiedResult):
         Riccati route.
     report : SolveReport or None
         The SDP solve (None on the Riccati route).
-    route : str or None
-        When :func:`control_ncs.hinfsyn` designed the loop: ``'program'``
-        (its exact convex program) or ``'local'`` (the local search of a
-        structured gain); None for an analysis.
     method : str
         ``'riccati'`` (the bounded real lemma's Riccati equation, bisected
         on ``γ``) or ``'lmi'`` (the SDP, for loops too large for the dense
@@ -198,7 +194,6 @@ class GainResult(CertifiedResult):
     P_min: np.ndarray
     gamma_solver: float
     report: Any
-    route: str | None = None
     method: str = "riccati"
     note: str = ""
 

@@ -35,6 +35,7 @@ from ..jump import JumpStateSpace
 from ..openloop import JumpPlant
 from ..lmi import (DEFAULT_MARGIN, check_options, check_solver, gain_kinds,
                   h2_model, hinf_model, solve)
+from ..intersample import cost, cost_open_loop
 from ..performance import GainResult, l2_gain, norm
 from ..plant import NetworkedStateSpace
 from ..stability import ms_radius
@@ -98,10 +99,10 @@ def _checked(P: Any, actuator: str, solver: str | None, margin: Any,
 
 def _designed_loop(plant: Any, model: Any, name: str, solver_options: dict,
                    who: str) -> tuple[np.ndarray, JumpStateSpace, float, Any]:
-    """Solve ``model``, read its gains, close the loop and require it
-    mean-square stable: ``(gains, CL, ms_radius, report)``. Before the
-    solve, the one proof that needs no solver: the modes no gain acts in
-    (a lost command) alone make every loop mean-square unstable."""
+    """Solve ``model``, read its gains, close ``plant``'s loop with them
+    and require it mean-square stable: ``(gains, CL, ms_radius, report)``.
+    Before the solve, the one proof that needs no solver: the modes no gain
+    acts in (a lost command) alone make every loop mean-square unstable."""
     _open_loop_bound(plant, 1.0, who)
     report = solve(model.problem, name, **solver_options)
     if report.status not in ("optimal", "optimal_inaccurate") or \
@@ -236,7 +237,7 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
                  estimator_gain, initial_gain, time_limit, "h2syn")
     if plan.local:
         return _local_design(P, plan, initial_gain, "h2syn").finish()
-    model = h2_model(plan.plant, plan.margin)
+    model = h2_model(plan.design, plan.margin)
     gains, CL, rate, report = _designed_loop(plan.plant, model, plan.solver,
                                              solver_options, "h2syn")
     return norm_design("h2", gains, CL, rate, "program", "static", actuator,
@@ -249,7 +250,9 @@ class Plan:
     """An H2 or H∞ design, validated: the open loop (built once), the route
     and the checked options."""
 
-    plant: JumpPlant
+    plant: JumpPlant         # the loop's open loop (its gain is returned)
+    design: JumpPlant        # what the figure is the H2 norm of (the cost
+    #                          between the samples, for a continuous plant)
     local: bool
     controller: str
     actuator: str
@@ -280,7 +283,12 @@ def _plan(P: Any, controller: str, actuator: str, solver: str | None,
         raise ControlArgument("estimator_gain: only with "
                               "controller='estimator'")
     plant = build(P, controller, actuator, estimator_gain=L)
-    local = _not_exact(P, plant, controller, actuator, who) is not None
+    # a plant sampled from a continuous one: h2syn minimises the cost
+    # between the samples (theory: intersample cost); hinfsyn the l2 gain
+    # at the samples
+    design = (cost_open_loop(plant) if who == "h2syn"
+              and plant.sampling is not None else plant)
+    local = _not_exact(P, design, controller, actuator, who) is not None
     if local:
         _no_solver_options(solver, solver_options)
         if margin != DEFAULT_MARGIN:
@@ -290,9 +298,9 @@ def _plan(P: Any, controller: str, actuator: str, solver: str | None,
                 "program")
     else:
         _exact_takes_no_start(initial_gain, estimator_gain)
-        plant.require_noise_free(who)
-    return Plan(plant, local, controller, actuator, time_limit, name,
-                checked_margin, L)
+        design.require_noise_free(who)
+    return Plan(plant, design, local, controller, actuator, time_limit,
+                name, checked_margin, L)
 
 
 def _no_solver_options(solver: str | None, solver_options: dict) -> None:
@@ -339,7 +347,7 @@ def _local_design(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
     deadline = None if plan.time_limit is None else \
         time.perf_counter() + plan.time_limit
     mats, loop, shape, close, starts, L = _plant_problem(
-        P, plan.controller, plan.actuator, plan.estimator_gain, plan.plant)
+        P, plan.controller, plan.actuator, plan.estimator_gain, plan.design)
     if initial_gain is not None:
         G = np.asarray(initial_gain, float)
         if G.shape != shape and G.shape != (1,) + shape[1:]:
@@ -374,7 +382,7 @@ def _local_design(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
                 "gain", NOT_FOUND, {})
         x, certified = best
     gains = loop.gains(x).reshape(shape)
-    CL = close(gains)
+    CL = plan.plant.close(gains)          # the loop itself, not the figure's
     rate = ms_radius(CL)
     if not rate < 1.0:
         raise SynthesisError(
@@ -546,7 +554,14 @@ def norm_design(spec: str, gains: np.ndarray, CL: JumpStateSpace,
     """An H2 or H∞ design's answer: the figure measured on its loop (the
     exact norm, or the ℓ2 gain's certified bound with its lower end), how
     it was found and whether that route is exact."""
-    if spec == "h2":
+    note = ""
+    if spec == "h2" and "sampling" in CL.info:
+        # the figure of a loop sampled from a continuous plant: √J, the
+        # cost between the samples measured on the loop by cost()
+        value, lower, cert = math.sqrt(cost(CL).cost), math.nan, None
+        note = ("a sampled continuous plant: the figure is sqrt(J), J the "
+                "continuous-time cost between the samples (ncs.cost)")
+    elif spec == "h2":
         value, lower, cert = norm(CL, 2), math.nan, None
     else:
         assert certified is not None
@@ -561,4 +576,4 @@ def norm_design(spec: str, gains: np.ndarray, CL: JumpStateSpace,
         gain_kind="mode" if gains.ndim == 4 else "phase",
         structure="full" if program else "structured", certificate=cert,
         lower=float(lower), solver_value=float(solver_value),
-        report=report), estimator_gain)
+        report=report, note=note), estimator_gain)
