@@ -10,7 +10,6 @@ feedback); the figure returned is ``√J`` measured on the returned loop by
 ``ncs.cost`` on any gain.
 """
 
-import math
 
 import control as ct
 import numpy as np
