@@ -46,6 +46,8 @@ __all__: list[str] = []
 
 #: Stage 1 (stabilise) stops below this rate, as the refinement's.
 TARGET_RATE = 0.9
+#: The searches keep the rate this far (relative) inside its bound.
+EDGE_MARGIN = 1e-6
 #: Quasi-Newton iterations per stage.
 ITERATIONS = 200
 
@@ -68,14 +70,20 @@ class StructuredLoop:
     Ew : ndarray, shape (N, M, nk, nw), optional
         A static gain that also reads the noise, ``v = K (E ξ + Ew w)``
         (measurement noise, ``D21 ≠ 0``), per phase and mode.
+    decay : float, optional
+        The decay bound ``r``: only gains with ``ms_radius < r²`` count
+        (the objective is infinite elsewhere).
     """
 
     def __init__(self, loop: Loop, Cz: np.ndarray, Du: np.ndarray,
                  Bw: np.ndarray, Dw: np.ndarray, pi: np.ndarray,
-                 Ew: np.ndarray | None = None):
+                 Ew: np.ndarray | None = None, decay: float = 1.0):
         self.loop = loop
         self.Cz, self.Du, self.Bw, self.Dw, self.pi = Cz, Du, Bw, Dw, pi
         self.Ew = Ew
+        # log of the rate's bound r², a little inside it: an optimum on the
+        # edge could not be certified below it
+        self.edge = 2.0 * math.log(decay) + math.log1p(-EDGE_MARGIN)
         self.markov = loop.T is not None
         self.evaluations = 0
 
@@ -162,7 +170,7 @@ class H2Objective(StructuredLoop):
         loop = self.loop
         N = loop.N
         rate, _ = loop.rate(x)
-        if not rate < 0.0:
+        if not rate < self.edge:
             return math.inf, np.zeros_like(x)
         F, Acl, Bcl, Ccl, Dcl = self.matrices(x)
         forcing, direct = self._forcing(Bcl, Dcl)
@@ -216,31 +224,33 @@ def local_h2(objective: H2Objective, starts: list[np.ndarray],
     """The two stages (module docstring): stage 1 from the starts by rate
     until one is stable, stage 2 from the stable point of least norm;
     returns the free entries of the gain found."""
-    loop = objective.loop
-    target = math.log(TARGET_RATE)
+    loop, edge = objective.loop, objective.edge
+    target = math.log(TARGET_RATE) + edge
     scored = sorted(((loop.rate(x)[0], j, x) for j, x in enumerate(starts)),
                     key=lambda s: (s[0], s[1]))
     best = (scored[0][0], scored[0][2])
     for _, _, x0 in scored:
-        if best[0] < 0.0:
+        if best[0] < edge:
             break
         if deadline is not None and time.perf_counter() > deadline:
             break
         x, f, _, _ = bfgs(loop.rate, x0, target, deadline, ITERATIONS)
         if f < best[0]:
             best = (f, x)
-    if best[0] < 0.0:
+    if best[0] < edge:
         # stage 2 from the stable point of least norm among the starts
         # (a given start included) and stage 1's result
-        stable = [x0 for f0, _, x0 in scored if f0 < 0.0] + [best[1]]
+        stable = [x0 for f0, _, x0 in scored if f0 < edge] + [best[1]]
         values = [objective.value(x0)[0] for x0 in stable]
         best = (best[0], stable[int(np.argmin(values))])
-    if not best[0] < 0.0:
+    if not best[0] < edge:
         out = deadline is not None and time.perf_counter() > deadline
+        within = "" if edge == 0.0 else f" within {math.exp(edge):.6g}"
         raise SynthesisError(
             f"{who}: the local search found no gain that makes the loop "
-            f"mean-square stable (ms_radius {math.exp(best[0]):.6g} at "
-            f"best; a local method: not a proof that none exists)",
+            f"mean-square stable{within} (ms_radius "
+            f"{math.exp(best[0]):.6g} at best; a local method: not a proof "
+            f"that none exists)",
             TIME_LIMIT if out else NOT_FOUND,
             dict(ms_radius=math.exp(best[0])))
     x, _, _, _ = bfgs(objective.value, best[1], -math.inf, deadline,

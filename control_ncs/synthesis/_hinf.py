@@ -52,7 +52,7 @@ class GainObjective(StructuredLoop):
         self.evaluations += 1
         loop = self.loop
         rate, _ = loop.rate(x)
-        if not rate < 0.0:
+        if not rate < self.edge:
             return math.inf, np.zeros_like(x)
         F, Acl, Bcl, Ccl, Dcl = self.matrices(x)
         CL = self.closed(Acl, Bcl, Ccl, Dcl)

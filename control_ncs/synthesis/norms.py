@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from .._checks import choice, positive_real
+from .._checks import choice, decay_bound, positive_real
 from ._h2 import H2Objective, local_h2
 from ._hinf import GainObjective
 from ._result import Design
@@ -98,12 +98,13 @@ def _checked(P: Any, actuator: str, solver: str | None, margin: Any,
 
 
 def _designed_loop(plant: Any, model: Any, name: str, solver_options: dict,
-                   who: str) -> tuple[np.ndarray, JumpStateSpace, float, Any]:
+                   who: str, decay: float = 1.0
+                   ) -> tuple[np.ndarray, JumpStateSpace, float, Any]:
     """Solve ``model``, read its gains, close ``plant``'s loop with them
     and require it mean-square stable: ``(gains, CL, ms_radius, report)``.
     Before the solve, the one proof that needs no solver: the modes no gain
     acts in (a lost command) alone make every loop mean-square unstable."""
-    _open_loop_bound(plant, 1.0, who)
+    _open_loop_bound(plant, decay, who)
     report = solve(model.problem, name, **solver_options)
     if report.status not in ("optimal", "optimal_inaccurate") or \
             model.problem.value is None:
@@ -112,15 +113,36 @@ def _designed_loop(plant: Any, model: Any, name: str, solver_options: dict,
                              dict(status=report.status))
     gains = model.gains()
     CL = plant.close(gains)
-    rate = ms_radius(CL)
-    if not rate < 1.0:
-        raise SynthesisError(
-            f"{who}: the solver's gain does not make the loop mean-square "
-            f"stable (ms_radius {rate:.6g})", NOT_MSS, dict(ms_radius=rate))
+    rate = _rate_within(CL, decay, f"{who}: the solver's gain")
     return gains, CL, rate, report
 
 
-def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
+def _decayed(plant: JumpPlant, decay: float) -> JumpPlant:
+    """The plant whose loops decay ``1/r`` times slower: a program that
+    makes its loop mean-square stable makes the plant's decay like
+    ``r^k`` (``ms_radius < r²``), and its objective bounds the plant's
+    (sufficient for ``r < 1``)."""
+    if decay == 1.0:
+        return plant
+    return replace(plant, A=plant.A / decay, Bu=plant.Bu / decay)
+
+
+def _rate_within(CL: JumpStateSpace, decay: float, what: str) -> float:
+    """The loop's ``ms_radius``, required below ``r²`` by its certified
+    bracket (``SynthesisError('not_mss')`` otherwise)."""
+    bracket = ms_radius(CL, bracket=True)
+    bound = decay ** 2
+    if not bracket.upper < bound:
+        within = "" if decay == 1.0 else f" within the decay bound {bound:g}"
+        raise SynthesisError(
+            f"{what} does not make the loop mean-square stable{within} "
+            f"(ms_radius in [{bracket.lower:.6g}, {bracket.upper:.6g}])",
+            NOT_MSS, dict(ms_radius=bracket.radius, bound=bound))
+    return float(bracket.radius)
+
+
+def h2syn(P: NetworkedStateSpace, *, decay: float | None = None,
+          controller: str = "static",
           actuator: str = "zero", solver: str | None = None,
           margin: float = DEFAULT_MARGIN, estimator_gain: Any = None,
           initial_gain: Any = None, time_limit: float | None = 60.0,
@@ -158,6 +180,13 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
         every step (a bursty link's state revealed at every step) and
         ``D21 = 0``; otherwise the local search runs (with ``D21 ≠ 0`` for
         the static gain only, which reads the noise at once).
+    decay : float in (0, 1], optional
+        Mean-square decay bound ``r``: the returned loop has ``ms_radius <
+        r²`` (by its certified bracket), away from the edge of stability an
+        optimal design may otherwise sit on (an unobserved integrator). The
+        exact program is then solved for the plant with its dynamics divided
+        by ``r`` (sufficient: the returned figure is still the loop's own);
+        the local search keeps to the bound.
     controller : {'static', 'predictor', 'estimator'}, optional
         As for :func:`control_ncs.feedback`; over delayed links
         ``'static'`` (a gain per sensor age) or ``'predictor'``.
@@ -234,14 +263,16 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
     ('local', 9.281)
     """
     plan = _plan(P, controller, actuator, solver, margin, solver_options,
-                 estimator_gain, initial_gain, time_limit, "h2syn")
+                 estimator_gain, initial_gain, time_limit, "h2syn", decay)
     if plan.local:
         return _local_design(P, plan, initial_gain, "h2syn").finish()
-    model = h2_model(plan.design, plan.margin)
+    model = h2_model(_decayed(plan.design, plan.decay), plan.margin)
     gains, CL, rate, report = _designed_loop(plan.plant, model, plan.solver,
-                                             solver_options, "h2syn")
+                                             solver_options, "h2syn",
+                                             plan.decay)
     return norm_design("h2", gains, CL, rate, "program", "static", actuator,
-                       report=report, solver_value=float(np.sqrt(max(
+                       report=report, decay=plan.decay,
+                       solver_value=float(np.sqrt(max(
                            model.problem.value, 0.0)))).finish()
 
 
@@ -260,11 +291,13 @@ class Plan:
     solver: str
     margin: float
     estimator_gain: Any
+    decay: float = 1.0
 
 
 def _plan(P: Any, controller: str, actuator: str, solver: str | None,
           margin: Any, solver_options: dict, estimator_gain: Any,
-          initial_gain: Any, time_limit: Any, who: str) -> Plan:
+          initial_gain: Any, time_limit: Any, who: str,
+          decay: Any = None) -> Plan:
     """The checks h2syn and hinfsyn make first, the open loop (the one
     build of the design) and the route: local when the exact program does
     not cover the loop (each route refuses the other's options)."""
@@ -275,6 +308,7 @@ def _plan(P: Any, controller: str, actuator: str, solver: str | None,
                         ("static", "predictor", "estimator"))
     if time_limit is not None:
         time_limit = positive_real(time_limit, "time_limit")
+    r = decay_bound(decay)
     L = None
     if controller == "estimator":
         L = estimator_gain if estimator_gain is not None else \
@@ -300,7 +334,7 @@ def _plan(P: Any, controller: str, actuator: str, solver: str | None,
         _exact_takes_no_start(initial_gain, estimator_gain)
         design.require_noise_free(who)
     return Plan(plant, design, local, controller, actuator, time_limit,
-                name, checked_margin, L)
+                name, checked_margin, L, r)
 
 
 def _no_solver_options(solver: str | None, solver_options: dict) -> None:
@@ -355,7 +389,9 @@ def _local_design(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
                                    f"got {G.shape}")
         starts.insert(0, np.broadcast_to(G, shape).reshape(
             loop.mask.shape).flat[loop.free].copy())
-    x = local_h2(H2Objective(loop, *mats), starts, deadline, who)
+    Cz, Du, Bw, Dw, pi, Ew = mats
+    x = local_h2(H2Objective(loop, Cz, Du, Bw, Dw, pi, Ew, plan.decay),
+                 starts, deadline, who)
 
     def closed(x: np.ndarray) -> JumpStateSpace:
         return close(loop.gains(x).reshape(shape))
@@ -364,7 +400,7 @@ def _local_design(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
     if who == "hinfsyn":
         candidates = [x]
         if deadline is None or time.perf_counter() < deadline:
-            gain = GainObjective(loop, *mats)
+            gain = GainObjective(loop, Cz, Du, Bw, Dw, pi, Ew, plan.decay)
             x2, _, _, _ = bfgs(gain.value, x, -math.inf, deadline,
                                 HINF_ITERATIONS)
             candidates.append(x2)
@@ -383,15 +419,11 @@ def _local_design(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
         x, certified = best
     gains = loop.gains(x).reshape(shape)
     CL = plan.plant.close(gains)          # the loop itself, not the figure's
-    rate = ms_radius(CL)
-    if not rate < 1.0:
-        raise SynthesisError(
-            f"{who}: the local search's gain does not make the loop "
-            f"mean-square stable (ms_radius {rate:.6g})", NOT_MSS,
-            dict(ms_radius=rate))
+    rate = _rate_within(CL, plan.decay, f"{who}: the local search's gain")
     return norm_design("h2" if who == "h2syn" else "hinf", gains, CL, rate,
                        "local", plan.controller, plan.actuator,
-                       estimator_gain=L, certified=certified)
+                       estimator_gain=L, certified=certified,
+                       decay=plan.decay)
 
 
 def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
@@ -457,7 +489,8 @@ def _full_information(plant: JumpPlant) -> np.ndarray:
     return gains if np.all(np.isfinite(gains)) else zero
 
 
-def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
+def hinfsyn(P: NetworkedStateSpace, *, decay: float | None = None,
+            controller: str = "static",
             actuator: str = "zero", solver: str | None = None,
             margin: float = DEFAULT_MARGIN, estimator_gain: Any = None,
             initial_gain: Any = None, time_limit: float | None = 60.0,
@@ -484,6 +517,8 @@ def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
     P : NetworkedStateSpace
         The plant with its network, as for :func:`h2syn`: the exact program
         needs ``y = x`` at every step; otherwise the local search runs.
+    decay : float in (0, 1], optional
+        As for :func:`h2syn`.
     controller : {'static', 'predictor', 'estimator'}, optional
         As for :func:`h2syn`.
     actuator : {'zero', 'hold'}, optional
@@ -535,14 +570,15 @@ def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
     ('local', 'certified')
     """
     plan = _plan(P, controller, actuator, solver, margin, solver_options,
-                 estimator_gain, initial_gain, time_limit, "hinfsyn")
+                 estimator_gain, initial_gain, time_limit, "hinfsyn", decay)
     if plan.local:
         return _local_design(P, plan, initial_gain, "hinfsyn").finish()
-    model = hinf_model(plan.plant, plan.margin)
+    model = hinf_model(_decayed(plan.plant, plan.decay), plan.margin)
     gains, CL, rate, report = _designed_loop(plan.plant, model, plan.solver,
-                                             solver_options, "hinfsyn")
+                                             solver_options, "hinfsyn",
+                                             plan.decay)
     return norm_design("hinf", gains, CL, rate, "program", "static",
-                       actuator, report=report,
+                       actuator, report=report, decay=plan.decay,
                        certified=l2_gain(CL, solver=solver)).finish()
 
 
@@ -550,7 +586,8 @@ def norm_design(spec: str, gains: np.ndarray, CL: JumpStateSpace,
                 rate: float, route: str, controller: str, actuator: str, *,
                 report: Any = None, solver_value: float = math.nan,
                 estimator_gain: Any = None,
-                certified: GainResult | None = None) -> Design:
+                certified: GainResult | None = None,
+                decay: float = 1.0) -> Design:
     """An H2 or H∞ design's answer: the figure measured on its loop (the
     exact norm, or the ℓ2 gain's certified bound with its lower end), how
     it was found and whether that route is exact."""
@@ -568,9 +605,14 @@ def norm_design(spec: str, gains: np.ndarray, CL: JumpStateSpace,
         value, lower, cert = certified.gamma, certified.lower, certified
         solver_value = certified.gamma_solver
     program = route == "program"
+    if program and decay < 1.0:
+        note = "; ".join(filter(None, [note, (
+            f"decay {decay:g}: the program bounds the loop whose dynamics "
+            f"are divided by the decay (sufficient, not exact)")]))
     return Design(gains, CL, dict(
         spec=spec, value=float(value), route=route,
-        method="lmi" if program else "refine", exact=program,
+        method="lmi" if program else "refine",
+        exact=program and decay == 1.0, decay=float(decay),
         ms_radius=float(rate), controller=controller, actuator=actuator,
         period=int(gains.shape[0]),
         gain_kind="mode" if gains.ndim == 4 else "phase",
