@@ -590,9 +590,11 @@ class BurstyDelay:
                 value, str) else np.array([np.nan])
             if q.ndim != 1 or q.size == 0 or not np.all(np.isfinite(q)) \
                     or np.any(q < 0) or q.sum() > 1.0 + _TOL:
+                shown = _listed(q) if q.ndim == 1 and not isinstance(
+                    value, str) else repr(value)
                 raise ValueError(f"{name}: expected non-negative delay "
                                  f"probabilities summing to at most 1, got "
-                                 f"{value!r}")
+                                 f"{shown}{_sum_of(q)}")
             pmfs.append(q / max(1.0, q.sum()))
         if not any(np.any(q > 0) for q in pmfs):
             raise ValueError("pmf_bad, pmf_good: no packet ever arrives")
@@ -748,6 +750,19 @@ def _buffer(buffer: Any, d: int, chain: int) -> int:
     return buffer
 
 
+def _sum_of(q: np.ndarray) -> str:
+    """``', summing to 1.1'`` for a message about a pmf summing above 1."""
+    total = float(np.sum(q)) if q.ndim == 1 and q.size else math.nan
+    return f", summing to {total:.6g}" if total > 1.0 + _TOL else ""
+
+
+def _listed(q: np.ndarray) -> str:
+    """A pmf for a message: its entries as given, the first ten of many."""
+    if q.size <= 10:
+        return str(q.tolist())
+    return f"{str(q[:10].tolist())[:-1]}, ...] ({q.size} entries)"
+
+
 def _sent_flags(sent: Any) -> np.ndarray:
     """``sent`` as one bool per phase: bools or 0/1 only (a 2 or 0.5 is
     not a flag)."""
@@ -845,7 +860,7 @@ class RandomDelay:
                 or q.sum() > 1.0 + _TOL:
             raise ValueError(f"pmf: expected non-negative probabilities "
                              f"summing to at most 1 (the rest is the loss), "
-                             f"got {q.tolist()}")
+                             f"got {_listed(q)}{_sum_of(q)}")
         if not np.any(q > 0):
             raise ValueError("pmf: no packet ever arrives (all zeros); a "
                              "link that never delivers closes no loop")
