@@ -56,3 +56,13 @@ def test_the_check_finds_each_kind_of_speed_dependence(source):
 ])
 def test_the_check_lets_clock_free_code_pass(source):
     assert offences(source) == []
+
+
+def test_notebook_cells_run_without_a_time_limit():
+    # nbmake stops a cell after 300 s unless told otherwise (-1: never);
+    # read as text (tomllib is Python 3.11+)
+    pyproject = (TESTS.parent / "pyproject.toml").read_text(encoding="utf-8")
+    addopts = [line for line in pyproject.splitlines()
+               if line.startswith("addopts")]
+    assert len(addopts) == 1
+    assert "--nbmake " in addopts[0] and "--nbmake-timeout=-1" in addopts[0]
