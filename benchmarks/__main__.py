@@ -27,6 +27,7 @@ SECTIONS = [
     ("bench_synthesis", "compile_reduction"),
     ("bench_stability", "ms_radius_section"),
     ("bench_stability", "monte_carlo_section"),
+    ("bench_stability", "certified_radius_section"),
     ("bench_simulate", "simulate_section"),
     ("bench_passivity", "passivity_section"),
     ("bench_sweeps", "sweeps_section"),

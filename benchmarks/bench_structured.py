@@ -43,9 +43,9 @@ def _gradient_costs(P, K, rows: list) -> None:
     exact figure, near the gain ``K`` (h2syn's design, each entry moved by
     5 % of the largest, seeded: at the optimum itself the gradient
     vanishes and a relative gap means nothing)."""
-    from control_ncs._h2_design import H2Objective
-    from control_ncs._hinf_design import GainObjective
-    from control_ncs.performance_synthesis import _plant_problem
+    from control_ncs.synthesis._h2 import H2Objective
+    from control_ncs.synthesis._hinf import GainObjective
+    from control_ncs.synthesis.norms import _plant_problem
     mats, loop, _, _, _, _ = _plant_problem(P, "static", "zero", None)
     x = np.asarray(K.gains).reshape(loop.mask.shape).flat[loop.free].copy()
     x = x + 0.05 * np.abs(x).max() * np.random.default_rng(1).standard_normal(

@@ -17,10 +17,9 @@ from importlib.metadata import PackageNotFoundError, version as _version
 
 from . import (automata, connect, critical, estimator, exceptions, gain,
                intersample, joint_spectral, jump, loop, lq, meancov, modes,
-               network, openloop, passivity, performance,
-               performance_synthesis, plant, plots, refine, responses,
-               stability, strategies, sweeps, switching, synthesis, verify,
-               worstcase, worstcase_synthesis)
+               network, openloop, passivity, performance, plant, plots,
+               responses, stability, strategies, sweeps, switching, synthesis,
+               verify, worstcase, worstcase_synthesis)
 from ._lifting import lift
 from .automata import *  # noqa: F403
 from .connect import *  # noqa: F403
@@ -29,7 +28,6 @@ from .estimator import *  # noqa: F403
 from .exceptions import *  # noqa: F403
 from .gain import *  # noqa: F403
 from .intersample import *  # noqa: F403
-from .performance_synthesis import *  # noqa: F403
 from .joint_spectral import *  # noqa: F403
 from .jump import *  # noqa: F403
 from .loop import *  # noqa: F403
@@ -42,7 +40,6 @@ from .passivity import *  # noqa: F403
 from .performance import *  # noqa: F403
 from .plant import *  # noqa: F403
 from .plots import *  # noqa: F403
-from .refine import *  # noqa: F403
 from .responses import *  # noqa: F403
 from .stability import *  # noqa: F403
 from .strategies import *  # noqa: F403
@@ -55,8 +52,8 @@ from .worstcase_synthesis import *  # noqa: F403
 
 __all__ = [name for module in (
     network, modes, jump, openloop, plant, gain, strategies, loop, stability,
-    meancov, exceptions, verify, passivity, performance, lq,
-    performance_synthesis, synthesis, refine, estimator, responses, plots,
+    meancov, exceptions, verify, passivity, performance, lq, synthesis,
+    estimator, responses, plots,
     connect, sweeps, critical, automata, joint_spectral, switching,
     worstcase, worstcase_synthesis, intersample)
     for name in module.__all__] + ["lift"]

@@ -19,11 +19,11 @@ def caller_stacklevel() -> int:
     """
     import os
     import sys
-    package = os.path.dirname(os.path.abspath(__file__))
+    package = os.path.dirname(os.path.abspath(__file__)) + os.sep
     frame: Any = sys._getframe(1)  # the function that calls warnings.warn
     level = 1
-    while frame is not None and os.path.dirname(
-            os.path.abspath(frame.f_code.co_filename)) == package:
+    while frame is not None and os.path.abspath(
+            frame.f_code.co_filename).startswith(package):
         frame = frame.f_back
         level += 1
     return level

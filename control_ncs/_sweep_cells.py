@@ -16,7 +16,7 @@ from typing import Any, Callable
 
 from .exceptions import (PROOFS, TIME_LIMIT, CertificationError,
                          NotPassiveWarning, ScheduleWarning, SynthesisError)
-from .performance_synthesis import h2syn, hinfsyn
+from .synthesis import h2syn, hinfsyn
 from .plant import NetworkedStateSpace
 from .stability import ms_radius as _ms_radius
 from .strategies import build

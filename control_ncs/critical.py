@@ -22,7 +22,7 @@ from ._checks import choice, finite_real, positive_real
 from .exceptions import CertificationError, NotPassiveWarning
 from .lq import critical_arrival
 from .performance import l2_gain, norm
-from .performance_synthesis import h2syn, hinfsyn
+from .synthesis import h2syn, hinfsyn
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
 from .loop import feedback

@@ -619,3 +619,103 @@ def _evaluate(plan: _Plan, Q: np.ndarray) -> float:
     total = np.einsum("kiab,kiba->", plan.W, psi) + plan.extra.sum()
     N = p.shape[0]
     return float((total + N * plan.c) / (N * plan.h))
+
+
+def cost_open_loop(plant: Any) -> Any:
+    """The open loop whose H2 norm² is the continuous-time cost ``J``.
+
+    For a :class:`~control_ncs.JumpPlant` of a plant sampled from a
+    continuous-time one (``plant.sampling``): per mode, the performance
+    output becomes ``h^{-1/2} W(τ)^{1/2} ψ`` with ``ψ = [x_k; u_{k-1};
+    u_k]`` (the cost of the period, :func:`intersample_weight`), the
+    continuous noise enters the loop state as ``ω_k ~ N(0, R1d)`` where the
+    sampling record says, the discrete (measurement) noise keeps its way
+    in, and one more input-output pair carries the noise's own cost
+    ``c(h)/h``; so the loop this plant closes with a gain has
+    ``‖G‖₂² = J`` of :func:`cost` (:ref:`theory-intersample-cost`). The
+    designs minimise ``J`` by minimising that norm.
+
+    Parameters
+    ----------
+    plant : JumpPlant
+        With a sampling record (built from ``nss(sys_c, ..., dt=h)``).
+
+    Returns
+    -------
+    JumpPlant
+        Same state, gain and modes; new ``Bw``, ``Cz``, ``Du``, ``Dw``.
+
+    Raises
+    ------
+    ValueError
+        A plant without a continuous-time model, ``D11 ≠ 0``, or a noise
+        that is both continuous and discrete.
+    """
+    from dataclasses import replace
+    s = plant.sampling
+    if s is None:
+        raise ValueError("plant: a discrete plant has no cost between the "
+                         "samples; its H2 norm is its cost")
+    A, B, C, D = (np.asarray(X, float) for X in s["plant"])
+    h, m2, p2 = float(s["h"]), int(s["ncon"]), int(s["nmeas"])
+    m1, p1 = B.shape[1] - m2, C.shape[0] - p2
+    B1, B2, C1 = B[:, :m1], B[:, m1:], C[:p1]
+    D11, D12, D21 = D[:p1, :m1], D[:p1, m1:], D[p1:, :m1]
+    if np.any(D11 != 0):
+        raise ValueError("plant: D11 ≠ 0: white noise fed straight through "
+                         "to z has infinite power")
+    if np.any(np.any(B1 != 0, axis=0) & np.any(D21 != 0, axis=0)):
+        raise ValueError("plant: a noise enters both the continuous plant "
+                         "(B1) and the sampled measurement (D21); give each "
+                         "noise one meaning")
+    R1d, c = sampled_noise(A, B1, C1, h)
+    discrete = ~np.any(B1 != 0, axis=0)
+    N, M = s["tau"].shape
+    roots = {}
+    for tau in np.unique(s["tau"]):
+        # z = R^T psi with R R^T = W: z^T z = psi^T W psi
+        roots[float(tau)] = _root(intersample_weight(
+            A, B2, C1, D12, h, float(tau))).T / math.sqrt(h)
+    rows = np.concatenate([s["x"], s["u_prev"], s["u"]], axis=2)
+    Wr = np.array([[roots[float(s["tau"][k, i])] for i in range(M)]
+                   for k in range(N)])                       # (N, M, r, d)
+    d = rows.shape[2]
+    nk = plant.Bu.shape[-1]
+    zero_v = np.zeros((N, M, d, nk))
+    zero_v[:, :, -m2:] = s["u_v"]
+    zero_w = np.zeros((N, M, d, int(discrete.sum())))
+    zero_w[:, :, -m2:] = s["u_w"][..., discrete]
+    Cz, Du, Dw = Wr @ rows, Wr @ zero_v, Wr @ zero_w
+    # the inputs: ω (R1d^½ per unit noise), the discrete noises, the noise's
+    # own cost; the outputs: the period's cost, then √(c/h) on that input
+    omega = s["omega"] @ _root(R1d)         # ω = R e, R R^T = R1d
+    nx = plant.A.shape[-1]
+    Bw = np.concatenate([omega, plant.Bw[..., discrete],
+                         np.zeros((N, M, nx, 1))], axis=3)
+    r = Cz.shape[2]
+    extra = np.zeros((N, M, 1, nx))
+    Cz = np.concatenate([Cz, extra], axis=2)
+    Du = np.concatenate([Du, np.zeros((N, M, 1, nk))], axis=2)
+    n = omega.shape[-1]
+    Dw_full = np.zeros((N, M, r + 1, n + Dw.shape[-1] + 1))
+    Dw_full[:, :, :r, n:n + Dw.shape[-1]] = Dw
+    Dw_full[:, :, r, -1] = math.sqrt(max(c, 0.0) / h)
+
+    def widen(X: Any, ndim: int) -> Any:
+        """Noise read by the controller: only the discrete columns, with
+        zeros for ω and the constant's input."""
+        if X is None:
+            return None
+        shape = X.shape[:-1]
+        out = np.zeros(shape + (n + int(discrete.sum()) + 1,))
+        out[..., n:n + int(discrete.sum())] = X[..., discrete]
+        return out
+
+    names = ([f"omega[{i}]" for i in range(n)]
+             + [name for name, keep in zip(plant.inputs or [], discrete)
+                if keep] + ["noise cost"])
+    return replace(plant, Bw=Bw, Cz=Cz, Du=Du, Dw=Dw_full,
+                   Ew=widen(plant.Ew, 0), Gw=widen(plant.Gw, 0),
+                   inputs=names if plant.inputs else None,
+                   outputs=[f"J[{i}]" for i in range(r + 1)],
+                   sampling=None)

@@ -391,9 +391,9 @@ def _certificate(sys, ifp_index, ofp_index, decay, method, solver, margin,
                 and sys.modes.A.shape[-1] > COUPLED_THRESHOLD)):
         # a jump system: the coupled Riccati iteration (no solver), exact
         # check; the necessary conditions first, as on the LMI route
-        rho = ms_radius(sys)
-        if not rho < min(1.0, decay ** 2):
-            return PassivityResult(False, np.nan, None, None, NOT_MSS)
+        unstable = _not_mss(sys, decay)
+        if unstable is not None:
+            return PassivityResult(False, np.nan, None, None, unstable)
         if _feedthrough_refutes(sys, ifp_index, 0.0):
             return PassivityResult(False, float(ifp_index), None, None,
                                    FEEDTHROUGH)
@@ -460,6 +460,14 @@ def _zero_dynamics_refute(sys, ifp_index, decay) -> SolveReport | None:
         "output-feedback level ρ can be certified")
 
 
+def _not_mss(sys: Any, decay: float) -> str | None:
+    """None when ``ms_radius < min(1, r²)`` is proven (certified bracket),
+    ``'not_mss'`` when the opposite is, ``'not_verified'`` when the
+    bracket straddles the bound."""
+    below = ms_radius(sys, bracket=True).below(min(1.0, decay ** 2))
+    return None if below else NOT_MSS if below is False else NOT_VERIFIED
+
+
 def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
                      solver_options) -> PassivityResult:
     """The LMI route of :func:`passivity_certificate` (any jump system).
@@ -467,9 +475,9 @@ def _lmi_certificate(sys, ifp_index, ofp_index, decay, solver, margin,
     At most one of ``ifp_index`` (``η``) and ``ofp_index`` (``ρ``) is None:
     that index is maximised; with both given, the level is certified.
     """
-    rho = ms_radius(sys)
-    if not rho < min(1.0, decay ** 2):
-        return PassivityResult(False, np.nan, None, None, NOT_MSS)
+    unstable = _not_mss(sys, decay)
+    if unstable is not None:
+        return PassivityResult(False, np.nan, None, None, unstable)
     if _feedthrough_refutes(sys, ifp_index, ofp_index):
         return PassivityResult(False, float(ifp_index), None, None,
                                FEEDTHROUGH, ofp_index=float(ofp_index))

@@ -3,13 +3,14 @@ and the top Lyapunov exponent (:ref:`theory-performance`).
 
 * :func:`norm` mirrors :func:`control.norm`: for a jump system the H2 norm
   is the stationary output power under unit white noise, exact, from the
-  linear fixed point of :func:`control_ncs.stability_covariances`; it is
+  linear fixed point of :func:`control_ncs.stationary_covariances`; it is
   not the mean system's H2 norm (the StateSpace face's, which
   ``ct.norm(CL, 2)`` would compute: it refuses a jump system and names this
   function).
-* :func:`l2_gain` brackets the ℓ2 gain (H∞ norm): a certified upper bound
-  from the bounded real lemma (an LMI, checked exactly) and the mean
-  system's gain below it.
+* :func:`l2_gain` brackets the ℓ2 gain (H∞ norm) to within 1 %: a
+  certified upper bound from the bounded real lemma (its Riccati equation
+  bisected, the storage checked exactly) and the exact gain of a worst
+  input below it (:mod:`control_ncs._gain`).
 * :func:`lyapunov_exponent` estimates the almost-sure growth rate
   ``lim (1/t) log ‖ξ_t‖`` from renormalised products along sample paths,
   with a confidence interval; exact in the scalar case. It can lie far
@@ -30,8 +31,8 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import (choice, decay_bound, no_extra_kwargs,
                       positive_int, positive_real, real_array)
-from .exceptions import (CERTIFIED, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
-                         CertificationError)
+from .exceptions import (CERTIFIED, INFEASIBLE, NOT_MSS, NOT_VERIFIED,
+                         SOLVER_FAILED, CertificationError)
 from .lmi import (DEFAULT_MARGIN, check_options, check_solver,
                   quadratic_supply_model, solve)
 from ._results import CertifiedResult, Result
@@ -39,7 +40,9 @@ from ._face import refuse_mean_copy
 from ._lti import is_jump
 from .jump import as_jump
 from .montecarlo import root_entropy
+from ._gain import RICCATI_MAX_SIZE, gain_bracket, gain_bracket_size
 from .stability import ms_radius, output_power
+from ._farkas import supply_dual_check
 from .verify import gain_certificate_check, supply_certificate_check
 
 __all__ = ["norm", "l2_gain", "GainResult", "lyapunov_exponent",
@@ -112,11 +115,13 @@ def norm(sys: Any, p: Any = 2, *, tol: float = 1e-10, method: str = "auto",
     if isinstance(p, str) or p == np.inf:
         choice(p if isinstance(p, str) else "inf", "p", ("inf",))
         if is_jump(sys):
-            if not ms_radius(sys) < 1.0:
+            radius = ms_radius(sys, bracket=True)
+            if radius.stable is not True:
                 if print_warning:
-                    warnings.warn("norm: sys is not mean-square stable "
-                                  "(ms_radius >= 1): its l2 gain is infinite",
-                                  UserWarning, stacklevel=2)
+                    warnings.warn(f"norm: sys is not proven mean-square "
+                                  f"stable ({radius.message}): its l2 gain "
+                                  "is taken as infinite", UserWarning,
+                                  stacklevel=2)
                 return float("inf")
             return l2_gain(sys).gamma
         return float(ct.norm(sys, "inf", print_warning=print_warning))
@@ -132,8 +137,13 @@ def norm(sys: Any, p: Any = 2, *, tol: float = 1e-10, method: str = "auto",
     return math.sqrt(max(power, 0.0))
 
 
-#: Relative back-offs above the solver's γ² tried by the exact check.
+#: Relative back-offs above the solver's γ² tried by the exact check (the
+#: LMI route, for loops too large for the Riccati route).
 GAIN_BACKOFFS = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
+
+#: The bracket ``[lower, gamma]`` counts as tight when ``gamma`` exceeds
+#: ``lower`` by at most this much (relative).
+GAIN_TIGHT = 0.01
 
 
 @dataclass(repr=False)
@@ -146,28 +156,35 @@ class GainResult(CertifiedResult):
         Certified upper bound: ``E Σ zᵀz ≤ γ² E Σ wᵀw`` from rest, for every
         input adapted to the past, proven by ``P`` (exact check).
     lower : float
-        A lower bound: the largest gain of the mean system (the map from
-        deterministic ``w`` to ``E z``) on a frequency grid.
+        A lower bound: the gain of a worst input found (``method
+        'riccati'``: the maximising policy of the Riccati equation, pushed
+        to the edge of mean-square stability, its energies computed
+        exactly), or of the mean system (the map from deterministic ``w``
+        to ``E z``) on a frequency grid, whichever is larger.
     P : ndarray
         The certificate, (N, n, n) or (N, M, n, n) (Markov modes).
     theta_max, P_min : ndarray
         ``λmax`` of every bounded-real matrix ``Θ`` and ``λmin`` of every
         ``P``, as checked.
     gamma_solver : float
-        The solver's optimum (never the certified number).
-    report : SolveReport
-    route : str or None
-        When :func:`control_ncs.hinfsyn` designed the loop: ``'program'``
-        (its exact convex program) or ``'local'`` (the local search of a
-        structured gain); None for an analysis.
+        The SDP solver's optimum (never the certified number); nan on the
+        Riccati route.
+    report : SolveReport or None
+        The SDP solve (None on the Riccati route).
+    method : str
+        ``'riccati'`` (the bounded real lemma's Riccati equation, bisected
+        on ``γ``) or ``'lmi'`` (the SDP, for loops too large for the dense
+        Riccati route).
+    note : str
+        Why the bracket is not tight, when it is not (empty otherwise).
 
     Examples
     --------
     >>> import control_ncs as ncs
     >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.5, 0.5])
     >>> res = ncs.l2_gain(sys)
-    >>> res.status, bool(res.lower <= res.gamma)
-    ('certified', True)
+    >>> res.status, bool(res.lower <= res.gamma), res.tight
+    ('certified', True, True)
     """
 
     gamma: float
@@ -177,19 +194,29 @@ class GainResult(CertifiedResult):
     P_min: np.ndarray
     gamma_solver: float
     report: Any
-    route: str | None = None
+    method: str = "riccati"
+    note: str = ""
 
     _repr_fields: ClassVar[tuple[str, ...]] = ("gamma", "lower")
 
     @property
+    def tight(self) -> bool:
+        """``gamma ≤ (1 + GAIN_TIGHT)·lower``: within 1 % of the gain."""
+        return bool(self.gamma <= (1 + GAIN_TIGHT) * self.lower)
+
+    @property
     def message(self) -> str:
         """The bracket in words."""
-        return (f"the l2 gain lies in [{self.lower:.6g}, {self.gamma:.6g}] "
+        text = (f"the l2 gain lies in [{self.lower:.6g}, {self.gamma:.6g}] "
                 f"(upper end certified)")
+        return text if self.tight else f"{text}; not tight: {self.note}"
 
     def _details(self) -> list[str]:
-        return [f"certified gamma {self.gamma:.8g} (solver {self.gamma_solver:.8g}), "
-                f"lower bound {self.lower:.8g} from the mean system",
+        how = ("Riccati equation, bisected" if self.method == "riccati"
+               else f"SDP (solver {self.gamma_solver:.8g})")
+        return [f"certified gamma {self.gamma:.8g} ({how}), lower bound "
+                f"{self.lower:.8g} (relative width "
+                f"{self.gamma / self.lower - 1 if self.lower else math.inf:.1e})",
                 f"max λmax(Θ) = {self.theta_max.max():.3e}, "
                 f"min λmin(P) = {self.P_min.min():.3e}"]
 
@@ -200,14 +227,13 @@ def _mean_gain_lower(sys: Any) -> float:
     face = sys.mean() if hasattr(sys, "mean") else sys
     A, B, C, D = (np.asarray(X, float) for X in (face.A, face.B, face.C,
                                                   face.D))
-    thetas = np.linspace(0.0, np.pi, 2000)
     best = float(np.linalg.norm(D, 2)) if D.size else 0.0
     n = A.shape[0]
-    for th in thetas:
-        G = D + C @ np.linalg.solve(np.exp(1j * th) * np.eye(n) - A, B) \
-            if n else D
-        best = max(best, float(np.linalg.norm(G, 2)))
-    return best
+    if not n or not B.size or not C.size:
+        return best
+    z = np.exp(1j * np.linspace(0.0, np.pi, 2000))
+    G = D + C @ np.linalg.solve(z[:, None, None] * np.eye(n) - A, B)
+    return max(best, float(np.linalg.norm(G, 2, axis=(-2, -1)).max()))
 
 
 def l2_gain(sys: Any, *, solver: str | None = None,
@@ -218,20 +244,27 @@ def l2_gain(sys: Any, *, solver: str | None = None,
     The bounded real lemma (:ref:`theory-performance`): storages ``P_k``
     (Markov modes: ``P_{k,ℓ}`` per previous mode) with
     ``Θ_{k,ℓ}(P, γ²) ≺ 0`` prove ``E Σ zᵀz < γ² E Σ wᵀw`` from rest for
-    every input adapted to the past. The LMI minimising ``γ²`` is solved
-    by cvxpy; the returned ``gamma`` is the smallest of the solver's ``γ²``
-    raised by ``GAIN_BACKOFFS`` for which the exact check passes. The lower
-    end is the mean system's largest gain on a frequency grid. The LMI is
-    exact for a fixed jump system (mode-dependent storage), so the bracket
-    closes as far as the mean and the stochastic gains agree.
+    every input adapted to the past; for a fixed loop the lemma is exact.
+    Its boundary is a Riccati equation, solved by policy iteration and
+    bisected on ``γ``: the returned ``gamma`` is the lowest level whose
+    storage (the Riccati solution with a strictness term relative to its
+    size) passes the exact check, a relative ``1e-8`` to ``1e-6`` above
+    the level where the equation stops having a solution. The lower end is
+    the gain of an input built from the maximising policy there (exact
+    energies), so the bracket is tight (within 1 %, ``res.tight``) for
+    any mean-square stable loop the dense Riccati route can hold
+    (``L·n² ≤ 1600`` unknowns); larger loops fall back on the LMI (solved
+    by cvxpy, the solver's ``γ²`` raised by ``GAIN_BACKOFFS`` until the
+    exact check passes) with the mean system's gain as the lower end, and
+    ``res.note`` says so.
 
     Parameters
     ----------
     sys : JumpStateSpace or discrete-time StateSpace
     solver : str, optional
-        Any installed cvxpy solver (default Clarabel).
+        Any installed cvxpy solver (default Clarabel), for the LMI route.
     margin : float, optional
-        Relative strictness margin of the LMI.
+        Relative strictness margin of the LMI route.
     **solver_options
         Passed to the solver.
 
@@ -242,30 +275,55 @@ def l2_gain(sys: Any, *, solver: str | None = None,
     Raises
     ------
     CertificationError
-        ``'not_mss'`` (no finite gain), ``'solver_failed'``, or
-        ``'not_verified'`` when no back-off passes the exact check.
+        ``'not_mss'`` (no finite gain: proven by the certified radius),
+        ``'not_verified'`` (stability undecided: the radius' bracket
+        contains 1; or no level passes the exact check), ``'solver_failed'``
+        (LMI route).
 
     Examples
     --------
     ``x⁺ = a x + w``, ``z = x``, ``a = 0.5`` or ``0.9`` (probabilities 0.5):
-    the gain lies between the mean system's (``1/(1 - 0.7)``) and the
-    certified bound.
+    the scalar bounded real lemma gives ``γ² = min_P P + (0.7P)²/(0.47P -
+    1) = 12.7737``; the mean system's gain is only ``1/(1 - 0.7)``.
 
     >>> import control_ncs as ncs
     >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.5, 0.5])
     >>> res = ncs.l2_gain(sys)
     >>> round(res.lower, 4), round(res.gamma, 4)
-    (3.3333, 3.574)
+    (3.574, 3.574)
     """
     J = as_jump(sys)
     name = check_solver(solver)
     check_options(name, solver_options)
     margin = positive_real(margin, "margin")
-    rho = ms_radius(J)
-    if not rho < 1.0:
+    radius = ms_radius(J, bracket=True)
+    if radius.stable is not True:
+        undecided = radius.stable is None
         raise CertificationError(
-            "l2_gain: sys is not mean-square stable (ms_radius >= 1): its "
-            "l2 gain is infinite", NOT_MSS, dict(ms_radius=rho))
+            f"l2_gain: {radius.message}: "
+            + ("stability is undecided, so no gain is certified"
+               if undecided else "the l2 gain is infinite"),
+            NOT_VERIFIED if undecided else NOT_MSS,
+            dict(ms_radius=radius.radius, lower=radius.lower,
+                 upper=radius.upper))
+    mean = _mean_gain_lower(J)
+    found = gain_bracket(J, mean)
+    if found is not None and found.level is not None:
+        level = found.level
+        P = level.P if not J.modes.is_iid else level.P[:, 0]
+        note = "" if found.upper <= (1 + GAIN_TIGHT) * found.lower else (
+            f"the worst input found reaches {found.lower:.6g}; the "
+            "maximising policy could not be pushed to the edge of "
+            "mean-square stability")
+        return GainResult(found.upper, found.lower, P, level.theta_max,
+                          level.P_min, math.nan, None, method="riccati",
+                          note=note)
+    return _lmi_gain(J, mean, name, margin, solver_options)
+
+
+def _lmi_gain(J: Any, mean: float, name: str, margin: float,
+              solver_options: dict[str, Any]) -> GainResult:
+    """The LMI route of :func:`l2_gain` (the Riccati route declined)."""
     model = quadratic_supply_model(J, -1.0, 0.0, None, margin)
     report = solve(model.problem, name, **solver_options)
     if report.status not in ("optimal", "optimal_inaccurate") or \
@@ -278,12 +336,18 @@ def l2_gain(sys: Any, *, solver: str | None = None,
     if J.modes.is_iid:
         P = P[:, 0]                                 # one storage per phase
     scale = max(g2, 1e-12)
+    n = J.modes.A.shape[-1]
+    why = ("the loop is too large for the dense Riccati route "
+           f"({n} states): the lower end is the mean system's gain"
+           if gain_bracket_size(J) > RICCATI_MAX_SIZE else
+           "no Riccati level passed the exact check: the lower end is the "
+           "mean system's gain")
     for backoff in GAIN_BACKOFFS:
         gamma = math.sqrt(g2 + backoff * scale)
         ok, theta_max, P_min = gain_certificate_check(J, P, gamma)
         if ok:
-            return GainResult(gamma, min(_mean_gain_lower(J), gamma), P,
-                              theta_max, P_min, math.sqrt(g2), report)
+            return GainResult(gamma, min(mean, gamma), P, theta_max, P_min,
+                              math.sqrt(g2), report, method="lmi", note=why)
     raise CertificationError(
         f"l2_gain: the solver's gamma = {math.sqrt(g2):.6g} could not be "
         f"certified exactly with back-offs up to {GAIN_BACKOFFS[-1]:g}",
@@ -459,10 +523,17 @@ class SupplyResult(Result):
     theta_max, P_min : ndarray or None
         As checked.
     reason : str
-        ``'certified'``, or why not: the solver's status
-        (``'solver_failed'``) or ``'not_verified'`` (a candidate that
-        failed the exact check). Never a proof that the supply fails.
+        ``'certified'``; ``'infeasible'``, a proof that no storage exists
+        (the solver's Farkas certificate passed
+        :func:`control_ncs._farkas.supply_dual_check`: for a fixed loop the
+        lemma is exact, so the loop is not strictly dissipative for this
+        supply); or, proving nothing, the solver's failure
+        (``'solver_failed'``) or ``'not_verified'`` (a candidate that failed
+        the exact check).
     report : SolveReport or None
+    proof : dict or None
+        With ``'infeasible'``: the multipliers ``Z``, ``value``
+        (``Σ <Θ⁰, Z> ≥ 0``) and ``Y_min`` (``≥ 0``), as checked.
 
     Examples
     --------
@@ -479,6 +550,7 @@ class SupplyResult(Result):
     P_min: np.ndarray | None
     reason: str
     report: Any
+    proof: dict[str, Any] | None = None
 
     _repr_fields: ClassVar[tuple[str, ...]] = ("dissipative", "reason")
 
@@ -497,11 +569,17 @@ class SupplyResult(Result):
         """One sentence."""
         if self.dissipative:
             return "dissipative for this supply (storage checked exactly)"
+        if self.reason == INFEASIBLE:
+            return ("proven: no storage exists for this supply (the "
+                    "solver's Farkas certificate passed the exact check)")
         status = getattr(self.report, "status", None)
         return ("no certificate: not a proof that the supply fails "
                 f"({self.reason}, solver status {status!r})")
 
     def _details(self) -> list[str]:
+        if self.proof is not None:
+            return [f"Σ <Θ⁰, Z> = {self.proof['value']:.3e} ≥ 0, "
+                    f"min λmin(Y) = {self.proof['Y_min']:.3e} ≥ 0"]
         if self.theta_max is None or self.P_min is None:
             return []
         return [f"max λmax(Θ) = {self.theta_max.max():.3e}, "
@@ -577,16 +655,17 @@ def dissipativity(sys: Any, Q: Any, S: Any, R: Any, *, decay: float = 1.0,
     Examples
     --------
     ``x⁺ = a x + w``, ``z = x + w``, ``a = 0.5`` or ``0.9``: passive with
-    dissipation 0.2 (``Q = 0, S = 1, R = -0.4``), and a sector bound
-    ``(z - 0.5w)(2w - z) ≥ 0`` (``Q = -1, S = 1.25, R = -1``) has no
-    certificate.
+    dissipation 0.2 (``Q = 0, S = 1, R = -0.4``); for the sector bound
+    ``(z - 0.5w)(2w - z) ≥ 0`` (``Q = -1, S = 1.25, R = -1``) no storage
+    exists, and the solver's infeasibility certificate proves it.
 
     >>> import control_ncs as ncs
     >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[1.0]], [0.5, 0.5])
     >>> ncs.dissipativity(sys, 0.0, 1.0, -0.4).dissipative
     True
-    >>> ncs.dissipativity(sys, -1.0, 1.25, -1.0).dissipative
-    False
+    >>> res = ncs.dissipativity(sys, -1.0, 1.25, -1.0)
+    >>> res.dissipative, res.status
+    (False, 'infeasible')
     """
     J = as_jump(sys)
     nz, nw = J.modes.C.shape[-2], J.modes.B.shape[-1]
@@ -597,6 +676,16 @@ def dissipativity(sys: Any, Q: Any, S: Any, R: Any, *, decay: float = 1.0,
     margin = positive_real(margin, "margin")
     model = quadratic_supply_model(J, Q, S, R, margin, decay=decay)
     report = solve(model.problem, name, **solver_options)
+    if report.status in ("infeasible", "infeasible_inaccurate"):
+        # the solver's Farkas certificate, checked exactly: a proof
+        Z = model.theta_duals()
+        if Z is not None:
+            proven, value, Y_min = supply_dual_check(J, Z, Q, S, R,
+                                                     decay=decay)
+            if proven:
+                return SupplyResult(False, None, None, None, INFEASIBLE,
+                                    report, dict(value=value, Y_min=Y_min,
+                                                 Z=Z))
     if report.status not in ("optimal", "optimal_inaccurate"):
         return SupplyResult(False, None, None, None, SOLVER_FAILED, report)
     try:

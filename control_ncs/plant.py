@@ -246,6 +246,37 @@ class NetworkedStateSpace(ct.StateSpace):
         self.input_delay = input_delay
         self.sensor_delay = delay_model(sensor_delay, "sensor_delay")
         self.actuator_delay = delay_model(actuator_delay, "actuator_delay")
+        self._compose_links()
+        if self.shared_channel:
+            both = (self.sensor_schedule.pattern.any(axis=1)
+                    & self.actuator_schedule.pattern.any(axis=1))
+            if both.any():
+                k = np.flatnonzero(both).tolist()
+                raise ValueError(
+                    "shared_channel: only one message may cross the network per "
+                    f"step, but phases {k} schedule a sensor and an actuator "
+                    "together (sensor_schedule[k] != 0 requires "
+                    "actuator_schedule[k] == 0)")
+        self._m1, self._p1 = m1, p1
+        if inputs is None:
+            inputs = [f"w[{i}]" for i in range(m1)] + \
+                [f"u[{i}]" for i in range(self.ncon)]
+        if outputs is None:
+            outputs = [f"z[{i}]" for i in range(p1)] + \
+                [f"y[{i}]" for i in range(self.nmeas)]
+        super().__init__(A, B, C, D, dt, name=name, inputs=inputs,
+                         outputs=outputs, states=states)
+        # the network settings were validated against these matrices: they
+        # may not change afterwards (a NaN written into D would surface deep
+        # inside an analysis)
+        for X in (self.A, self.B, self.C, self.D):
+            X.setflags(write=False)
+        self.continuous = _continuous(continuous, self)
+
+    def _compose_links(self) -> None:
+        """Refuse a link combination no chain models; a loss and a delay on
+        one link compose (theory: links compose): the link's loss is the
+        total one."""
         for side, delay in (("sensor", self.sensor_delay),
                             ("actuator", self.actuator_delay)):
             if delay is None:
@@ -279,31 +310,6 @@ class NetworkedStateSpace(ct.StateSpace):
                 self.sensor_loss = total
             else:
                 self.actuator_loss = total
-        if self.shared_channel:
-            both = (self.sensor_schedule.pattern.any(axis=1)
-                    & self.actuator_schedule.pattern.any(axis=1))
-            if both.any():
-                k = np.flatnonzero(both).tolist()
-                raise ValueError(
-                    "shared_channel: only one message may cross the network per "
-                    f"step, but phases {k} schedule a sensor and an actuator "
-                    "together (sensor_schedule[k] != 0 requires "
-                    "actuator_schedule[k] == 0)")
-        self._m1, self._p1 = m1, p1
-        if inputs is None:
-            inputs = [f"w[{i}]" for i in range(m1)] + \
-                [f"u[{i}]" for i in range(self.ncon)]
-        if outputs is None:
-            outputs = [f"z[{i}]" for i in range(p1)] + \
-                [f"y[{i}]" for i in range(self.nmeas)]
-        super().__init__(A, B, C, D, dt, name=name, inputs=inputs,
-                         outputs=outputs, states=states)
-        # the network settings were validated against these matrices: they
-        # may not change afterwards (a NaN written into D would surface deep
-        # inside an analysis)
-        for X in (self.A, self.B, self.C, self.D):
-            X.setflags(write=False)
-        self.continuous = _continuous(continuous, self)
 
     # -- partition (theory: plant) --------------------------------------------
     @property

@@ -3,35 +3,53 @@
 The second moment ``Q = E ξξᵀ`` of the unforced system evolves by
 ``Q⁺ = 𝒯_k(Q) = Σ_i p_ki A_ki Q A_kiᵀ``. Over one period this is the
 monodromy operator ``𝒯 = 𝒯_{N-1} ∘ … ∘ 𝒯_0``; the system is mean-square
-stable exactly when its spectral radius is below one. Two routes compute it:
+stable exactly when its spectral radius is below one. It is computed with
+a certified bracket (:class:`RadiusBracket`): an eigenvalue estimate, then
+linear solves of the resolvent ``(μ - 𝒯)X = I`` just above and below it
+whose signs prove on which side of ``μ`` the radius lies
+(:mod:`control_ncs._perron`). Three routes give the estimate and the
+solves:
 
+* ``'deterministic'`` (one live mode per phase): ``𝒯 = Φ ⊗ Φ`` for the
+  ``n × n`` monodromy ``Φ``, its eigenvalues and Stein equations;
 * ``'dense'``: the ``n² × n²`` Kronecker matrix ``Σ p (A ⊗ A)`` per phase,
-  multiplied over the period, then all eigenvalues (memory ``O(n⁴)``);
+  multiplied over the period, its eigenvalues and LU (memory ``O(n⁴)``);
 * ``'matrix-free'``: ``𝒯`` applied by matrix products
-  (``O(N·M·n³)`` per application) inside ARPACK
-  (:func:`scipy.sparse.linalg.eigs`) for the eigenvalue of largest modulus,
-  which for this positive map is the spectral radius itself.
+  (``O(N·M·n³)`` per application), ARPACK (:func:`scipy.sparse.linalg.eigs`)
+  for the two leading eigenvalues, GMRES preconditioned by the Stein
+  equation of the mean dynamics for the solves.
 
-Markov modes (:ref:`theory-markov`) carry the second moment per mode,
-``Q_i = E[ξξᵀ 1{σ = i}]``, and ``Q⁺_j = Σ_i T_k[i, j] A_ki Q_i A_kiᵀ``: the
-same two routes on ``M``-tuples (Kronecker size ``M·n²``). i.i.d. modes use
-the ``n²`` operator above, so their numbers do not change.
+Every probe is checked with the map applied by matrix products, never with
+the matrix a solver used. Markov modes (:ref:`theory-markov`) carry the
+second moment per mode, ``Q_i = E[ξξᵀ 1{σ = i}]``, and
+``Q⁺_j = Σ_i T_k[i, j] A_ki Q_i A_kiᵀ``: the same routes on ``M``-tuples
+(Kronecker size ``M·n²``). i.i.d. modes use the ``n²`` operator above, so
+their numbers do not change.
 """
 
 from __future__ import annotations
 
-from typing import Any
+import math
+import warnings
+from dataclasses import dataclass
+from typing import Any, Callable, ClassVar, Literal, overload
 
 import numpy as np
-from scipy.linalg import solve_discrete_lyapunov
+from scipy.linalg import (LinAlgWarning, lu_factor, lu_solve,
+                          solve_discrete_lyapunov)
 from scipy.sparse.linalg import (ArpackError, ArpackNoConvergence,
                                   LinearOperator, eigs, gmres)
 
 from ._checks import choice, no_extra_kwargs, positive_real
+from ._perron import certify, power_estimate
+from ._results import Result
+from .exceptions import CERTIFIED, NOT_MSS, NOT_VERIFIED, CertificationError
 from .jump import JumpStateSpace, as_jump
 
-__all__ = ["ms_radius", "is_mss", "second_moment_operator",
+__all__ = ["ms_radius", "is_mss", "RadiusBracket", "second_moment_operator",
            "stationary_covariances"]
+
+_EPS = float(np.finfo(float).eps)
 
 #: Above this state dimension, method='auto' goes matrix-free (the dense
 #: monodromy needs n⁴ floats and N·n⁶ flops; see benchmarks/). Markov modes:
@@ -55,8 +73,10 @@ def phase_map(A: np.ndarray, weights: np.ndarray, Q: np.ndarray,
         return np.tensordot(weights.T, Y, axes=1)        # Σ_i T[i, j] Y_i
     live = weights > 0
     Al = A[live]
-    return np.einsum("m,mab,bc,mdc->ad", weights[live], Al, Q, Al,
-                     optimize=True)
+    # batched products (BLAS); einsum's path search cost more than the
+    # products themselves below n ≈ 40
+    return np.tensordot(weights[live], Al @ Q @ Al.transpose(0, 2, 1),
+                        axes=1)
 
 
 def phase_adjoint(A: np.ndarray, weights: np.ndarray, V: np.ndarray,
@@ -192,8 +212,436 @@ def _deterministic_monodromy(sys: JumpStateSpace) -> np.ndarray | None:
     return phi
 
 
-def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
-              **kwargs: Any) -> float:
+# -- the certified radius (theory: mean-square stability) ---------------------
+#: Below this multiple of the operator's norm bound the radius counts as
+#: zero for the bracket's width (a relative width means nothing at 0).
+RADIUS_ATOL = 1e-14
+
+#: GMRES on the preconditioned resolvent (matrix-free probes): Krylov
+#: dimension per cycle and cycles at most.
+GMRES_RESTART = 60
+GMRES_CYCLES = 5
+
+
+@dataclass(frozen=True, repr=False, eq=False)
+class RadiusBracket(Result):
+    """The mean-square radius with a certified bracket around it.
+
+    ``lower ≤ ms_radius < upper`` is proven (:ref:`theory-mss`): the upper
+    end by a positive definite ``X`` with ``𝒯(X) ≺ upper^N X``
+    (Collatz–Wielandt for the PSD cone), the lower end by a solution of
+    ``(μ - 𝒯)X = F``, ``F ⪰ 0``, that is not PSD (``μ = lower^N``; the
+    resolvent of a cone-preserving map is positive above its radius).
+
+    Attributes
+    ----------
+    radius : float
+        The point value :func:`ms_radius` returns, inside the bracket.
+    lower, upper : float
+        The certified ends, per step (``ρ(𝒯)^(1/N)``).
+    route : str
+        ``'deterministic'``, ``'dense'``, ``'matrix-free'`` or ``'zero'``
+        (the monodromy maps ``I`` to exactly 0, so ``𝒯 = 0``).
+    certificate : ndarray or None
+        ``X ≻ 0`` proving the upper end, (n, n) or (M, n, n) (Markov
+        modes); None when no upper end was proven (``upper = inf``) or
+        ``route = 'zero'``.
+    probes : int
+        Linear solves spent on the bracket.
+
+    Examples
+    --------
+    >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
+    >>> res = ncs.ms_radius(sys, bracket=True)
+    >>> res.status, bool(res.lower <= 0.8 < res.upper), res.width < 1e-11
+    ('certified', True, True)
+    """
+
+    radius: float
+    lower: float
+    upper: float
+    route: str
+    certificate: np.ndarray | None
+    probes: int
+
+    _repr_fields: ClassVar[tuple[str, ...]] = ("radius", "lower", "upper")
+
+    @property
+    def width(self) -> float:
+        """``(upper - lower) / upper`` (0 when both are 0)."""
+        return 0.0 if self.upper == 0 else \
+            (self.upper - self.lower) / self.upper
+
+    def below(self, bound: float) -> bool | None:
+        """Whether the radius is below ``bound``, as the bracket proves it.
+
+        Parameters
+        ----------
+        bound : float
+
+        Returns
+        -------
+        bool or None
+            True if ``upper ≤ bound`` (``ρ < upper``), False if
+            ``lower ≥ bound``, None when the bracket straddles ``bound``.
+        """
+        if self.upper <= bound:
+            return True
+        if self.lower >= bound:
+            return False
+        return None
+
+    @property
+    def stable(self) -> bool | None:
+        """Mean-square stable (True), proven not (False), or undecided.
+
+        :meth:`below` 1.
+        """
+        return self.below(1.0)
+
+    @property
+    def success(self) -> bool:
+        """True when proven mean-square stable."""
+        return self.stable is True
+
+    @property
+    def status(self) -> str:
+        """The verdict in the words of the reason registry.
+
+        ``'certified'`` (stable), ``'not_mss'`` (proven unstable) or
+        ``'not_verified'`` (the bracket contains 1).
+        """
+        return {True: CERTIFIED, False: NOT_MSS, None: NOT_VERIFIED}[
+            self.stable]
+
+    @property
+    def message(self) -> str:
+        """The verdict and the bracket in words."""
+        verdict = {True: "mean-square stable",
+                   False: "not mean-square stable",
+                   None: "undecided: the bracket contains 1"}[self.stable]
+        return (f"{verdict}: ms_radius in [{self.lower:.12g}, "
+                f"{self.upper:.12g}) (relative width {self.width:.1e})")
+
+    def _details(self) -> list[str]:
+        return [f"route {self.route}, {self.probes} probes"]
+
+
+def _identity(sys: JumpStateSpace) -> np.ndarray:
+    """``I`` per component: (1, n, n), or (M, n, n) for Markov modes."""
+    n = sys.modes.A.shape[-1]
+    count = 1 if sys.modes.is_iid else sys.nmodes
+    return np.broadcast_to(np.eye(n), (count, n, n)).copy()
+
+
+#: Up to this many states the probes' residual ``μX - 𝒯(X)`` is formed in
+#: extended precision (``numpy.longdouble``, where it is wider than double):
+#: the width of the bracket is set by the rounding of that residual.
+EXTENDED_MAX_STATES = 64
+
+
+class _TupleMap:
+    """The monodromy on (L, n, n) stacks by matrix products: the map every
+    probe checks with, and a bound on its rounding.
+
+    Rounding (first order): phase ``k`` computes ``Σ_i w_i A_i Q_k A_iᵀ``
+    with an error of Frobenius norm at most
+    ``γ Σ_i w_i ‖A_i‖_F² ‖Q_k‖_F`` (``γ = 2(n + M)·u``, ``u`` the unit
+    roundoff: two products of length ``n``, a sum over the modes); the
+    later phases carry it with norm ``‖tail_k(I)‖₂`` (a positive map's
+    norm is its value at ``I``, Russo–Dye), computed once here.
+    """
+
+    def __init__(self, sys: JumpStateSpace):
+        self.markov = not sys.modes.is_iid
+        self.A, self.N = sys.modes.A, sys.period
+        self.W = (sys.modes.transitions() if self.markov
+                  else sys.modes.probabilities)
+        n, M = self.A.shape[-1], self.A.shape[1]
+        self.fro = np.sum(self.A ** 2, axis=(-2, -1))        # ‖A_ki‖_F²
+        wide = np.finfo(np.longdouble).eps < _EPS and \
+            n <= EXTENDED_MAX_STATES
+        self.dtype = np.longdouble if wide else np.float64
+        self.unit = float(np.finfo(self.dtype).eps)
+        self.gamma = 2 * (n + M) * self.unit
+        self.A_wide = self.A.astype(self.dtype)
+        self.W_wide = self.W.astype(self.dtype)
+        E = _identity(sys)
+        self.tails = [self._norm(self._run(E, k + 1))
+                      for k in range(self.N)]
+        #: ‖𝒯(I)‖₂ = ‖𝒯‖ (Russo–Dye): the scale of the radius
+        self.norm = self._norm(self._run(E, 0))
+
+    @staticmethod
+    def _norm(X: np.ndarray) -> float:
+        """Largest spectral norm of a stack of PSD matrices."""
+        return float(np.linalg.eigvalsh(0.5 * (X + X.swapaxes(-1, -2)))
+                     .max(initial=0.0))
+
+    def _phase(self, k: int, Q: np.ndarray, A: np.ndarray | None = None,
+               W: np.ndarray | None = None) -> np.ndarray:
+        A = self.A[k] if A is None else A
+        W = self.W[k] if W is None else W
+        if self.markov:
+            return phase_map(A, W, Q, True)
+        return phase_map(A, W, Q[0], False)[None]
+
+    def _run(self, X: np.ndarray, first: int) -> np.ndarray:
+        for k in range(first, self.N):
+            X = self._phase(k, X)
+        return X
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        """``𝒯(X)``."""
+        return self._run(X, 0)
+
+    def residual(self, X: np.ndarray, mu: float, wide: bool = False
+                 ) -> tuple[np.ndarray, float]:
+        """``F = μX - 𝒯(X)`` (double) and a bound on the spectral norm of
+        its error: the products' rounding, the subtraction's and the final
+        rounding to double; in extended precision when ``wide`` (and
+        ``n ≤ EXTENDED_MAX_STATES``)."""
+        dtype = self.dtype if wide else np.float64
+        unit = float(np.finfo(dtype).eps)
+        gamma = self.gamma / self.unit * unit
+        A = self.A_wide if wide else self.A
+        W = self.W_wide if wide else self.W
+        err = 0.0
+        Q = X.astype(dtype)
+        for k in range(self.N):
+            size = np.sqrt(np.sum(np.asarray(Q, float) ** 2,
+                                  axis=(-2, -1)))          # ‖Q_k,i‖_F
+            if self.markov:     # per next mode j: Σ_i T[i, j] ‖A_i‖² ‖Q_i‖
+                local = self.W[k].T @ (self.fro[k] * size)
+            else:
+                local = (self.W[k] @ self.fro[k]) * size
+            err += self.tails[k] * gamma * float(local.max())
+            Q = self._phase(k, Q, A[k], W[k])
+        exact = dtype(mu) * X.astype(dtype) - Q
+        scale = mu * float(np.sqrt(np.sum(X ** 2, axis=(-2, -1))).max()) + \
+            float(np.sqrt(np.sum(np.asarray(Q, float) ** 2,
+                                 axis=(-2, -1))).max())
+        F = np.asarray(exact, float)
+        err += 2 * unit * scale + _EPS * float(np.abs(F).sum(axis=-1).max())
+        return F, err
+
+
+def _stein(Phi: np.ndarray, mu: float, F: np.ndarray) -> np.ndarray:
+    """``X`` with ``μX - ΦXΦᵀ = F`` (Bartels–Stewart; nan if singular)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", LinAlgWarning)
+            return solve_discrete_lyapunov(Phi / math.sqrt(mu), F / mu)
+    except (np.linalg.LinAlgError, ValueError):
+        return np.full_like(F, np.nan)
+
+
+def _splitting(sys: JumpStateSpace) -> list[np.ndarray]:
+    """Per component ``Ψ_j`` with ``𝒯(X)_j ⪰ Ψ_j X_j Ψ_jᵀ`` for every PSD
+    tuple (a regular splitting ``μ - 𝒯 = S - V``, ``S_j = μ - Ψ_j·Ψ_jᵀ``).
+
+    i.i.d. modes: the mean monodromy ``Φ̄ = Π_k Σ_i p_ki A_ki``
+    (``E[ΠXΠᵀ] ⪰ E[Π] X E[Π]ᵀ``). Markov modes: over the paths from mode
+    ``j`` back to ``j`` in one period, weights ``w`` (summing to ``c_j``)
+    and products ``Π``, ``Σ w ΠXΠᵀ ⪰ (Σ wΠ) X (Σ wΠ)ᵀ / c_j``; ``Ψ_j`` is
+    ``(Σ wΠ)/√c_j``, zero when the chain cannot return.
+    """
+    A, N = sys.modes.A, sys.period
+    n = A.shape[-1]
+    if sys.modes.is_iid:
+        p = sys.modes.probabilities
+        Phi = np.eye(n)
+        for k in range(N):
+            Phi = np.tensordot(p[k], A[k], axes=1) @ Phi
+        return [Phi]
+    T = sys.modes.transitions()
+    M = A.shape[1]
+    G = np.eye(M * n)
+    back = np.eye(M)
+    for k in range(N):
+        # block (j, i) = T_k[i, j] A_ki: the mean of ξ 1{σ = j} one step on
+        Gk = (T[k].T[:, :, None, None] * A[k][None]).transpose(0, 2, 1, 3)
+        G = Gk.reshape(M * n, M * n) @ G
+        back = back @ T[k]
+    out = []
+    for j in range(M):
+        c = back[j, j]
+        block = G[j * n:(j + 1) * n, j * n:(j + 1) * n]
+        out.append(block / math.sqrt(c) if c > 0 else np.zeros((n, n)))
+    return out
+
+
+def _gmres_solver(sys: JumpStateSpace, apply: Callable[[np.ndarray],
+                                                       np.ndarray]
+                  ) -> Callable[[float], np.ndarray]:
+    """``μ ↦ X ≈ (μ - 𝒯)⁻¹ I`` by GMRES on ``S⁻¹(μ - 𝒯)`` with the
+    regular splitting of :func:`_splitting` (its Stein solves are the
+    preconditioner; the rest of ``𝒯`` is what loss, or switching, adds)."""
+    E = _identity(sys)
+    shape, size = E.shape, E.size
+    split = _splitting(sys)
+    stretch = max(float(np.linalg.norm(P, 2)) ** 2 for P in split)
+
+    def solve(mu: float) -> np.ndarray:
+        def S_inv(F: np.ndarray) -> np.ndarray:
+            return np.array([_stein(P, mu, Fj) for P, Fj in zip(split, F)])
+
+        def matvec(v: np.ndarray) -> np.ndarray:
+            X = v.reshape(shape)
+            return S_inv(mu * X - apply(X)).ravel()
+
+        op = LinearOperator((size, size), matvec=matvec, dtype=float)
+        # enough for a probe: ‖E - (μ - 𝒯)X‖₂ ≤ ‖S‖·‖S⁻¹ residual‖ ≤ 0.1
+        x, _ = gmres(op, S_inv(E).ravel(), rtol=0.0,
+                     atol=0.1 / (mu + stretch), restart=GMRES_RESTART,
+                     maxiter=GMRES_CYCLES)
+        return x.reshape(shape)
+
+    return solve
+
+
+def _dense_solver(sys: JumpStateSpace) -> tuple[
+        Callable[[float, np.ndarray], np.ndarray], float]:
+    """``(μ, F) ↦ (μ - 𝒯)⁻¹ F`` by LU of the Kronecker monodromy (one
+    factorisation per ``μ``), and the largest modulus of its eigenvalues
+    (the estimate)."""
+    T = _dense_monodromy(sys)
+    est = float(np.max(np.abs(np.linalg.eigvals(T))))
+    factors: dict[float, Any] = {}
+
+    def solve(mu: float, F: np.ndarray) -> np.ndarray:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", LinAlgWarning)
+            try:
+                if mu not in factors:
+                    factors.clear()
+                    factors[mu] = lu_factor(mu * np.eye(T.shape[0]) - T)
+                x = lu_solve(factors[mu], F.ravel())
+            except (np.linalg.LinAlgError, ValueError):
+                return np.full_like(F, np.nan)
+        return x.reshape(F.shape)
+
+    return solve, est
+
+
+def _refinement(solve: Callable[[float, np.ndarray], np.ndarray],
+                apply: _TupleMap, E: np.ndarray
+                ) -> Callable[[float, np.ndarray], np.ndarray]:
+    """``(μ, X) ↦ X + (μ - 𝒯)⁻¹(I - F)``: one step of iterative
+    refinement, the residual ``F`` formed as the probes form it (extended
+    precision); near the radius ``X`` is huge and a plain solve's residual
+    is what decides."""
+    def refine(mu: float, X: np.ndarray) -> np.ndarray:
+        F, _ = apply.residual(X, mu, True)
+        return X + solve(mu, E - F)
+    return refine
+
+
+def _arpack_estimate(sys: JumpStateSpace, apply: Callable[[np.ndarray],
+                                                          np.ndarray],
+                     tol: float) -> float:
+    """ARPACK's leading Ritz value, or a power estimate if ARPACK fails;
+    the probes correct either.
+
+    The radius of this positive map is a real positive eigenvalue of
+    largest modulus: a leading Ritz value that is complex or negative
+    means ARPACK found another eigenvalue first (of that modulus or, when
+    the top ones are close, below it), so three are asked for then.
+    """
+    E = _identity(sys)
+    size = E.size
+    op = LinearOperator((size, size), dtype=float,
+                        matvec=lambda v: apply(v.reshape(E.shape)).ravel())
+    vals = np.zeros(0)
+    for k in (1, 3):
+        k = min(k, size - 2)
+        try:
+            vals = eigs(op, k=k, which="LM", v0=E.ravel(), tol=tol,
+                        ncv=min(size - 1, max(2 * k + 1, 30)),
+                        maxiter=5000, return_eigenvectors=False)
+        except ArpackNoConvergence as err:
+            vals = err.eigenvalues
+        except ArpackError:
+            vals = np.zeros(0)
+        top = vals[np.argmax(np.abs(vals))] if len(vals) else None
+        if top is not None and top.real > 0 and \
+                abs(top.imag) <= 1e-8 * abs(top):
+            break
+    if len(vals):
+        return float(np.max(np.abs(vals)))
+    return power_estimate(apply, E)
+
+
+def _bracket(sys: JumpStateSpace, method: str, tol: float) -> RadiusBracket:
+    """:func:`ms_radius` with ``bracket=True``, on checked arguments."""
+    n, N = sys.modes.A.shape[-1], sys.period
+    markov = not sys.modes.is_iid
+    if n == 0:
+        return RadiusBracket(0.0, 0.0, 0.0, "zero", None, 0)
+    apply = _TupleMap(sys)
+    E = _identity(sys)
+    if apply.norm == 0.0:
+        # 𝒯(I) = Σ w ΠΠᵀ over the products Π of a period: 0 only if every
+        # Π is, and then 𝒯 = 0
+        return RadiusBracket(0.0, 0.0, 0.0, "zero", None, 0)
+    phi = None if markov or method != "auto" else \
+        _deterministic_monodromy(sys)
+    size = E.size
+    solve: Callable[[float], np.ndarray]
+    direct: Callable[[float, np.ndarray], np.ndarray]
+    if phi is not None:
+        route = "deterministic"
+        est = float(np.max(np.abs(np.linalg.eigvals(phi)))) ** 2
+        monodromy = phi
+
+        def stein(mu: float, F: np.ndarray) -> np.ndarray:
+            return _stein(monodromy, mu, F[0])[None]
+        direct = stein
+    elif method == "dense" or (method == "auto" and
+                               size <= DENSE_MAX_STATES ** 2) or size <= 4:
+        route = "dense"
+        direct, est = _dense_solver(sys)
+    else:
+        route = "matrix-free"
+        est = _arpack_estimate(sys, apply, tol)
+        solve = _gmres_solver(sys, apply)
+    refine = None
+    if route != "matrix-free":
+        refine = _refinement(direct, apply, E)
+
+        def solve(mu: float) -> np.ndarray:
+            return direct(mu, E)
+    # the rounding bound per unit of X, at X = I: a probe at μ = ρ(1 ± s)
+    # has ‖X‖ ≈ ‖I‖/(sρ), so it decides once s ≳ 2·err(I)/ρ
+    _, err = apply.residual(E, 0.0, True)
+    b = certify(apply.residual, solve, est, refine=refine,
+                atol=RADIUS_ATOL * apply.norm,
+                first_step=min(2 * err / max(est, 1e-300), 1e-3))
+    X = None if b.upper_X is None else (
+        b.upper_X if markov else b.upper_X[0])
+    root = 1.0 / N
+    return RadiusBracket(b.estimate ** root, b.lower ** root,
+                         b.upper ** root, route, X, b.probes)
+
+
+@overload
+def ms_radius(sys: Any, *, method: str = ..., tol: float = ...,
+              bracket: Literal[False] = ..., **kwargs: Any) -> float: ...
+
+
+@overload
+def ms_radius(sys: Any, *, method: str = ..., tol: float = ...,
+              bracket: Literal[True], **kwargs: Any) -> RadiusBracket: ...
+
+
+@overload
+def ms_radius(sys: Any, *, method: str = ..., tol: float = ...,
+              bracket: bool, **kwargs: Any) -> float | RadiusBracket: ...
+
+
+def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-8,
+              bracket: bool = False, **kwargs: Any
+              ) -> float | RadiusBracket:
     """Per-step mean-square spectral radius ``ρ(𝒯)^(1/N)``.
 
     ``E‖ξ_t‖²`` of the unforced system decays (or grows) like this number to
@@ -203,24 +651,39 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
     Markov modes (:ref:`theory-markov`) are judged by the operator on
     ``M``-tuples of second moments, from every initial state and mode.
 
+    The number is certified: an eigenvalue estimate (dense, or ARPACK's
+    leading Ritz values) is bracketed by linear solves of the resolvent
+    ``(μ - 𝒯)X = I`` just above and below it, each checked with the exact
+    map: a positive definite ``X`` proves ``ρ < μ`` (Collatz–Wielandt), a
+    solution that is not PSD proves ``ρ ≥ μ``. A probe that contradicts the
+    estimate moves it, so an eigensolver that stops on the wrong eigenvalue
+    cannot pass. The bracket is ~1e-12 wide relative unless the solves
+    are too ill-conditioned (then its width says so).
+
     Parameters
     ----------
     sys : JumpStateSpace or discrete-time control.StateSpace
     method : {'auto', 'dense', 'matrix-free'}
         ``'auto'``: for a deterministic system (one live mode per phase)
-        ``ρ(Φ)^(2/N)`` from the eigenvalues of the ``n × n`` monodromy
-        ``Φ`` (exact, since ``𝒯 = Φ ⊗ Φ``); otherwise ``'dense'`` up to
+        from the ``n × n`` monodromy ``Φ`` (``𝒯 = Φ ⊗ Φ``: its eigenvalues,
+        and Stein equations for the probes); otherwise ``'dense'`` up to
         ``DENSE_MAX_STATES`` states (Markov modes: up to an operator of side
-        ``DENSE_MAX_STATES²``, ``M·n²`` unknowns), else ``'matrix-free'``.
+        ``DENSE_MAX_STATES²``, ``M·n²`` unknowns), else ``'matrix-free'``
+        (ARPACK for the estimate, GMRES preconditioned by the Stein
+        equation of the mean dynamics for the probes).
     tol : float
         Relative accuracy asked of ARPACK (matrix-free route); a finite
         number > 0.
+    bracket : bool
+        Return the :class:`RadiusBracket` (the point value, the certified
+        ends and the stability verdict they prove) instead of the float.
     **kwargs
         Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
     Returns
     -------
-    float
+    float or RadiusBracket
+        The float lies in the certified bracket.
 
     Raises
     ------
@@ -229,14 +692,14 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
     ControlArgument
         Unknown ``method``.
     ValueError
-        ``tol`` is not a positive finite number.
-    RuntimeError
-        If ARPACK does not converge (the message gives its best estimate).
+        ``tol`` is not a positive finite number, or ``bracket`` not a bool.
 
     References
     ----------
     .. [1] O. L. V. Costa, M. D. Fragoso and R. P. Marques, *Discrete-Time
            Markov Jump Linear Systems*, Springer, 2005.
+    .. [2] A. Berman and R. J. Plemmons, *Nonnegative Matrices in the
+           Mathematical Sciences*, SIAM, 1994 (cones, Collatz–Wielandt).
 
     Examples
     --------
@@ -255,61 +718,26 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-10,
     ...              transition=[[0.5, 0.5], [0.125, 0.875]])
     >>> round(ncs.ms_radius(bursty), 12)
     2.0
+    >>> ncs.ms_radius(bursty, bracket=True).status
+    'not_mss'
     """
     no_extra_kwargs("ms_radius", kwargs)
     sys = as_jump(sys)
     choice(method, "method", ("auto", "dense", "matrix-free"))
     tol = positive_real(tol, "tol")
-    n = sys.modes.A.shape[-1]
-    markov = not sys.modes.is_iid
-    if method == "auto":
-        phi = None if markov else _deterministic_monodromy(sys)
-        if phi is not None:
-            # one live mode per phase: 𝒯 = Φ ⊗ Φ, so ρ(𝒯) = ρ(Φ)² exactly
-            rho = float(np.max(np.abs(np.linalg.eigvals(phi)))) ** 2 \
-                if n else 0.0
-            return rho ** (1.0 / sys.period)
-    size = n * n * (sys.nmodes if markov else 1)
-    if method == "auto":
-        # by the operator's size: a Markov operator acts on M matrices
-        method = ("dense" if size <= DENSE_MAX_STATES ** 2
-                  else "matrix-free")
-    if method == "dense" or size <= 4:
-        rho = float(np.max(np.abs(np.linalg.eigvals(_dense_monodromy(sys)))))
-    else:
-        op = second_moment_operator(sys)
-        # A PSD start lies in the cone where the Perron eigenvector lives.
-        v0 = np.eye(n).reshape(-1)
-        if markov:
-            v0 = np.tile(v0, sys.nmodes)
-        # 𝒯(I) = Σ p Π Πᵀ over all mode products Π of a period, so it is zero
-        # only when every Π is: then 𝒯 = 0 and ARPACK would fail on it.
-        if not np.any(op.matvec(v0)):
-            return 0.0
-        try:
-            vals = eigs(op, k=1, which="LM", v0=v0, tol=tol,
-                        ncv=min(size - 1, 30), maxiter=5000,
-                        return_eigenvectors=False)
-        except ArpackNoConvergence as err:
-            raise RuntimeError(
-                "ms_radius: ARPACK did not converge on the second-moment "
-                f"operator (n = {n}); partial estimates {err.eigenvalues}. "
-                "Try method='dense' for small n, or a larger tol.") from None
-        except ArpackError as err:
-            # ARPACK's restart can fail outright on a small operator whose
-            # dominant eigenvalues share a modulus (𝒯 = A ⊗ A with a complex
-            # pair: λ², λ̄², |λ|²); the dense route is exact and cheap there
-            if size <= DENSE_MAX_STATES ** 2:
-                return ms_radius(sys, method="dense")
-            raise RuntimeError(
-                f"ms_radius: ARPACK failed on the second-moment operator "
-                f"(n = {n}, {size} unknowns): {err}") from None
-        rho = float(np.abs(vals[0]))
-    return rho ** (1.0 / sys.period)
+    if not isinstance(bracket, (bool, np.bool_)):
+        raise ValueError(f"bracket: expected True or False, got {bracket!r}")
+    res = _bracket(sys, method, tol)
+    return res if bracket else res.radius
 
 
 def is_mss(sys: Any, **kwargs: Any) -> bool:
-    """True when ``sys`` is mean-square stable (``ms_radius < 1``).
+    """True when ``sys`` is proven mean-square stable.
+
+    Decided by the certified bracket of :func:`ms_radius`: True when its
+    upper end is at most 1, False when its lower end is at least 1. A
+    bracket that contains 1 (a radius within ~1e-12 of 1) decides nothing
+    and raises.
 
     Parameters
     ----------
@@ -325,8 +753,11 @@ def is_mss(sys: Any, **kwargs: Any) -> bool:
 
     Raises
     ------
-    TypeError, ControlArgument, ValueError, RuntimeError
+    TypeError, ControlArgument, ValueError
         As :func:`ms_radius`.
+    CertificationError
+        ``'not_verified'``: the certified bracket contains 1 (its
+        ``figures`` give the ends).
 
     References
     ----------
@@ -341,7 +772,15 @@ def is_mss(sys: Any, **kwargs: Any) -> bool:
     >>> ncs.is_mss(sys), round(ncs.ms_radius(sys), 12)     # 0.3·2² = 1.2
     (False, 1.2)
     """
-    return ms_radius(sys, **kwargs) < 1.0
+    if "bracket" in kwargs:
+        raise TypeError("is_mss() got an unexpected keyword argument "
+                        "'bracket'")
+    res = ms_radius(sys, bracket=True, **kwargs)
+    if res.stable is None:
+        raise CertificationError(
+            f"is_mss: undecided, {res.message}", NOT_VERIFIED,
+            dict(lower=res.lower, upper=res.upper, radius=res.radius))
+    return res.stable
 
 
 # -- the forced second moment: the H2 norm ------------------------------------
@@ -391,8 +830,9 @@ def stationary_covariances(sys: Any, *, method: str = "auto",
     Raises
     ------
     ValueError
-        If ``sys`` is not mean-square stable (no steady state), or GMRES
-        does not reach ``tol``.
+        If ``sys`` is not proven mean-square stable (no steady state, or
+        the radius' certified bracket contains 1), or GMRES does not reach
+        ``tol``.
 
     Examples
     --------
@@ -407,9 +847,11 @@ def stationary_covariances(sys: Any, *, method: str = "auto",
     sys = as_jump(sys)
     choice(method, "method", ("auto", "dense", "matrix-free"))
     tol = positive_real(tol, "tol")
-    if not ms_radius(sys) < 1.0:
-        raise ValueError("sys: not mean-square stable (ms_radius >= 1): the "
-                         "noise-driven second moment has no steady state")
+    radius = ms_radius(sys, bracket=True)
+    if radius.stable is not True:
+        raise ValueError(f"sys: not proven mean-square stable "
+                         f"({radius.message}): the noise-driven second "
+                         "moment has no steady state")
     return _stationary(sys, method, tol)
 
 
@@ -459,12 +901,12 @@ def output_power(sys: Any, *, method: str = "auto",
     Averaged over the period: ``(1/N) Σ_k Σ_i [tr(C_ki Q_ki C_kiᵀ) +
     p_ki tr(D_ki D_kiᵀ)]`` with the covariances of
     :func:`stationary_covariances` (:ref:`theory-performance`); ``inf``
-    when ``sys`` is not mean-square stable.
+    when ``sys`` is not proven mean-square stable.
     """
     sys = as_jump(sys)
     choice(method, "method", ("auto", "dense", "matrix-free"))
     tol = positive_real(tol, "tol")
-    if not ms_radius(sys) < 1.0:
+    if ms_radius(sys, bracket=True).stable is not True:
         return float("inf")
     Q = _stationary(sys, method, tol)
     m = sys.modes

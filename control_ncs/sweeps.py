@@ -39,7 +39,7 @@ from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
                          _letter_maps, _loop_closes, _orbit_count, _prune,
                          _relabellings)
-from .synthesis import METHODS
+from .synthesis.passive import METHODS
 
 __all__ = ["design_map", "DesignMap", "schedule_search", "ScheduleSearch",
            "RankedSchedule"]

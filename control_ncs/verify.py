@@ -775,17 +775,22 @@ def _check(sys: JumpStateSpace, P: np.ndarray, eta: float, rho: float,
     flat = P.reshape((-1,) + P.shape[2:])
     P_min = np.array([np.linalg.eigvalsh(Pk).min() for Pk in flat])
     P_ok = [v > _float_margin(Pk) for v, Pk in zip(P_min, flat)]
-    rho_ms = ms_radius(sys)
+    # the certified bracket decides: ρ < upper is proven, a point is not
+    bracket = ms_radius(sys, bracket=True)
+    rho_ms = bracket.radius
     failures = []
     if not all(theta_ok):
         failures.append(f"λmax(Θ_k) = {theta_max.max():.3e} is not < 0")
     if not all(P_ok):
         failures.append(f"λmin(P_k) = {P_min.min():.3e} is not > 0")
-    if not rho_ms < 1.0:
-        failures.append(f"ms_radius = {rho_ms:.6g} is not < 1")
-    if decay < 1.0 and not rho_ms < decay ** 2:
-        failures.append(f"ms_radius = {rho_ms:.6g} is not < r² = "
-                        f"{decay ** 2:.6g}")
+    if not bracket.upper <= 1.0:
+        failures.append(f"ms_radius = {rho_ms:.6g} is not proven < 1 "
+                        f"(certified bracket [{bracket.lower:.12g}, "
+                        f"{bracket.upper:.12g}))")
+    if decay < 1.0 and not bracket.upper <= decay ** 2:
+        failures.append(f"ms_radius = {rho_ms:.6g} is not proven < r² = "
+                        f"{decay ** 2:.6g} (certified bracket "
+                        f"[{bracket.lower:.12g}, {bracket.upper:.12g}))")
     return Certificate(not failures, float(eta), float(decay),
                        _public(P, sys), _public(theta_max.reshape(shape), sys),
                        _public(P_min.reshape(shape), sys), rho_ms,

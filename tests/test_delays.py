@@ -595,14 +595,14 @@ def test_delayed_design_rate_and_gradient_are_the_loops(controller, actuator):
     """The design's rate (the loop affine in the gains, mode by mode) is the
     exact ms_radius of feedback(P, K), and its Perron gradient matches
     central differences of that independent route."""
-    from control_ncs.refine import _Loop
+    from control_ncs.synthesis._local import Loop
     A = np.array([[1.1, 0.3], [0.0, 0.8]])
     P = ncs.nss(A, np.array([[1.0, 1.0], [0.0, 0.5]]),
                 np.array([[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
                 np.zeros((3, 2)), True, nmeas=2, ncon=1,
                 sensor_delay=[0.5, 0.3, 0.1], actuator_delay=[0.6, 0.3])
     plant = ncs.build(P, controller, actuator)
-    loop = _Loop(plant, plant.probabilities, plant.transition)
+    loop = Loop(plant, plant.probabilities, plant.transition)
     x = 0.3 * np.random.default_rng(7).standard_normal(loop.free.size)
 
     def exact(x):

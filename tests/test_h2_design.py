@@ -14,8 +14,8 @@ import pytest
 from control.exception import ControlArgument, ControlDimension
 
 import control_ncs as ncs
-from control_ncs._h2_design import H2Objective
-from control_ncs.performance_synthesis import _local_h2syn
+from control_ncs.synthesis._h2 import H2Objective
+from control_ncs.synthesis.norms import _local_h2syn
 
 
 def _lq_plant(loss=0.5, **network):
@@ -38,9 +38,9 @@ def _two_state(**network):
 def _plant_objective(P, controller, actuator="zero"):
     """The local search's objective on the one open loop, and the exact
     norm of the loop feedback builds for the same gains."""
-    from control_ncs.refine import _Loop
+    from control_ncs.synthesis._local import Loop
     plant = ncs.build(P, controller, actuator)
-    loop = _Loop(plant, plant.probabilities, plant.transition)
+    loop = Loop(plant, plant.probabilities, plant.transition)
     objective = H2Objective(loop, plant.Cz, plant.Du, plant.Bw, plant.Dw,
                             plant.probabilities, plant.readings()[1])
 
@@ -158,8 +158,8 @@ def test_the_l2_gain_objectives_gradient_is_its_difference_quotient(kind):
     """The envelope-theorem gradient of the bounded real lemma's optimum
     (from the LMI's duals) against central differences of that optimum;
     the solver's accuracy bounds the agreement."""
-    from control_ncs._hinf_design import GainObjective
-    from control_ncs.performance_synthesis import _plant_problem
+    from control_ncs.synthesis._hinf import GainObjective
+    from control_ncs.synthesis.norms import _plant_problem
     if kind == "delayed":
         P = _two_state(sensor_delay=[0.5, 0.3, 0.1])
         mats, loop, *_ = _plant_problem(P, "static", "zero", None)
@@ -213,8 +213,8 @@ def test_gradients_through_a_noisy_measurement(which):
     """y = x + D21 w on a scheduled plant: the noise enters through the
     gain too (Bcl = Bw + Bu K Ew); both gradients against central
     differences, the values against the loop's exact norm / l2 gain."""
-    from control_ncs._hinf_design import GainObjective
-    from control_ncs.performance_synthesis import _plant_problem
+    from control_ncs.synthesis._hinf import GainObjective
+    from control_ncs.synthesis.norms import _plant_problem
     A = np.array([[0.9, 0.3], [0.0, 0.8]])
     P = ncs.nss(A, np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 0.5]]),
                 np.array([[1.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
@@ -246,8 +246,8 @@ def test_the_local_search_uses_a_given_start_and_the_other_routes_options(
     near -0.365; with no iterations the search returns its stage-2 start);
     the held predictor over a delayed link reads the estimate and the held
     command; margin belongs to the exact program."""
-    import control_ncs._h2_design as h2d
-    from control_ncs.performance_synthesis import _plant_problem
+    import control_ncs.synthesis._h2 as h2d
+    from control_ncs.synthesis.norms import _plant_problem
     P = _lq_plant()
     mats, loop, *_ = _plant_problem(P, "static", "hold", None)
     objective = H2Objective(loop, *mats)

@@ -9,7 +9,8 @@ import control as ct
 import cvxpy as cp
 
 import control_ncs as ncs
-from control_ncs import _synthesis_routes, driver, lmi
+from control_ncs import driver, lmi
+from control_ncs.synthesis import _routes as _synthesis_routes
 from control_ncs.exceptions import SynthesisError
 from control_ncs.verify import check_certificate
 

@@ -17,7 +17,7 @@ from control.exception import ControlArgument, ControlDimension
 from scipy.optimize import minimize
 
 import control_ncs as ncs
-from control_ncs import refine
+from control_ncs.synthesis import _local, refine
 from control_ncs.exceptions import SynthesisError
 from control_ncs.verify import check_certificate
 
@@ -204,7 +204,7 @@ def test_batch_reactor_sensor_schedule_certifies_far_beyond_the_lmi():
 def test_rate_gradient_matches_finite_differences(controller, actuator):
     plant = ncs.build(batch_reactor(0.3, sensor_schedule=SCHEDULE),
                       controller, actuator)
-    loop = refine._Loop(plant, plant.probabilities, plant.transition)
+    loop = _local.Loop(plant, plant.probabilities, plant.transition)
     x = 0.2 * np.random.default_rng(3).standard_normal(loop.free.size)
     _assert_rate_and_gradient(plant, loop, x)
 
@@ -230,16 +230,16 @@ def test_rate_of_markov_loop_is_its_exact_ms_radius_with_gradient():
                 sensor_schedule=[1, 2])
     plant = ncs.build(P)
     assert plant.transition is not None
-    loop = refine._Loop(plant, plant.probabilities, plant.transition)
+    loop = _local.Loop(plant, plant.probabilities, plant.transition)
     x = np.random.default_rng(0).standard_normal(loop.free.size)
     _assert_rate_and_gradient(plant, loop, x)
 
 
 def test_index_gradient_matches_finite_differences():
     plant = ncs.build(batch_reactor(0.3, sensor_schedule=SCHEDULE))
-    loop = refine._Loop(plant, plant.probabilities, None)
+    loop = _local.Loop(plant, plant.probabilities, None)
     res = refine.refine_gain(plant, -100.0, time_limit=30)
-    index = refine._Index(plant, loop, 1.0)
+    index = _local.IndexObjective(plant, loop, 1.0)
     x = res.gains.flat[loop.free]
     f, g = index.value(x)
     h = 1e-5
@@ -374,7 +374,7 @@ def test_predictor_error_loop_too_fast_is_proved_infeasible():
     P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]],
                 [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, sensor_loss=0.26,
                 actuator_loss=0.1)
-    rate, states = refine.autonomous_rate(ncs.build(P, "predictor"))
+    rate, states = _local.autonomous_rate(ncs.build(P, "predictor"))
     assert rate == pytest.approx(0.26 * 4, rel=1e-12) and states.size == 1
     with pytest.raises(SynthesisError) as info:
         ncs.passivesyn(P, controller="predictor", method="refine")
@@ -406,8 +406,8 @@ def test_rate_gradient_is_the_perron_roots_when_others_share_its_modulus():
     groups[np.arange(16) % 5, np.arange(16)] = 1
     plant = ncs.build(ncs.nss(A, B, C, D, True, nmeas=16, ncon=2,
                               sensor_schedule=groups))
-    loop = refine._Loop(plant, plant.probabilities, None)
-    x = refine._restrict(loop, refine._lq_gain(plant, plant.probabilities))
+    loop = _local.Loop(plant, plant.probabilities, None)
+    x = _local.restrict(loop, _local.lq_gain(plant, plant.probabilities))
     f, g = loop.rate(x)
     h = 1e-6
     for i in np.argsort(-np.abs(g))[:3]:

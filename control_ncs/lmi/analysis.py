@@ -238,6 +238,19 @@ class QuadraticSupplyModel:
         return np.array([[np.asarray(X.value, float) for X in row]
                          for row in self.P])
 
+    def theta_duals(self) -> np.ndarray | None:
+        """The multipliers of the ``Θ_{k,ℓ}`` constraints, (N, L, n + m,
+        n + m): after an ``'infeasible'`` status, the solver's Farkas
+        certificate (:func:`control_ncs._farkas.supply_dual_check` checks
+        it); None when the solver gave none. The model adds ``Θ_{k,ℓ}``
+        then ``P_{k,ℓ}`` for each phase and row."""
+        duals = [c.dual_value for c in self.problem.constraints[0::2]]
+        if any(z is None for z in duals):
+            return None
+        N, L = len(self.P), len(self.P[0])
+        Z = np.array([np.asarray(z, float) for z in duals])
+        return Z.reshape((N, L) + Z.shape[1:])
+
 
 def _weight(X: Any, size_out: int, size_in: int) -> np.ndarray:
     """A supply weight as a matrix (a number is that multiple of ``I``)."""

@@ -18,22 +18,23 @@ from typing import Any
 import numpy as np
 from control.exception import ControlDimension
 
-from ._checks import (positive_int, positive_real)
-from .jump import JumpStateSpace
-from .stability import ms_radius
-from .openloop import JumpPlant
-from .driver import RETRIES, drive
-from .lmi import (SolveReport, balancing_scale,
+from .._checks import (positive_int, positive_real)
+from ..jump import JumpStateSpace
+from ..stability import ms_radius
+from ..openloop import JumpPlant
+from ..driver import RETRIES, drive
+from ..lmi import (SolveReport, balancing_scale,
                   data_scale, gain_kinds,
                   read_gains, solve, synthesis_model)
-from .refine import _refine, autonomous_rate
-from .riccati import riccati_synthesis
-from .exceptions import (INFEASIBLE, NOT_FOUND,
+from ._local import autonomous_rate
+from .refine import _refine
+from ..riccati import riccati_synthesis
+from ..exceptions import (INFEASIBLE, NOT_FOUND,
                          NOT_VERIFIED, SOLVER_FAILED, SUFFICIENT_FAILED,
                          TIME_LIMIT, SynthesisError)
-from .verify import (certify_index, check_certificate,
+from ..verify import (certify_index, check_certificate,
                      feedthrough_bound)
-from ._synthesis_result import _finish
+from ._result import passive_design
 
 
 #: A maximised η below -ETA_FLOOR × the data's scale is a solver failure:
@@ -140,8 +141,8 @@ def _refine_route(plant: JumpPlant, eta: float | None, decay: float,
     ``lmi_start`` holds the arguments of :func:`_routes` for the sufficient
     LMI, whose gain (if it certifies one) is the first start; None skips it
     and starts from ``initial`` (gains per phase). A gain the LMI certifies
-    at a given ``eta`` is returned as is. Returns ``(K, CL, eta)`` with
-    ``K.result.method`` naming what certified it.
+    at a given ``eta`` is returned as is. Returns the :class:`Design` whose
+    ``method`` names what certified it.
     """
     rate, states = autonomous_rate(plant)
     if rate >= min(1.0, decay ** 2) * (1 + 1e-9):
@@ -166,11 +167,10 @@ def _refine_route(plant: JumpPlant, eta: float | None, decay: float,
             found = None
         if found is not None:
             if eta is not None:
-                found[0].result.method = "lmi"
                 return found
             # gains on the previous mode (Markov links) compete as they
             # are; a gain per phase is the refinement's first start
-            given = found[0].gains if found[0].gains.ndim == 3 else None
+            given = found.gains if found.gains.ndim == 3 else None
     if given is None and initial is not None:
         given = initial
     left = None if deadline is None else max(deadline - time.perf_counter(),
@@ -178,12 +178,8 @@ def _refine_route(plant: JumpPlant, eta: float | None, decay: float,
     rng = np.random.default_rng(0)
     res = _refine(plant, eta, decay, given, rng,
                   None if left is None else time.perf_counter() + left, 200)
-    if found is not None and not (res.verified and
-                                  res.eta > found[0].result.eta):
-        K = found[0]
-        K.result.method, K.result.refinement = "lmi", res
-        K.result.start = "lmi"
-        return found
+    if found is not None and not (res.verified and res.eta > found.value):
+        return found.with_fields(refinement=res, start="lmi")
     if not res.verified:
         raise SynthesisError(
             f"passivesyn: {res.message}", TIME_LIMIT
@@ -204,20 +200,19 @@ def _refine_route(plant: JumpPlant, eta: float | None, decay: float,
     report = SolveReport("optimal", "REFINE", 0.0, res.time, res.time,
                          res.iterations, res.eta)
     if found is not None:
-        structure = found[0].result.structure
+        structure = found.fields["structure"]
     elif plant.reads_per_mode:
         structure = "per_mode"
     else:
         structure = "extended" if any(
             plant.known_coordinates(k).size < s["nx"]
             for k in range(plant.period)) else "full"
-    K, CL, got = _finish(plant, X, Y, res.gains, plant.close(res.gains),
-                         cert, cert.eta, cert.eta, decay, "merged",
-                         structure, s["nx"] + s["nw"], report, [report])
-    K.result.method = "refine"
-    K.result.start = "lmi" if res.start == "given" else res.start
-    K.result.refinement = res
-    return K, CL, got
+    design = passive_design(plant, X, Y, res.gains, plant.close(res.gains),
+                            cert, cert.eta, cert.eta, decay, "merged",
+                            structure, s["nx"] + s["nw"], report, [report],
+                            route="local", method="refine")
+    return design.with_fields(
+        start="lmi" if res.start == "given" else res.start, refinement=res)
 
 
 def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
@@ -344,7 +339,7 @@ def _eta_search(plant, decay, margin, structure, form, solver, options,
         return None
     low, best = found
     for _ in range(ETA_SEARCH_STEPS if high is not None else 0):
-        low = max(low, best[2])
+        low = max(low, best.value)
         if high - low <= 1e-4 * max(1.0, abs(low)):
             break
         mid = 0.5 * (low + high)
@@ -353,7 +348,7 @@ def _eta_search(plant, decay, margin, structure, form, solver, options,
             high = mid
         else:
             result = finish()
-            if result[2] > best[2]:
+            if result.value > best.value:
                 best = result
             low = mid
     return best
@@ -539,9 +534,10 @@ def _lmi_route(plant, eta, decay, margin, structure, form, solver, options,
         c, cert = out.candidate, out.certificate
         gains, X, Y, cert = balancing.invert(work, c["gains"], c["X"],
                                              c["Y"], cert)
-        return _finish(plant, X, Y, gains, plant.close(gains), cert,
-                       cert.eta, out.eta_solver, decay, form, structure,
-                       c["width"], out.report, out.attempts)
+        return passive_design(plant, X, Y, gains, plant.close(gains), cert,
+                              cert.eta, out.eta_solver, decay, form,
+                              structure, c["width"], out.report,
+                              out.attempts, route="program", method="lmi")
 
     return out, finish
 
@@ -610,6 +606,7 @@ def _riccati(plant, eta, decay, margin, options):
         Y = np.einsum("kluj,kjx,klxy->kluy", res.gains, plant.E, X)
     else:
         Y = np.einsum("kuj,kjx,kxy->kuy", res.gains, plant.E, X)
-    return _finish(plant, X, Y, res.gains, CL, cert, cert.eta,
-                   res.eta if eta is None else eta, decay, "merged", "full",
-                   s["nx"] + s["nw"], report, [report])
+    return passive_design(plant, X, Y, res.gains, CL, cert, cert.eta,
+                          res.eta if eta is None else eta, decay, "merged",
+                          "full", s["nx"] + s["nw"], report, [report],
+                          route="riccati", method="riccati")

@@ -19,29 +19,29 @@ import math
 import time
 import warnings
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import (caller_stacklevel, choice, decay_bound, finite_real,
+from .._checks import (caller_stacklevel, choice, decay_bound, finite_real,
                       positive_real, real_array)
-from .stability import ms_radius
-from .gain import PeriodicGain, actuators, controllers
-from .jump import JumpStateSpace
-from .openloop import JumpPlant
-from .lmi import (DEFAULT_MARGIN, GAINS, check_options, check_solver, gain_kinds)
-from .plant import NetworkedStateSpace
-from .strategies import build, require_state_measured
-from .exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
-from .verify import (level_floor)
-from ._lifting import unseen_modes
-from ._synthesis_result import _SHORTAGE_HELP, SynthesisResult
-from ._synthesis_routes import (_feedthrough, _open_loop_bound, _plant_arrays,
+from ..stability import ms_radius
+from ..gain import PeriodicGain, actuators, controllers
+from ..jump import JumpStateSpace
+from ..openloop import JumpPlant
+from ..lmi import (DEFAULT_MARGIN, GAINS, check_options, check_solver, gain_kinds)
+from ..plant import NetworkedStateSpace
+from ..strategies import build, require_state_measured
+from ..exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
+from ..verify import (level_floor)
+from .._lifting import unseen_modes
+from ._result import SHORTAGE_HELP, Design, DesignResult
+from ._routes import (_feedthrough, _open_loop_bound, _plant_arrays,
                                 _refine_route, _riccati_options, _routes)
 
 
-__all__ = ["passivesyn", "SynthesisResult"]
+__all__ = ["passivesyn", "DesignResult"]
 
 
 #: Default time budget of :func:`passivesyn`, seconds.
@@ -252,7 +252,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``K.gains`` has shape ``(N, m2, nk)``, or ``(N, M, m2, nk)`` for
         gains on the previous mode (Markov links, ``gain='mode'``), applied
         as ``u = K_k ŷ`` (no minus sign); ``K.result`` is the
-        :class:`SynthesisResult`.
+        :class:`DesignResult`.
     CL : JumpStateSpace
         The closed loop ``w → z``; ``CL.info['synthesis']`` is the result.
     eta : float
@@ -393,6 +393,20 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     >>> bool(ncs.ms_radius(ncs.feedback(P2, K)) == ncs.ms_radius(CL))
     True
     """
+    margin, deadline, initial_gain = _validated(
+        P, controller, actuator, method, initial_gain, estimator_gain, margin,
+        time_limit)
+    plant = _open_loop(P, controller, actuator, estimator_gain, decay, solver)
+    plan = _plan(P, plant, eta, decay, controller, actuator, form, structure,
+                 gain, solver, method, dict(solver_options), initial_gain)
+    return _stated(_run(plant, plan, margin, deadline, initial_gain), plan)
+
+
+def _validated(P: Any, controller: str, actuator: str, method: str,
+               initial_gain: Any, estimator_gain: Any, margin: Any,
+               time_limit: Any) -> tuple:
+    """The cheap checks, before anything is solved: ``(margin, deadline,
+    initial_gain)``."""
     if controller == "lti":
         raise ControlArgument(
             "controller: passivesyn designs gains ('static', 'predictor', "
@@ -411,76 +425,90 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
             "estimator_gain: only controller='estimator' on a "
             "NetworkedStateSpace takes an estimator gain (a JumpPlant "
             "already holds it)")
-    # cheap checks first: the estimator design solves an LMI before the
-    # plant exists, and its time counts against the budget
+    # the estimator design solves an LMI before the plant exists: its time
+    # counts against the budget
     margin = positive_real(margin, "margin")
     if time_limit is not None:
         time_limit = positive_real(time_limit, "time_limit")
     deadline = None if time_limit is None else time.perf_counter() + time_limit
+    return margin, deadline, initial_gain
+
+
+def _open_loop(P: Any, controller: str, actuator: str, estimator_gain: Any,
+               decay: Any, solver: Any) -> JumpPlant:
+    """The open loop the design is for, built once (a given JumpPlant is
+    taken as it is, labelled with the controller and actuator)."""
     if isinstance(P, JumpPlant):
         # the gain's labels: the strategy that built the plant, if named
-        plant = replace(P, controller=P.controller or controller,
-                        actuator=P.actuator or actuator)
-    elif isinstance(P, NetworkedStateSpace):
-        if controller == "estimator":
-            plant = _estimator_plant(P, actuator, estimator_gain, decay,
-                                     solver)
-        else:
-            try:
-                require_state_measured(P, controller)
-            except ControlArgument as err:
-                raise ControlArgument(
-                    f"P: {err}; passivesyn's state-feedback designs need "
-                    f"C2 = I") from None
-            plant = build(P, controller, actuator)
-    else:
-        plant = None
+        return replace(P, controller=P.controller or controller,
+                       actuator=P.actuator or actuator)
+    if not isinstance(P, NetworkedStateSpace):
+        raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()) "
+                              f"or a JumpPlant (see build()), got "
+                              f"{type(P).__name__}")
+    if controller == "estimator":
+        return _estimator_plant(P, actuator, estimator_gain, decay, solver)
+    try:
+        require_state_measured(P, controller)
+    except ControlArgument as err:
+        raise ControlArgument(
+            f"P: {err}; passivesyn's state-feedback designs need "
+            f"C2 = I") from None
+    return build(P, controller, actuator)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A passive design, validated against its open loop: the level asked
+    and the one solved for, the route and its options."""
+
+    requested: float | None      # the level asked for
+    eta: float | None            # the level solved for (floored)
+    decay: float
+    structure: str               # as asked
+    structure0: str              # as resolved
+    form: str
+    gain: str
+    kinds: tuple
+    solver: Any
+    riccati: bool
+    solver_options: dict
+    exact: bool
+    refining: bool
+    note: str
+
+
+def _plan(P: Any, plant: JumpPlant, eta: Any, decay: Any, controller: str,
+          actuator: str, form: str, structure: str, gain: str, solver: Any,
+          method: str, solver_options: dict, initial_gain: Any) -> Plan:
+    """The route: the checks that need the open loop, then the LMI
+    (exact or sufficient), the Riccati iteration or the local search."""
     eta, decay, structure0 = _checks(P, eta, decay, controller, actuator,
                                      form, structure, plant, gain)
     if plant.reads_per_mode:
-        # a gain per age of a buffered measurement: each mode reads its own
-        # block, which no synthesis LMI expresses; the local search applies
-        given = [name for name, value, default in (
-            ("method", method, "auto"), ("structure", structure, "auto"),
-            ("form", form, "merged"), ("solver", solver, None),
-            ("gain", gain, "mode")) if value not in (default, "refine")] \
-            + sorted(solver_options)
-        if given:
-            raise ControlArgument(
-                f"{given[0]}: this loop's gain reads a measurement of a "
-                f"different age in each mode (a delayed sensor link); no "
-                f"synthesis LMI expresses that, and the gain is searched "
-                f"locally on exact figures (method='refine')")
-        method, gain = "refine", "phase"
+        method, gain = _per_mode_route(method, structure, form, solver, gain,
+                                       solver_options)
     riccati = isinstance(solver, str) and solver.upper() == "RICCATI"
-    note = ""
     if method == "refine" and plant.transition is not None and gain == "mode":
         raise ControlArgument(
             "method: 'refine' designs gains per phase K_k; on Markov links "
             "ask for them with gain='phase', or use method='lmi' for gains "
             "K_{k,l} that use the previous mode")
     kinds = gain_kinds(plant, gain)
+    note = ""
     if riccati and plant.transition is not None and "phase" in kinds:
         # the coupled equations give the optimal K_{k,ℓ}; a gain common to
         # the previous modes is the LMI's (sufficient) condition only
         _riccati_options(solver_options)
-        if structure0 != "full":
-            raise ValueError(
-                f"solver: 'riccati' needs structure 'full'; this loop "
-                f"resolves to structure {structure0!r}: use an LMI solver")
+        _riccati_structure(structure0, controller, actuator)
         note = ("solver='riccati' designs gains K_{k,l} on Markov links; "
                 + ("gain='phase'" if gain == "phase" else
                    "a gain common to previous modes the controller cannot "
                    "tell apart")
                 + " was solved by the LMI of theory: Markov losses instead")
         solver_options, solver, riccati = {}, None, False
-    if riccati and structure0 != "full":
-        raise ValueError(
-            f"solver: 'riccati' needs structure 'full' (the gain sees every "
-            f"state at every phase); this loop resolves to structure "
-            f"{structure0!r} (controller={controller!r}, actuator="
-            f"{actuator!r}, sensor schedule or predictor): use an LMI solver")
     if riccati:
+        _riccati_structure(structure0, controller, actuator)
         _riccati_options(solver_options)
     else:
         check_options(check_solver(solver), solver_options)
@@ -494,70 +522,113 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         raise ControlDimension(
             f"initial_gain: expected gains per phase of shape "
             f"{plant.gain_shape()} (N, m2, nk), got {initial_gain.shape}")
-    markov = plant.transition is not None
     # the LMI is exact for an unstructured gain that may use everything the
     # controller observes; elsewhere it is only sufficient, and the default
     # call refines (gains per phase K_k, certified by analysis)
-    exact = structure0 == "full" and not (markov and "phase" in kinds)
+    exact = structure0 == "full" and not (plant.transition is not None
+                                          and "phase" in kinds)
     refining = method == "refine" or (
         method == "auto" and not exact and structure == "auto"
         and solver is None and not solver_options)
+    return Plan(requested, eta, decay, structure, structure0, form, gain,
+                kinds, solver, riccati, solver_options, exact, refining, note)
+
+
+def _per_mode_route(method: str, structure: str, form: str, solver: Any,
+                    gain: str, solver_options: dict) -> tuple[str, str]:
+    """A gain per age of a buffered measurement reads its own block in
+    each mode, which no synthesis LMI expresses: the local search, gains
+    per phase; the LMIs' options are refused by name."""
+    given = [name for name, value, default in (
+        ("method", method, "auto"), ("structure", structure, "auto"),
+        ("form", form, "merged"), ("solver", solver, None),
+        ("gain", gain, "mode")) if value not in (default, "refine")] \
+        + sorted(solver_options)
+    if given:
+        raise ControlArgument(
+            f"{given[0]}: this loop's gain reads a measurement of a "
+            f"different age in each mode (a delayed sensor link); no "
+            f"synthesis LMI expresses that, and the gain is searched "
+            f"locally on exact figures (method='refine')")
+    return "refine", "phase"
+
+
+def _riccati_structure(structure0: str, controller: str, actuator: str
+                       ) -> None:
+    if structure0 != "full":
+        raise ValueError(
+            f"solver: 'riccati' needs structure 'full' (the gain sees every "
+            f"state at every phase); this loop resolves to structure "
+            f"{structure0!r} (controller={controller!r}, actuator="
+            f"{actuator!r}, sensor schedule or predictor): use an LMI solver")
+
+
+def _run(plant: JumpPlant, plan: Plan, margin: float,
+         deadline: float | None, initial_gain: Any) -> Design:
+    """The route the plan chose; a route's crash is a status, not a trace,
+    and an infeasible floor proves nothing about the level asked."""
     try:
-        if refining:
-            # the refinement designs gains per phase K_k; on Markov links
-            # the LMI's gains K_{k,ℓ} (gain='mode') compete with it as they
-            # are, and a phase gain of the LMI is its first start
-            # a given start replaces the sufficient LMI's gain (a sweep has
-            # solved that LMI already)
-            K, CL, got = _refine_route(plant, eta, decay, deadline, None if
-                initial_gain is not None else dict(
-                    margin=margin, structure=structure,
-                    structure0=structure0, form=form, solver=solver,
-                    solver_options=solver_options, riccati=riccati,
-                    gain=gain), initial_gain)
-        else:
-            K, CL, got = _routes(plant, eta, decay, margin, structure,
-                                 structure0, form, solver, solver_options,
-                                 deadline, riccati, gain)
+        if plan.refining:
+            # the refinement designs gains per phase K_k; on Markov links the
+            # LMI's gains K_{k,ℓ} (gain='mode') compete with it as they are,
+            # and a phase gain of the LMI is its first start; a given start
+            # replaces the sufficient LMI's gain (a sweep has solved it)
+            return _refine_route(plant, plan.eta, plan.decay, deadline, None
+                                 if initial_gain is not None else dict(
+                margin=margin, structure=plan.structure,
+                structure0=plan.structure0, form=plan.form,
+                solver=plan.solver, solver_options=plan.solver_options,
+                riccati=plan.riccati, gain=plan.gain), initial_gain)
+        return _routes(plant, plan.eta, plan.decay, margin, plan.structure,
+                       plan.structure0, plan.form, plan.solver,
+                       plan.solver_options, deadline, plan.riccati, plan.gain)
     except SynthesisError as err:
-        if requested == eta or err.reason != INFEASIBLE:
+        if plan.requested == plan.eta or err.reason != INFEASIBLE:
             raise
-        # infeasible at the floor proves nothing about the level asked
         raise SynthesisError(
-            f"{err} (at the floor eta0 = {eta:.6g}, verify.level_floor; "
-            f"nothing is proven for eta = {requested:.6g})", SOLVER_FAILED,
-            err.figures) from err
+            f"{err} (at the floor eta0 = {plan.eta:.6g}, verify.level_floor;"
+            f" nothing is proven for eta = {plan.requested:.6g})",
+            SOLVER_FAILED, err.figures) from err
     except (KeyboardInterrupt, SystemExit, MemoryError):
         raise
-    except Exception as crash:  # a route's crash is a status, not a trace
+    except Exception as crash:
+        what = "refinement" if plan.refining else "LMI"
         raise SynthesisError(
-            f"passivesyn: the {'refinement' if refining else 'LMI'} route "
-            f"failed ({type(crash).__name__}: {crash}); nothing is proven",
-            SOLVER_FAILED, dict(error=f"{type(crash).__name__}: {crash}",
-                                method="refine" if refining else "lmi")
-        ) from crash
-    if requested != eta:
+            f"passivesyn: the {what} route failed ({type(crash).__name__}: "
+            f"{crash}); nothing is proven", SOLVER_FAILED,
+            dict(error=f"{type(crash).__name__}: {crash}",
+                 method="refine" if plan.refining else "lmi")) from crash
+
+
+def _stated(design: Design, plan: Plan) -> tuple:
+    """What only the dispatcher knows, added to the route's answer: the
+    level asked (proven by the floor's certificate), notes, exactness; a
+    negative best level is warned about. Returns ``(K, CL, eta)``."""
+    if plan.requested is not None and plan.requested != plan.eta:
         # Θ(η) ≼ Θ(η0) for η ≤ η0: the certificate at η0 proves η exactly
-        K.result.eta = K.result.eta_solver = got = float(requested)
-    hidden = [k for k, kind in enumerate(kinds) if kind == "phase"]
-    if gain == "mode" and hidden and K.gains.ndim == 4:
+        design = design.with_fields(value=float(plan.requested),
+                                    solver_value=float(plan.requested))
+    note = plan.note
+    hidden = [k for k, kind in enumerate(plan.kinds) if kind == "phase"]
+    if plan.gain == "mode" and hidden and design.gains.ndim == 4:
         # gain='mode' kept K_{k,ℓ} where ℓ is observed; say where it is not
         note = "; ".join(filter(None, [note, (
             f"phases {hidden}: a link idle the step before hides part of the "
             "previous mode, so one gain serves every previous mode there "
             "(sufficient, theory: Markov losses)")]))
-    if note:
-        K.result.note = note
-    K.result.exact = bool(exact and K.result.method == "lmi"
-                          and K.result.structure == "full")
-    if requested is None and got < 0.0:
+    f = design.fields
+    design = design.with_fields(note=note, exact=bool(
+        plan.exact and f["method"] in ("lmi", "riccati")
+        and f["structure"] == "full"))
+    got = design.value
+    if plan.requested is None and got < 0.0:
         # the best certified level is a shortage: true, but not passivity
         warnings.warn(NotPassiveWarning(
             f"passivesyn: the certified level eta = {got:.6g} is negative: "
             f"the loop is mean-square stable and dissipative with an "
-            f"input-feedforward shortage, not passive; {_SHORTAGE_HELP}"),
+            f"input-feedforward shortage, not passive; {SHORTAGE_HELP}"),
             stacklevel=caller_stacklevel())
-    return K, CL, got
+    return design.finish()
 
 
 def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
@@ -567,7 +638,7 @@ def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
     modes, a given ``L`` whose error loop alone is too slow). Over bursty
     links the estimator gain and the error loop are those of the Markov
     sensor chain, and the loop is built on the joint chain of both links."""
-    from .estimator import (EstimatorGain, estimation_error_loop,
+    from ..estimator import (EstimatorGain, estimation_error_loop,
                             estimator_gain)
     r = decay_bound(decay)
     N = P.period

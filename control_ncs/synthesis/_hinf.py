@@ -26,17 +26,17 @@ from typing import Any
 
 import numpy as np
 
-from .jump import JumpStateSpace
-from .lmi import DEFAULT_MARGIN, quadratic_supply_model, solve
-from ._h2_design import StructuredLoop
-from .verify import supply_rows
+from ..jump import JumpStateSpace
+from ..lmi import DEFAULT_MARGIN, quadratic_supply_model, solve
+from ._h2 import StructuredLoop
+from ..verify import supply_rows
 
 __all__: list[str] = []
 
 
 class GainObjective(StructuredLoop):
     """``log γ²*`` of a structured loop and its gradient in the gains
-    (parameters as :class:`control_ncs._h2_design.StructuredLoop`)."""
+    (parameters as :class:`control_ncs.synthesis._h2.StructuredLoop`)."""
 
     def closed(self, Acl: np.ndarray, Bcl: np.ndarray, Ccl: np.ndarray,
                Dcl: np.ndarray) -> JumpStateSpace:

@@ -17,96 +17,45 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
-from typing import Any, ClassVar
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import choice, positive_real
-from ._h2_design import H2Objective, local_h2
-from ._hinf_design import GainObjective
-from .refine import _bfgs
-from ._results import CertifiedResult
-from .exceptions import (NOT_FOUND, NOT_MSS, SOLVER_FAILED,
+from .._checks import choice, positive_real
+from ._h2 import H2Objective, local_h2
+from ._hinf import GainObjective
+from ._result import Design
+from ._local import bfgs
+from ..exceptions import (NOT_FOUND, NOT_MSS, SOLVER_FAILED,
                          CertificationError, SynthesisError)
-from .gain import PeriodicGain, actuators
-from .jump import JumpStateSpace
-from .lmi import (DEFAULT_MARGIN, check_options, check_solver, gain_kinds,
+from ..gain import PeriodicGain, actuators
+from ..jump import JumpStateSpace
+from ..openloop import JumpPlant
+from ..lmi import (DEFAULT_MARGIN, check_options, check_solver, gain_kinds,
                   h2_model, hinf_model, solve)
-from .performance import GainResult, l2_gain, norm
-from .plant import NetworkedStateSpace
-from .stability import ms_radius
-from .strategies import build
-from ._synthesis_routes import _open_loop_bound
+from ..intersample import cost, cost_open_loop
+from ..performance import GainResult, l2_gain, norm
+from ..plant import NetworkedStateSpace
+from ..stability import ms_radius
+from ..strategies import build
+from ._routes import _open_loop_bound
 
-__all__ = ["h2syn", "H2Result", "hinfsyn"]
+__all__ = ["h2syn", "hinfsyn"]
 
 #: Quasi-Newton iterations of hinfsyn's local stage on the bounded real
 #: lemma (each solves the lemma's LMI once).
 HINF_ITERATIONS = 30
 
 
-@dataclass(repr=False)
-class H2Result(CertifiedResult):
-    """What :func:`h2syn` designed and measured.
-
-    Attributes
-    ----------
-    h2 : float
-        The exact H2 norm of the closed loop (the certified figure).
-    h2_solver : float
-        ``√`` of the solver's objective (an upper bound it claims; never the
-        returned number).
-    ms_radius : float
-        The loop's exact mean-square rate.
-    report : SolveReport or None
-        The solver's status and timings (None for the local search).
-    route : {'program', 'local'}
-        ``'program'``: the exact convex program, the global optimum over
-        the gains; ``'local'``: the local search on the exact norm
-        (structured gains), a local optimum.
-
-    Examples
-    --------
-    >>> import control_ncs as ncs
-    >>> P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [0.0], [1.0]],
-    ...             [[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]], True, nmeas=1,
-    ...             ncon=1, actuator_loss=0.5)
-    >>> K, CL, h2 = ncs.h2syn(P)
-    >>> K.result.status
-    'certified'
-    """
-
-    h2: float
-    h2_solver: float
-    ms_radius: float
-    report: Any
-    route: str = "program"
-
-    _repr_fields: ClassVar[tuple[str, ...]] = ("h2", "ms_radius", "route")
-
-    @property
-    def message(self) -> str:
-        """One sentence."""
-        how = ("the global optimum (exact program)" if self.route ==
-               "program" else "a local optimum of the structured gain")
-        return (f"the loop is mean-square stable with H2 norm "
-                f"{self.h2:.6g} (exact), {how}")
-
-    def _details(self) -> list[str]:
-        bound = ("" if self.route != "program" else
-                 f" (solver's bound {self.h2_solver:.8g})")
-        return [f"H2 norm {self.h2:.8g} exact{bound}, ms_radius "
-                f"{self.ms_radius:.6g}, route {self.route!r}"]
-
-
-def _not_exact(P: NetworkedStateSpace, controller: str, actuator: str,
-               who: str) -> tuple[str, str] | None:
-    """Why the exact program does not cover this loop, as ``(argument,
-    message)``; None when it does (static state feedback that sees the
-    whole state at every step, zero actuator, no delays, a bursty link's
-    state revealed at every step)."""
+def _not_exact(P: NetworkedStateSpace, plant: JumpPlant, controller: str,
+               actuator: str, who: str) -> tuple[str, str] | None:
+    """Why the exact program does not cover this loop (``plant``, the open
+    loop of ``P`` already built), as ``(argument, message)``; None when it
+    does: static state feedback that sees the whole loop state at every
+    step (so no held command, no buffered link), a bursty link's state
+    revealed at every step."""
     n = P.nstates
     if np.any(np.asarray(P.D21) != 0):
         return ("P", f"P: {who}'s exact program needs a gain on the state "
@@ -121,7 +70,6 @@ def _not_exact(P: NetworkedStateSpace, controller: str, actuator: str,
     if P.C2.shape != (n, n) or not np.array_equal(P.C2, np.eye(n)):
         return ("P", f"P: {who} needs the state measured, y = x (C2 = I, "
                      f"{n}x{n}), got C2 of shape {P.C2.shape}")
-    plant = build(P, "static", actuator)
     if not plant.is_iid and "phase" in gain_kinds(plant, "mode"):
         return ("P", f"P: {who}'s exact program over a bursty link uses "
                      f"gains on the previous link state, known from "
@@ -149,26 +97,12 @@ def _checked(P: Any, actuator: str, solver: str | None, margin: Any,
     return name, positive_real(margin, "margin")
 
 
-def _full_information(P: Any, actuator: str, solver: str | None,
-                      margin: Any, solver_options: dict, who: str
-                      ) -> tuple[Any, str, float]:
-    """The checks of the exact full-information programs; the open loop.
-    Refuses (``ControlArgument``) a loop the exact program does not cover."""
-    name, margin = _checked(P, actuator, solver, margin, solver_options)
-    why = _not_exact(P, "static", actuator, who)
-    if why is not None:
-        raise ControlArgument(why[1])
-    plant = build(P, "static", actuator)
-    plant.require_noise_free(who)
-    return plant, name, margin
-
-
 def _designed_loop(plant: Any, model: Any, name: str, solver_options: dict,
                    who: str) -> tuple[np.ndarray, JumpStateSpace, float, Any]:
-    """Solve ``model``, read its gains, close the loop and require it
-    mean-square stable: ``(gains, CL, ms_radius, report)``. Before the
-    solve, the one proof that needs no solver: the modes no gain acts in
-    (a lost command) alone make every loop mean-square unstable."""
+    """Solve ``model``, read its gains, close ``plant``'s loop with them
+    and require it mean-square stable: ``(gains, CL, ms_radius, report)``.
+    Before the solve, the one proof that needs no solver: the modes no gain
+    acts in (a lost command) alone make every loop mean-square unstable."""
     _open_loop_bound(plant, 1.0, who)
     report = solve(model.problem, name, **solver_options)
     if report.status not in ("optimal", "optimal_inaccurate") or \
@@ -247,7 +181,7 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
     Returns
     -------
     K : PeriodicGain
-        ``K.result`` is an :class:`H2Result`; shape ``(N, m2, n)``, or
+        ``K.result`` is a :class:`DesignResult`; shape ``(N, m2, n)``, or
         ``(N, M, m2, n)`` (gains on the previous mode) over bursty links,
         or one gain per sensor age over delayed links.
     CL : JumpStateSpace
@@ -299,48 +233,74 @@ def h2syn(P: NetworkedStateSpace, *, controller: str = "static",
     >>> K.result.route, round(h2 ** 2, 3)
     ('local', 9.281)
     """
-    local, controller, time_limit = _route(
-        P, controller, actuator, solver, margin, solver_options,
-        estimator_gain, initial_gain, time_limit, "h2syn")
-    if local:
-        return _local_h2syn(P, controller, actuator, estimator_gain,
-                            initial_gain, time_limit)
-    plant, name, margin = _full_information(P, actuator, solver, margin,
-                                            solver_options, "h2syn")
-    model = h2_model(plant, margin)
-    gains, CL, rate, report = _designed_loop(plant, model, name,
+    plan = _plan(P, controller, actuator, solver, margin, solver_options,
+                 estimator_gain, initial_gain, time_limit, "h2syn")
+    if plan.local:
+        return _local_design(P, plan, initial_gain, "h2syn").finish()
+    model = h2_model(plan.design, plan.margin)
+    gains, CL, rate, report = _designed_loop(plan.plant, model, plan.solver,
                                              solver_options, "h2syn")
-    h2 = norm(CL, 2)
-    K = PeriodicGain(gains, "static", actuator)
-    K.result = H2Result(h2, float(np.sqrt(max(model.problem.value, 0.0))),
-                        rate, report)
-    return K, CL, h2
+    return norm_design("h2", gains, CL, rate, "program", "static", actuator,
+                       report=report, solver_value=float(np.sqrt(max(
+                           model.problem.value, 0.0)))).finish()
 
 
-def _route(P: Any, controller: str, actuator: str, solver: str | None,
-           margin: Any, solver_options: dict, estimator_gain: Any,
-           initial_gain: Any, time_limit: Any, who: str
-           ) -> tuple[bool, str, float | None]:
-    """The checks h2syn and hinfsyn make first, and their route:
-    ``(local, controller, time_limit)``, ``local`` when the exact program
-    does not cover the loop (each route refuses the other's options)."""
-    _checked(P, actuator, solver, margin, solver_options)
-    given_margin = margin != DEFAULT_MARGIN
+@dataclass(frozen=True)
+class Plan:
+    """An H2 or H∞ design, validated: the open loop (built once), the route
+    and the checked options."""
+
+    plant: JumpPlant         # the loop's open loop (its gain is returned)
+    design: JumpPlant        # what the figure is the H2 norm of (the cost
+    #                          between the samples, for a continuous plant)
+    local: bool
+    controller: str
+    actuator: str
+    time_limit: float | None
+    solver: str
+    margin: float
+    estimator_gain: Any
+
+
+def _plan(P: Any, controller: str, actuator: str, solver: str | None,
+          margin: Any, solver_options: dict, estimator_gain: Any,
+          initial_gain: Any, time_limit: Any, who: str) -> Plan:
+    """The checks h2syn and hinfsyn make first, the open loop (the one
+    build of the design) and the route: local when the exact program does
+    not cover the loop (each route refuses the other's options)."""
+    from ..estimator import estimator_gain as default_estimator
+    name, checked_margin = _checked(P, actuator, solver, margin,
+                                    solver_options)
     controller = choice(controller, "controller",
                         ("static", "predictor", "estimator"))
     if time_limit is not None:
         time_limit = positive_real(time_limit, "time_limit")
-    local = _not_exact(P, controller, actuator, who) is not None
+    L = None
+    if controller == "estimator":
+        L = estimator_gain if estimator_gain is not None else \
+            default_estimator(P)
+    elif estimator_gain is not None:
+        raise ControlArgument("estimator_gain: only with "
+                              "controller='estimator'")
+    plant = build(P, controller, actuator, estimator_gain=L)
+    # a plant sampled from a continuous one: h2syn minimises the cost
+    # between the samples (theory: intersample cost); hinfsyn the l2 gain
+    # at the samples
+    design = (cost_open_loop(plant) if who == "h2syn"
+              and plant.sampling is not None else plant)
+    local = _not_exact(P, design, controller, actuator, who) is not None
     if local:
         _no_solver_options(solver, solver_options)
-        if given_margin:
+        if margin != DEFAULT_MARGIN:
             raise ControlArgument(
                 "margin: this loop's gain is structured and is searched "
                 "locally on exact figures; margin applies to the exact "
                 "program")
     else:
         _exact_takes_no_start(initial_gain, estimator_gain)
-    return local, controller, time_limit
+        design.require_noise_free(who)
+    return Plan(plant, design, local, controller, actuator, time_limit,
+                name, checked_margin, L)
 
 
 def _no_solver_options(solver: str | None, solver_options: dict) -> None:
@@ -369,27 +329,25 @@ def _local_h2syn(P: NetworkedStateSpace, controller: str, actuator: str,
                  estimator_gain: Any, initial_gain: Any,
                  time_limit: float | None
                  ) -> tuple[PeriodicGain, JumpStateSpace, float]:
-    """h2syn's local search (:mod:`control_ncs._h2_design`) on a structured
-    loop; the figure is the exact norm of the loop it returns."""
-    K, CL, rate, _ = _local_design(P, controller, actuator, estimator_gain,
-                                   initial_gain, time_limit, "h2syn")
-    h2 = norm(CL, 2)
-    K.result = H2Result(h2, math.nan, rate, None, "local")
-    return K, CL, h2
+    """h2syn's local search (:mod:`control_ncs.synthesis._h2`) run on any
+    loop, also one the exact program covers (to compare the two); the
+    figure is the exact norm of the loop it returns."""
+    plan = _plan(P, controller, actuator, None, DEFAULT_MARGIN, {},
+                 estimator_gain, None, time_limit, "h2syn")
+    return _local_design(P, plan, initial_gain, "h2syn").finish()
 
 
-def _local_design(P: NetworkedStateSpace, controller: str, actuator: str,
-                  estimator_gain: Any, initial_gain: Any,
-                  time_limit: float | None, who: str) -> tuple:
+def _local_design(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
+                  who: str) -> Design:
     """The structured loop's local search: on the exact H2 norm, and for
     ``who='hinfsyn'`` then on the bounded real lemma's optimum
-    (:mod:`control_ncs._hinf_design`) from there. Returns ``(K, CL,
-    ms_radius, gamma_result)`` (the last for hinfsyn: the certified bound
-    of the better of the two loops, else None)."""
-    deadline = None if time_limit is None else \
-        time.perf_counter() + time_limit
+    (:mod:`control_ncs.synthesis._hinf`) from there. Returns the
+    :class:`Design`: its figure is the exact norm of the loop (h2syn) or
+    the certified bound of the better of the two loops (hinfsyn)."""
+    deadline = None if plan.time_limit is None else \
+        time.perf_counter() + plan.time_limit
     mats, loop, shape, close, starts, L = _plant_problem(
-        P, controller, actuator, estimator_gain)
+        P, plan.controller, plan.actuator, plan.estimator_gain, plan.design)
     if initial_gain is not None:
         G = np.asarray(initial_gain, float)
         if G.shape != shape and G.shape != (1,) + shape[1:]:
@@ -407,7 +365,7 @@ def _local_design(P: NetworkedStateSpace, controller: str, actuator: str,
         candidates = [x]
         if deadline is None or time.perf_counter() < deadline:
             gain = GainObjective(loop, *mats)
-            x2, _, _, _ = _bfgs(gain.value, x, -math.inf, deadline,
+            x2, _, _, _ = bfgs(gain.value, x, -math.inf, deadline,
                                 HINF_ITERATIONS)
             candidates.append(x2)
         best = None
@@ -424,37 +382,35 @@ def _local_design(P: NetworkedStateSpace, controller: str, actuator: str,
                 "gain", NOT_FOUND, {})
         x, certified = best
     gains = loop.gains(x).reshape(shape)
-    CL = close(gains)
+    CL = plan.plant.close(gains)          # the loop itself, not the figure's
     rate = ms_radius(CL)
     if not rate < 1.0:
         raise SynthesisError(
             f"{who}: the local search's gain does not make the loop "
             f"mean-square stable (ms_radius {rate:.6g})", NOT_MSS,
             dict(ms_radius=rate))
-    K = PeriodicGain(gains, controller, actuator)
-    if L is not None:
-        K.estimator_gain = L
-    return K, CL, rate, certified
+    return norm_design("h2" if who == "h2syn" else "hinf", gains, CL, rate,
+                       "local", plan.controller, plan.actuator,
+                       estimator_gain=L, certified=certified)
 
 
 def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
-                   estimator_gain: Any) -> tuple:
-    """A structured loop of the network's open loop
-    (:class:`~control_ncs.openloop.JumpPlant`) for the local designs: as
-    its output and noise matrices, the rate loop, the gains' shape, its
-    closing and its starts: the full-information design
-    restricted to what the gain sees, the mean-square LQ gain restricted,
-    and zero."""
-    from .estimator import estimator_gain as default_estimator
-    from .refine import _Loop, _lq_gain, _projected, _restrict
-    L = None
-    if controller == "estimator":
-        L = estimator_gain if estimator_gain is not None else \
-            default_estimator(P)
-    elif estimator_gain is not None:
-        raise ControlArgument("estimator_gain: only with "
-                              "controller='estimator'")
-    plant = build(P, controller, actuator, estimator_gain=L)
+                   estimator_gain: Any, plant: JumpPlant | None = None
+                   ) -> tuple:
+    """A structured loop of the network's open loop ``plant`` (built here
+    when not given) for the local designs: its output and noise matrices,
+    the rate loop, the gains' shape, its closing and its starts: the
+    full-information optimum of the same open loop (the exact H2 program
+    with the gain seeing the whole loop state) and the mean-square LQ gain,
+    each projected on what the gain reads, that LQ gain restricted, and
+    zero."""
+    from ..estimator import estimator_gain as default_estimator
+    from ._local import Loop, lq_gain, projected, restrict
+    L = estimator_gain
+    if plant is None:
+        if controller == "estimator" and L is None:
+            L = default_estimator(P)
+        plant = build(P, controller, actuator, estimator_gain=L)
     if plant.Gw is not None:
         raise ControlArgument(
             f"P: design with measurement noise (D21 ≠ 0) is written for the "
@@ -462,26 +418,43 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
             f"controller={controller!r} the noise arrives with the next "
             f"step: design for D21 = 0 and analyse the loop with the noise, "
             f"feedback(P, K, controller={controller!r})")
-    loop = _Loop(plant, plant.probabilities, plant.transition)
+    loop = Loop(plant, plant.probabilities, plant.transition)
     mats = (plant.Cz, plant.Du, plant.Bw, plant.Dw, plant.probabilities,
             plant.readings()[1])
-    G = _lq_gain(plant, plant.probabilities)
-    projected = _projected(plant, loop, G)
-    starts = ([] if projected is None else [projected]) + [
-        _restrict(loop, G), np.zeros(loop.free.size)]
-    if controller == "static" and plant.shape["nx"] == P.nstates and \
-            not P.shared_channel and np.array_equal(P.C2, np.eye(P.nstates)):
-        # the exact design with every sensor sending, if that is exact
-        full = P.with_network(sensor_schedule=np.ones_like(
-            P.sensor_schedule.pattern, dtype=int))
-        if _not_exact(full, "static", "zero", "h2syn") is None:
-            try:
-                K0 = h2syn(full)[0].gains
-                if K0.ndim == 3 and K0.shape[0] == plant.period:
-                    starts.insert(0, _restrict(loop, K0))
-            except SynthesisError:
-                pass
+    G = lq_gain(plant, plant.probabilities)
+    starts = [x for x in (projected(plant, loop, _full_information(plant)),
+                          projected(plant, loop, G)) if x is not None]
+    starts += [restrict(loop, G), np.zeros(loop.free.size)]
     return mats, loop, plant.gain_shape(), plant.close, starts, L
+
+
+#: Up to this many loop states the local searches start from the exact H2
+#: program of the full-information relaxation (one SDP).
+FULL_INFORMATION_MAX_STATES = 40
+
+
+def _full_information(plant: JumpPlant) -> np.ndarray:
+    """The H2-optimal gain on the whole loop state of ``plant`` (its
+    reading replaced by the identity: the full-information relaxation of
+    the same open loop), per phase; zero gains when the program gives none
+    (Markov modes, a solver failure, a large loop): a start, not a
+    figure."""
+    s = plant.shape
+    zero = np.zeros((plant.period, s["nu"], s["nx"]))
+    if plant.transition is not None or \
+            s["nx"] > FULL_INFORMATION_MAX_STATES:
+        return zero
+    full = replace(plant, E=np.broadcast_to(np.eye(s["nx"]), (
+        plant.period, s["nx"], s["nx"])), Ew=None, Gw=None)
+    try:
+        model = h2_model(full, DEFAULT_MARGIN)
+        report = solve(model.problem)
+        if report.status not in ("optimal", "optimal_inaccurate"):
+            return zero
+        gains = model.gains()
+    except (ValueError, np.linalg.LinAlgError, ArithmeticError):
+        return zero
+    return gains if np.all(np.isfinite(gains)) else zero
 
 
 def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
@@ -502,7 +475,8 @@ def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
     The returned ``gamma`` is
     the certified upper bound of :func:`control_ncs.l2_gain` on the
     designed loop — its own LMI and exact check — never this program's
-    objective; ``K.result`` is that :class:`GainResult` (with the lower end
+    objective; ``K.result`` is a :class:`DesignResult` whose ``certificate``
+    is that :class:`GainResult` (with the lower end
     of the bracket).
 
     Parameters
@@ -560,23 +534,46 @@ def hinfsyn(P: NetworkedStateSpace, *, controller: str = "static",
     >>> K.result.route, K.result.status
     ('local', 'certified')
     """
-    local, controller, time_limit = _route(
-        P, controller, actuator, solver, margin, solver_options,
-        estimator_gain, initial_gain, time_limit, "hinfsyn")
-    if local:
-        K, CL, _, certified = _local_design(
-            P, controller, actuator, estimator_gain, initial_gain,
-            time_limit, "hinfsyn")
-        certified.route = "local"
-        K.result = certified
-        return K, CL, certified.gamma
-    plant, name, margin = _full_information(P, actuator, solver, margin,
-                                            solver_options, "hinfsyn")
-    model = hinf_model(plant, margin)
-    gains, CL, rate, report = _designed_loop(plant, model, name,
+    plan = _plan(P, controller, actuator, solver, margin, solver_options,
+                 estimator_gain, initial_gain, time_limit, "hinfsyn")
+    if plan.local:
+        return _local_design(P, plan, initial_gain, "hinfsyn").finish()
+    model = hinf_model(plan.plant, plan.margin)
+    gains, CL, rate, report = _designed_loop(plan.plant, model, plan.solver,
                                              solver_options, "hinfsyn")
-    result: GainResult = l2_gain(CL, solver=solver)
-    K = PeriodicGain(gains, "static", actuator)
-    result.route = "program"
-    K.result = result
-    return K, CL, result.gamma
+    return norm_design("hinf", gains, CL, rate, "program", "static",
+                       actuator, report=report,
+                       certified=l2_gain(CL, solver=solver)).finish()
+
+
+def norm_design(spec: str, gains: np.ndarray, CL: JumpStateSpace,
+                rate: float, route: str, controller: str, actuator: str, *,
+                report: Any = None, solver_value: float = math.nan,
+                estimator_gain: Any = None,
+                certified: GainResult | None = None) -> Design:
+    """An H2 or H∞ design's answer: the figure measured on its loop (the
+    exact norm, or the ℓ2 gain's certified bound with its lower end), how
+    it was found and whether that route is exact."""
+    note = ""
+    if spec == "h2" and "sampling" in CL.info:
+        # the figure of a loop sampled from a continuous plant: √J, the
+        # cost between the samples measured on the loop by cost()
+        value, lower, cert = math.sqrt(cost(CL).cost), math.nan, None
+        note = ("a sampled continuous plant: the figure is sqrt(J), J the "
+                "continuous-time cost between the samples (ncs.cost)")
+    elif spec == "h2":
+        value, lower, cert = norm(CL, 2), math.nan, None
+    else:
+        assert certified is not None
+        value, lower, cert = certified.gamma, certified.lower, certified
+        solver_value = certified.gamma_solver
+    program = route == "program"
+    return Design(gains, CL, dict(
+        spec=spec, value=float(value), route=route,
+        method="lmi" if program else "refine", exact=program,
+        ms_radius=float(rate), controller=controller, actuator=actuator,
+        period=int(gains.shape[0]),
+        gain_kind="mode" if gains.ndim == 4 else "phase",
+        structure="full" if program else "structured", certificate=cert,
+        lower=float(lower), solver_value=float(solver_value),
+        report=report, note=note), estimator_gain)

@@ -1,7 +1,7 @@
 """H2 design where no convex program is exact: a local search on the exact
 norm (:ref:`theory-performance`).
 
-The H2 programs of :mod:`control_ncs.performance_synthesis` are exact when
+The H2 programs of :mod:`control_ncs.synthesis.norms` are exact when
 the static gain sees the whole loop state. Where it does not — a sensor
 schedule, the predictor or the estimator (part of the loop state is the
 estimation error), a held command, a delayed link (the gain reads one past
@@ -21,7 +21,7 @@ Acl_ki``) and ``F_ki = K E_ki`` the feedback rows,
 ``∂J/∂F_ki = (2/N) (Bu_kiᵀ W_ki Acl_ki Q_ki + ω_ki Du_kiᵀ Ccl_ki Q_ki)``,
 
 chained to the gains by the loop's structure (:mod:`control_ncs.refine`'s
-``_Loop``). The search: the refinement's quasi-Newton
+``Loop``). The search: the refinement's quasi-Newton
 method on the exact rate until the loop is mean-square stable, then on
 ``log J``. The returned figure is :func:`control_ncs.norm` of the returned
 loop, built by :func:`control_ncs.feedback` (an independent route), never
@@ -37,9 +37,9 @@ import numpy as np
 import scipy.linalg
 from scipy.sparse.linalg import LinearOperator, gmres
 
-from .exceptions import NOT_FOUND, TIME_LIMIT, SynthesisError
-from .refine import _bfgs, _Loop
-from .stability import (DENSE_MAX_STATES, phase_adjoint, phase_forcing,
+from ..exceptions import NOT_FOUND, TIME_LIMIT, SynthesisError
+from ._local import Loop, bfgs
+from ..stability import (DENSE_MAX_STATES, phase_adjoint, phase_forcing,
                         phase_map, phase_matrix)
 
 __all__: list[str] = []
@@ -59,7 +59,7 @@ class StructuredLoop:
 
     Parameters
     ----------
-    loop : refine._Loop
+    loop : refine.Loop
         The closed-loop state matrices ``A + Bu F(x)`` and the law.
     Cz, Du, Bw, Dw : ndarray, shape (N, M, ...)
         Per phase and mode.
@@ -70,7 +70,7 @@ class StructuredLoop:
         (measurement noise, ``D21 ≠ 0``), per phase and mode.
     """
 
-    def __init__(self, loop: _Loop, Cz: np.ndarray, Du: np.ndarray,
+    def __init__(self, loop: Loop, Cz: np.ndarray, Du: np.ndarray,
                  Bw: np.ndarray, Dw: np.ndarray, pi: np.ndarray,
                  Ew: np.ndarray | None = None):
         self.loop = loop
@@ -226,7 +226,7 @@ def local_h2(objective: H2Objective, starts: list[np.ndarray],
             break
         if deadline is not None and time.perf_counter() > deadline:
             break
-        x, f, _, _ = _bfgs(loop.rate, x0, target, deadline, ITERATIONS)
+        x, f, _, _ = bfgs(loop.rate, x0, target, deadline, ITERATIONS)
         if f < best[0]:
             best = (f, x)
     if best[0] < 0.0:
@@ -243,6 +243,6 @@ def local_h2(objective: H2Objective, starts: list[np.ndarray],
             f"best; a local method: not a proof that none exists)",
             TIME_LIMIT if out else NOT_FOUND,
             dict(ms_radius=math.exp(best[0])))
-    x, _, _, _ = _bfgs(objective.value, best[1], -math.inf, deadline,
+    x, _, _, _ = bfgs(objective.value, best[1], -math.inf, deadline,
                        ITERATIONS)
     return x
