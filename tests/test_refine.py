@@ -268,10 +268,10 @@ def test_same_seed_gives_the_same_gain():
 def slow_clock(monkeypatch):
     """The clock the time budget reads advances 10 ms at every reading: a
     50 ms budget runs out after a few readings on any machine."""
-    from control_ncs import _synthesis_routes, synthesis
+    from control_ncs.synthesis import _routes, passive
     ticks = itertools.count()
     clock = SimpleNamespace(perf_counter=lambda: 0.01 * next(ticks))
-    for module in (refine, synthesis, _synthesis_routes):
+    for module in (refine, _local, _routes, passive):
         monkeypatch.setattr(module, "time", clock)
     return ticks
 
