@@ -26,7 +26,7 @@ import control as ct
 
 from .plant import NetworkedStateSpace, nss
 
-__all__ = ["levitation_stage", "run_demo"]
+__all__ = ["levitation_stage", "run_demo", "passivity_figure"]
 
 
 def levitation_stage(dt: float = 0.05, **network: Any) -> NetworkedStateSpace:
@@ -162,30 +162,8 @@ def run_demo(outdir: str = "demo-output", *, trials: int = 200, seed: int = 0,
     ax.legend(fontsize=8)
     save(fig, "step.png")
 
-    # 3. passivity in frequency: λmin of the Hermitian part of the lifted mean
-    lifted = CL.mean()
-    omega = np.linspace(1e-3, np.pi / lifted.dt, 400)
-    resp = lifted.frequency_response(omega)
-    G = np.moveaxis(resp.complex, -1, 0)
-    lam = [np.linalg.eigvalsh(0.5 * (g + g.conj().T)).min() for g in G]
-    fig, ax = plt.subplots(figsize=(8, 4))
-    ax.semilogx(omega, lam, label="λmin(G + Gᴴ)/2, lifted mean system")
-    ax.axhline(mean_eta, ls="--", color="tab:green",
-               label=f"mean-system index {mean_eta:.3f}")
-    ax.axhline(eta, ls=":", color="tab:red",
-               label=f"certified stochastic index {eta:.3f}")
-    ax.set_xlabel("ω [rad/s] (lifted, per period)")
-    ax.set_ylabel("passivity level")
-    # from zero: the three levels differ by a fraction of a percent, which a
-    # zoomed axis would make look dramatic
-    ax.set_ylim(0.0, 1.25 * max(max(lam), mean_eta))
-    ax.text(0.98, 0.95, f"certified index {eta:.4f} is "
-            f"{100 * (mean_eta - eta) / mean_eta:.2g} % below the mean "
-            f"system's {mean_eta:.4f}", transform=ax.transAxes, ha="right",
-            va="top", fontsize=9)
-    ax.set_title("Passivity of the closed loop in frequency")
-    ax.legend(fontsize=8, loc="lower left")
-    save(fig, "passivity.png")
+    # 3. passivity in frequency: the Hermitian part of the lifted mean loop
+    save(passivity_figure(CL, eta, mean_eta), "passivity.png")
 
     # 4. certified η against actuator loss
     losses = np.linspace(0.0, 0.4, 5)
@@ -213,6 +191,78 @@ def run_demo(outdir: str = "demo-output", *, trials: int = 200, seed: int = 0,
     return dict(files=files, eta=eta, mean_eta=mean_eta,
                 ms_radius=ms_radius(CL), open_loop_ms_radius=ms_radius(open_loop),
                 eta_vs_loss=dict(zip(losses.tolist(), etas)), gain=K)
+
+
+def passivity_figure(CL: Any, eta: float, mean_eta: float) -> Any:
+    """The closed loop's passivity in frequency, and the certificate's gap.
+
+    The loop's mean system, lifted over the period, is an LTI port ``G``;
+    it is passive with index ``ν`` when every eigenvalue of the Hermitian
+    part ``(G + Gᴴ)/2`` is at least ``ν`` at every frequency
+    (:ref:`theory-passivity`). The left panel draws those eigenvalues from
+    zero, with the certified index ``η``; the right panel draws the margin
+    ``λmin − η`` on its own scale, where the mean system's index (the
+    minimum of ``λmin``, a statement about ``E z`` only) and the certified
+    stochastic index (every sample path, in mean square) are told apart.
+
+    Parameters
+    ----------
+    CL : JumpStateSpace
+        The closed loop, with square ``w`` and ``z``.
+    eta : float
+        The certified stochastic index (from the design).
+    mean_eta : float
+        The mean system's index (:func:`control_ncs.mean_input_ff_index`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two axes: the eigenvalues, and the margin above ``eta``.
+    """
+    import matplotlib.pyplot as plt
+    from .plots import plain_ticks
+
+    lifted = CL.mean()
+    nyquist = np.pi / lifted.dt
+    omega = np.minimum(np.logspace(-3, np.log10(nyquist), 400), nyquist)
+    G = np.moveaxis(lifted.frequency_response(omega).complex, -1, 0)
+    lam = np.array([np.linalg.eigvalsh(0.5 * (g + g.conj().T)) for g in G])
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
+    last = lam.shape[1] - 1
+    for i in range(lam.shape[1]):
+        label = ("λmin of (G + Gᴴ)/2" if i == 0 else "λmax" if i == last
+                 else "other eigenvalues" if i == 1 else None)
+        ax.semilogx(omega, lam[:, i], color="tab:blue" if i == 0 else
+                    "tab:purple", lw=1.8 if i == 0 else 1.0, label=label)
+    ax.axhline(eta, ls=":", color="tab:red",
+               label=f"certified index η = {eta:.4f}")
+    ax.set_ylim(0.0, 1.1 * lam.max())
+    ax.set_xlabel("ω [rad/s] (lifted, per period)")
+    ax.set_ylabel("passivity level")
+    ax.set_title("Every eigenvalue stays above η at every frequency",
+                 fontsize="medium")
+    ax.legend(fontsize=8, loc="lower left")
+    ax.text(0.98, 0.95, "λmin hugs η: its margin is drawn on the right",
+            transform=ax.transAxes, ha="right", va="top", fontsize=8)
+    # the smallest eigenvalue is set by the port's feedthrough (the parallel
+    # damper, less the coupling within a period): it moves by a fraction of
+    # a percent, so its margin above η needs its own scale
+    margin = lam[:, 0] - eta
+    bx.semilogx(omega, margin, color="tab:blue", lw=1.8,
+                label="λmin − η, lifted mean system")
+    bx.axhline(mean_eta - eta, ls="--", color="tab:green",
+               label=f"mean-system index − η = {mean_eta - eta:.2e}")
+    bx.axhline(0.0, ls=":", color="tab:red", label="certified η (every path)")
+    top = max(margin.max(), mean_eta - eta)
+    bx.set_ylim(-0.1 * top, 1.15 * top)
+    bx.yaxis.set_major_formatter(plain_ticks())
+    bx.set_xlabel("ω [rad/s] (lifted, per period)")
+    bx.set_ylabel("margin above the certified η")
+    bx.set_title(f"η is {100 * (mean_eta - eta) / mean_eta:.2g} % below the "
+                 f"mean system's index {mean_eta:.4f}", fontsize="medium")
+    bx.legend(fontsize=8, loc="lower right")
+    fig.suptitle("Passivity of the closed loop in frequency")
+    return fig
 
 
 def _periodic_nominal(CL):

@@ -89,6 +89,12 @@ class PeriodicGain:
         ``controller='estimator'`` gains belong to (an
         :class:`control_ncs.estimator.EstimatorGain` is accepted);
         :func:`control_ncs.feedback` closes the loop with it.
+    ages : int, optional
+        For a ``'static'`` gain over a buffered (delayed) sensor link
+        (:ref:`theory-delays`): the number ``D + 1`` of measurement ages
+        whose gains the columns hold, in blocks ``[age 0 | age 1 | …]`` of
+        ``nk / ages`` columns each. It labels the gain (it is one gain per
+        phase, not ``ages`` phases); the loop reads the columns as they are.
 
     Attributes
     ----------
@@ -97,6 +103,8 @@ class PeriodicGain:
     estimator_gain : ndarray, shape (N_L, n, nmeas), or None
         Read-only.
     period : int
+    ages : int or None
+        Number of measurement ages of a per-age gain, or None.
 
     Notes
     -----
@@ -121,11 +129,21 @@ class PeriodicGain:
     >>> Km = ncs.PeriodicGain([[[[-1.0]], [[-2.0]]]])
     >>> Km.mode_dependent, Km.modes, Km[0][1].tolist()
     (True, 2, [[-2.0]])
+
+    A gain per age of the measurement (a buffer of two steps, one sensor):
+    one phase, one block of columns per age:
+
+    >>> Ka = ncs.PeriodicGain([[-0.9, -0.5, -0.2]], ages=3)
+    >>> Ka.period, Ka.ages
+    (1, 3)
+    >>> Ka
+    PeriodicGain(controller='static', actuator='zero', period=1, per sensor age (3),
+    [[-0.9 -0.5 -0.2]])
     """
 
     def __init__(self, gains: Any, controller: str = "static",
                  actuator: str = "zero", result: Any = None,
-                 estimator_gain: Any = None):
+                 estimator_gain: Any = None, ages: int | None = None):
         K = real_array(gains, "gains", ndim=(2, 3, 4))
         if 0 in K.shape:
             raise ControlDimension(f"gains: expected nonzero dimensions, got "
@@ -158,6 +176,26 @@ class PeriodicGain:
                     f"estimate x̂ the gains act on), got shape {L.shape}")
             L.flags.writeable = False
         self.estimator_gain = L
+        self.ages = self._ages(ages)
+
+    def _ages(self, ages: Any) -> int | None:
+        """``ages`` checked against the controller and the columns."""
+        if ages is None:
+            return None
+        if isinstance(ages, (bool, np.bool_)) or not isinstance(
+                ages, (int, np.integer)) or ages < 1:
+            raise ValueError(f"ages: expected an int >= 1 (the number of "
+                             f"measurement ages), got {ages!r}")
+        if self.controller != "static":
+            raise ControlArgument(
+                f"ages: only controller='static' gains read the measurement "
+                f"per age, got controller={self.controller!r}")
+        nk = self.gains.shape[-1]
+        if nk % ages:
+            raise ControlDimension(
+                f"ages: {nk} columns do not split into {ages} blocks of "
+                f"equal width (one per age: [age 0 | age 1 | ...])")
+        return int(ages)
 
     @property
     def period(self) -> int:
@@ -192,7 +230,8 @@ class PeriodicGain:
             L is not None and M is not None and np.array_equal(L, M))
         return (np.array_equal(self.gains, other.gains)
                 and self.controller == other.controller
-                and self.actuator == other.actuator and same_L)
+                and self.actuator == other.actuator and same_L
+                and self.ages == other.ages)
 
     __hash__ = None  # type: ignore[assignment]  # value equality, mutable arrays
 
@@ -200,11 +239,13 @@ class PeriodicGain:
         L = None if self.estimator_gain is None else np.array(
             self.estimator_gain)
         return (PeriodicGain, (np.array(self.gains), self.controller,
-                               self.actuator, self.result, L))
+                               self.actuator, self.result, L, self.ages))
 
     def __repr__(self) -> str:
         head = (f"PeriodicGain(controller={self.controller!r}, "
                 f"actuator={self.actuator!r}, period={self.period}")
+        if self.ages is not None:
+            head += f", per sensor age ({self.ages})"
         if self.mode_dependent:
             head += f", previous modes={self.modes}"
         if self.estimator_gain is not None:

@@ -590,21 +590,22 @@ class BurstyDelay:
                 value, str) else np.array([np.nan])
             if q.ndim != 1 or q.size == 0 or not np.all(np.isfinite(q)) \
                     or np.any(q < 0) or q.sum() > 1.0 + _TOL:
+                shown = _listed(q) if q.ndim == 1 and not isinstance(
+                    value, str) else repr(value)
                 raise ValueError(f"{name}: expected non-negative delay "
                                  f"probabilities summing to at most 1, got "
-                                 f"{value!r}")
+                                 f"{shown}{_sum_of(q)}")
             pmfs.append(q / max(1.0, q.sum()))
         if not any(np.any(q > 0) for q in pmfs):
             raise ValueError("pmf_bad, pmf_good: no packet ever arrives")
         d = max(int(np.flatnonzero(q)[-1]) if np.any(q > 0) else 0
                 for q in pmfs)
-        if buffer is None:
-            buffer = d
-        if isinstance(buffer, (bool, np.bool_)) or not isinstance(
-                buffer, (int, np.integer)) or buffer < d:
-            raise ValueError(f"buffer: expected an int >= the largest delay "
-                             f"{d}, got {buffer!r}")
-        self.link, self.pmfs, self.buffer = link, tuple(pmfs), int(buffer)
+        _check_buffer(d, "pmf_bad, pmf_good", 2 * (d + 2),
+                      f"a delay of up to {d} steps (a buffer of {d} ages)")
+        # the laws up to the largest delay: trailing zeros carry nothing
+        pmfs = [q[:d + 1] for q in pmfs]
+        self.link, self.pmfs = link, tuple(pmfs)
+        self.buffer = _buffer(buffer, d, 2)
 
     @property
     def loss(self) -> float:
@@ -617,7 +618,7 @@ class BurstyDelay:
 
         Parameters
         ----------
-        sent : array_like of bool, shape (N,), optional
+        sent : array_like of bool or 0/1, shape (N,), optional
             Whether a packet is sent at each phase (default: every step).
 
         Returns
@@ -627,6 +628,7 @@ class BurstyDelay:
             T_link[g, g'] · T_{g'}[a, b]``, the arrivals of the step judged
             by the state ``g'`` the link is in.
         """
+        sent = None if sent is None else _sent_flags(sent)
         ages = [age_chain(q, self.buffer, sent) for q in self.pmfs]
         G = self.link.transition
         N, S = ages[0].shape[0], ages[0].shape[1]
@@ -668,6 +670,13 @@ def bursty_delay(link: GilbertElliott, pmf_bad: Any, pmf_good: Any,
     -------
     BurstyDelay
 
+    Raises
+    ------
+    ValueError
+        A pmf that is not probabilities summing to at most 1, two laws that
+        never deliver, a ``buffer`` below the largest delay, or a delay or
+        ``buffer`` beyond ``MAX_BUFFER = 64`` ages.
+
     Examples
     --------
     A link that delivers at once while good and a step late at best while
@@ -694,6 +703,79 @@ def delay_model(value: Any, name: str) -> "RandomDelay | BurstyDelay | None":
 
 
 _TOL = 1e-9
+
+#: The oldest age a delayed link's receiver may keep. A buffer of ``D`` ages
+#: is a chain of ``D + 2`` states (``2 (D + 2)`` for a bursty link), so a
+#: loop over it has at least ``D + 2`` modes per phase and ``D + 1`` states
+#: (a stored copy of the plant state, or of the command, per age), and the
+#: exact mean that every closed loop carries (python-control's face of a
+#: jump system) is a dense matrix of order modes × states: quadratic in
+#: ``D``, so its memory grows as ``D⁴``, long before the builder's own
+#: limits (``strategies.MAX_LOOP_STATES``, ``MAX_MODES``) are reached.
+#: Measured on the smallest loop (a one-state plant, a static gain, the
+#: actuator link's two states: ``2 (D + 2)`` modes), closing it with
+#: :func:`control_ncs.feedback`: ``D = 64`` takes 4.5 s and a 1.3 GB peak
+#: (a mean of order 8580), ``D = 100`` 38 s (order 20604, 3.4 GB for the
+#: mean alone), and ``D = 200`` asks numpy for 49 GiB. A delay of more than
+#: 64 samples also says the loop samples much faster than its network
+#: delivers: a slower sampling period models it better.
+MAX_BUFFER = 64
+
+
+def _check_buffer(buffer: int, name: str, states: int, what: str) -> None:
+    """Refuse a buffer beyond :data:`MAX_BUFFER`, naming the loop it would
+    need (a chain of ``states`` states) before anything is allocated."""
+    if buffer <= MAX_BUFFER:
+        return
+    modes, size = states, buffer + 1
+    gib = 8.0 * (modes * size) ** 2 / 2 ** 30
+    raise ValueError(
+        f"{name}: {what} would make the link a chain of {states} states, "
+        f"and a loop over it at least {size} states in {modes} modes per "
+        f"phase, whose exact mean (a dense matrix of order {modes * size}) "
+        f"takes {gib:.3g} GiB; at most MAX_BUFFER = {MAX_BUFFER} ages are "
+        f"accepted (a delay of more than {MAX_BUFFER} samples: sample the "
+        f"plant more slowly)")
+
+
+def _buffer(buffer: Any, d: int, chain: int) -> int:
+    """The buffer of a delay link whose largest delay is ``d`` (default
+    ``d``), checked; ``chain`` states per age (2 for a bursty link)."""
+    if buffer is None:
+        buffer = d
+    if isinstance(buffer, (bool, np.bool_)) or not isinstance(
+            buffer, (int, np.integer)) or buffer < d:
+        raise ValueError(f"buffer: expected an int >= the largest delay "
+                         f"{d}, got {buffer!r}")
+    buffer = int(buffer)
+    _check_buffer(buffer, "buffer", chain * (buffer + 2),
+                  f"a buffer of {buffer} ages")
+    return buffer
+
+
+def _sum_of(q: np.ndarray) -> str:
+    """``', summing to 1.1'`` for a message about a pmf summing above 1."""
+    total = float(np.sum(q)) if q.ndim == 1 and q.size else math.nan
+    return f", summing to {total:.6g}" if total > 1.0 + _TOL else ""
+
+
+def _listed(q: np.ndarray) -> str:
+    """A pmf for a message: its entries as given, the first ten of many."""
+    if q.size <= 10:
+        return str(q.tolist())
+    return f"{str(q[:10].tolist())[:-1]}, ...] ({q.size} entries)"
+
+
+def _sent_flags(sent: Any) -> np.ndarray:
+    """``sent`` as one bool per phase: bools or 0/1 only (a 2 or 0.5 is
+    not a flag)."""
+    s = np.asarray(sent)
+    if s.ndim > 1 or s.size == 0 or not (
+            s.dtype == bool or (s.dtype.kind in "iuf"
+                                and np.all((s == 0) | (s == 1)))):
+        raise ValueError(f"sent: expected one flag (a bool, or 0/1) per "
+                         f"phase, got {sent!r}")
+    return s.astype(bool).ravel()
 
 
 def mode_transition(sensor_link: Any, actuator_link: Any) -> np.ndarray:
@@ -781,20 +863,16 @@ class RandomDelay:
                 or q.sum() > 1.0 + _TOL:
             raise ValueError(f"pmf: expected non-negative probabilities "
                              f"summing to at most 1 (the rest is the loss), "
-                             f"got {q.tolist()}")
+                             f"got {_listed(q)}{_sum_of(q)}")
         if not np.any(q > 0):
             raise ValueError("pmf: no packet ever arrives (all zeros); a "
                              "link that never delivers closes no loop")
         d = int(np.flatnonzero(q)[-1])
+        _check_buffer(d, "pmf", d + 2, f"a delay of up to {d} steps (a "
+                      f"buffer of {d} ages)")
         self.pmf = q[:d + 1] / max(1.0, q.sum())
         self.max_delay = d
-        if buffer is None:
-            buffer = d
-        if isinstance(buffer, (bool, np.bool_)) or not isinstance(
-                buffer, (int, np.integer)) or buffer < d:
-            raise ValueError(f"buffer: expected an int >= the largest delay "
-                             f"{d}, got {buffer!r}")
-        self.buffer = int(buffer)
+        self.buffer = _buffer(buffer, d, 1)
 
     @property
     def loss(self) -> float:
@@ -811,18 +889,30 @@ class RandomDelay:
 
         Parameters
         ----------
-        sent : array_like of bool, shape (N,)
+        sent : array_like of bool or 0/1, shape (N,)
             Whether the link's node sends at each phase.
 
         Returns
         -------
         ndarray, shape (N, D + 2, D + 2)
             ``T[k][a, b] = P(a_{k+1} = b | a_k = a)``.
+
+        Raises
+        ------
+        ValueError
+            ``sent`` is empty or holds anything but bools or 0/1.
+
+        Examples
+        --------
+        A link that sends at even phases only: at the step after phase 0
+        no fresh packet exists, and the one sent at phase 0 has arrived by
+        then (delays of at most one step), so the age is 1 from any age:
+
+        >>> link = ncs.random_delay([0.5, 0.5])
+        >>> link.age_transition([1, 0])[0].tolist()
+        [[0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]
         """
-        s = np.asarray(sent, bool).ravel()
-        if s.size == 0:
-            raise ValueError("sent: expected one flag per phase, got none")
-        return age_chain(self.pmf, self.buffer, s)
+        return age_chain(self.pmf, self.buffer, _sent_flags(sent))
 
     @property
     def states(self) -> list[str]:
@@ -865,7 +955,9 @@ def random_delay(pmf: Any, buffer: int | None = None) -> RandomDelay:
     ------
     ValueError
         A pmf that is not a 1-D array of probabilities summing to at most 1,
-        that never delivers, or a ``buffer`` below the largest delay.
+        that never delivers, or a ``buffer`` below the largest delay; a
+        delay or a ``buffer`` beyond ``MAX_BUFFER = 64`` ages (the message
+        names the loop it would need).
 
     See Also
     --------

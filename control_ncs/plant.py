@@ -497,7 +497,62 @@ class NetworkedStateSpace(ct.StateSpace):
         return (f"<NetworkedStateSpace {self.name}: {self.nstates} states, "
                 f"w:{self._m1} u:{self.ncon} z:{self._p1} y:{self.nmeas}, "
                 f"period {self.period}, α1={self.sensor_loss:g}, "
-                f"α2={self.actuator_loss:g}{self._bursts()}, dt={self.dt}>")
+                f"α2={self.actuator_loss:g}{self._bursts()}"
+                f"{self._delays()}, dt={self.dt}>")
+
+    def _delays(self) -> str:
+        """The delays in a few words: each link's largest delay (and its
+        buffer when longer), and the sub-sample input delays."""
+        out = ""
+        for side in ("sensor", "actuator"):
+            delay = getattr(self, f"{side}_delay")
+            if delay is None:
+                continue
+            laws = delay.pmfs if isinstance(delay, BurstyDelay) \
+                else (delay.pmf,)
+            d = max(int(np.flatnonzero(q)[-1]) if np.any(q) else 0
+                    for q in laws)
+            kind = "bursty delays" if len(laws) == 2 else "delays"
+            out += f", {side} {kind} 0..{d} steps"
+            if delay.buffer != d:
+                out += f" (buffer {delay.buffer})"
+        if self.input_delay is not None:
+            taus = self.input_delay.taus
+            out += (f", input delays {taus.min():.4g}..{taus.max():.4g} s "
+                    f"({taus.size} values)")
+        return out
+
+    def _delay_lines(self) -> list[str]:
+        """One line per delay model: the law, the buffer, and how the
+        link's loss composes the loss given with the law's own."""
+        lines = []
+        for side, alpha in (("sensor", "α1"), ("actuator", "α2")):
+            delay = getattr(self, f"{side}_delay")
+            if delay is None:
+                continue
+            total = getattr(self, f"{side}_loss")
+            if isinstance(delay, BurstyDelay):
+                bad, good = (_numbers(q) for q in delay.pmfs)
+                lines.append(
+                    f"  {side} delay: bursty, {delay.link!r}; P(δ = c) while "
+                    f"bad {bad}, while good {good}; buffer {delay.buffer} "
+                    f"(the link's loss {alpha} = {total:.4g} is the laws' own)")
+                continue
+            given = float(getattr(self, f"{side}_link"))
+            law = (f"  {side} delay: P(δ = c), c = 0..{delay.max_delay}: "
+                   f"{_numbers(delay.pmf)}; buffer {delay.buffer}")
+            if given and delay.loss:
+                law += (f" (the link's loss {alpha} = {total:.4g} composes "
+                        f"the loss {given:.4g} given and the law's own "
+                        f"{delay.loss:.4g})")
+            elif delay.loss:
+                law += f" (the law's own loss {alpha} = {total:.4g})"
+            lines.append(law)
+        if self.input_delay is not None:
+            lines.append(f"  input delay: τ = {_numbers(self.input_delay.taus)}"
+                         f" s with probabilities "
+                         f"{_numbers(self.input_delay.probabilities)}")
+        return lines
 
     def _bursts(self) -> str:
         return "".join(f", {what} bursts {x.burst:.4g}"
@@ -508,18 +563,25 @@ class NetworkedStateSpace(ct.StateSpace):
     def __str__(self) -> str:
         s1 = self.sensor_schedule.pattern.astype(int).tolist()
         s2 = self.actuator_schedule.pattern.astype(int).tolist()
+        delays = "".join(line + "\n" for line in self._delay_lines())
         net = (f"NetworkedStateSpace: {self.name}\n"
                f"Network: period N = {self.period}, sensor loss α1 = "
-               f"{self.sensor_loss:g}, actuator loss α2 = {self.actuator_loss:g}"
-               f"{self._bursts()}"
+               f"{self.sensor_loss:g}, actuator loss α2 = "
+               f"{self.actuator_loss:g}{self._bursts()}"
                f"{', shared channel' if self.shared_channel else ''}\n"
                f"  sensor schedule (rows = phases): {s1}\n"
                f"  actuator schedule (rows = phases): {s2}\n"
+               f"{delays}"
                f"Plant (nmeas = {self.nmeas}, ncon = {self.ncon}):\n")
         return net + ct.StateSpace.__str__(
             ct.StateSpace(self.A, self.B, self.C, self.D, self.dt,
                           inputs=self.input_labels, outputs=self.output_labels,
                           states=self.state_labels, name=self.name))
+
+
+def _numbers(values: Any) -> str:
+    """A short list of numbers for humans: four significant digits."""
+    return "[" + ", ".join(f"{x:.4g}" for x in np.ravel(values)) + "]"
 
 
 def _restore_nss(args: dict) -> NetworkedStateSpace:
@@ -598,14 +660,24 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
     **kwargs
         The keywords of :class:`NetworkedStateSpace`: ``nmeas`` and ``ncon``
         (required ints, the numbers of measurements ``y`` and controls
-        ``u``, the last outputs and inputs); the network ``sensor_schedule``,
-        ``actuator_schedule``, ``sensor_loss``, ``actuator_loss`` and
-        ``shared_channel``; and ``name``, ``inputs``, ``outputs``,
-        ``states``. With a continuous-time ``sys``, ``dt=h`` samples it
-        with a zero-order hold (:func:`control.sample_system`), and
-        ``input_delay=(taus, probabilities)`` adds sub-sample delays of the
-        control input: applied ``τ`` after the sample, ``τ`` i.i.d. from
-        ``taus`` in ``[0, h)`` (:class:`InputDelay`,
+        ``u``, the last outputs and inputs); the network
+        ``sensor_schedule``, ``actuator_schedule``, ``sensor_loss``,
+        ``actuator_loss`` and ``shared_channel``; the delays
+        ``sensor_delay`` and ``actuator_delay`` (a
+        :func:`~control_ncs.random_delay`, its pmf ``[P(δ = 0), P(δ = 1),
+        …]``, or a :func:`~control_ncs.bursty_delay`; the freshest packet
+        wins, :ref:`theory-delays`), which compose with a loss on the same
+        link: a packet is lost with probability ``sensor_loss``, else
+        delayed by the pmf, whose own ``1 - Σ pmf`` is lost too, so
+        ``P.sensor_loss`` is the link's total loss, ``P.sensor_link`` the
+        loss model given and ``P.sensor_delay`` the delay model
+        (:ref:`theory-links-compose`); and ``name``, ``inputs``,
+        ``outputs``, ``states``. With a continuous-time ``sys``, ``dt=h``
+        samples it with a zero-order hold (:func:`control.sample_system`),
+        keeping ``sys`` as ``continuous`` (for the cost between the
+        samples), and ``input_delay=(taus, probabilities)`` adds sub-sample
+        delays of the control input: applied ``τ`` after the sample, ``τ``
+        i.i.d. from ``taus`` in ``[0, h)`` (:class:`InputDelay`,
         :ref:`theory-delays`). Anything else raises ``TypeError``.
 
     Returns
@@ -619,12 +691,15 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         overflowing (``> 1e150``) entries, bad schedule, a loss that is not
         a real number in ``[0, 1]`` (bools and strings included),
         ``D22`` nonzero (``D21``, noise or references in ``y``, is
-        allowed), shared-channel conflicts.
+        allowed), shared-channel conflicts; a delay pmf that is not
+        probabilities, or a delay beyond ``MAX_BUFFER`` steps; a schedule
+        that lets only some nodes of a delayed link send.
     ControlDimension
         Inconsistent shapes, ``nmeas``/``ncon`` out of range.
     ControlArgument
         ``nmeas``/``ncon`` missing or not an int; ``shared_channel`` not a
-        bool.
+        bool; a Gilbert–Elliott loss on a delayed link, or a loss beside a
+        bursty delay (write the laws per channel state instead).
     TypeError
         Unknown keyword.
 
@@ -643,6 +718,17 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
     ...         nmeas=2, ncon=1, sensor_schedule=[2, 1, 0, 2], sensor_loss=0.1)
     >>> P.period, [P.sensor_schedule.senders(k).tolist() for k in range(4)]
     (4, [[1], [0], [], [1]])
+
+    A sensor link that loses 10 % of the packets and delays the others by
+    up to two steps (the pmf's own loss is 10 % too):
+
+    >>> Q = ncs.nss([[1.1]], [[1.0, 1.0]], [[1.0], [1.0]],
+    ...             [[0.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1, name="Q",
+    ...             sensor_loss=0.1, sensor_delay=[0.5, 0.3, 0.1])
+    >>> Q
+    <NetworkedStateSpace Q: 1 states, w:1 u:1 z:1 y:1, period 1, α1=0.19, α2=0, sensor delays 0..2 steps, dt=True>
+    >>> Q.sensor_link, Q.sensor_delay
+    (0.1, RandomDelay(pmf=[0.5, 0.3, 0.1], buffer=2; loss=0.1))
     """
     if len(args) == 1:
         sys = args[0]

@@ -13,6 +13,7 @@ import numpy as np
 import control as ct
 import matplotlib.pyplot as plt
 from matplotlib.axes import Axes
+from matplotlib.ticker import Formatter
 from control.exception import ControlArgument, ControlDimension
 
 from ._checks import choice, positive_int
@@ -29,6 +30,58 @@ def _one_axes(ax: Any, drawn: list) -> ct.ControlPlot:
     lines[0, 0] = drawn
     return ct.ControlPlot(lines, np.array([[ax]], dtype=object), ax.figure,
                           legend=np.full((1, 1), None, dtype=object))
+
+
+class _PlainTicks(Formatter):
+    """Tick labels as plain numbers, no offset and no multiplier."""
+
+    def __init__(self) -> None:
+        self._ticks = np.zeros(0)
+
+    def set_locs(self, locs: Any) -> None:
+        # the axis hands over every tick before labelling one
+        self._ticks = np.asarray(locs, float)
+
+    def __call__(self, x: float, pos: int | None = None) -> str:
+        locs = self._ticks[np.isfinite(self._ticks)]
+        if locs.size < 2:
+            return f"{x:.6g}"
+        step = np.min(np.diff(np.unique(locs)))
+        big = np.max(np.abs(locs))
+        if big >= 1e6 or step < 1e-10:
+            digits = int(np.ceil(np.log10(big / step))) + 1
+            return f"{x:.{max(digits, 2)}g}"
+        # the fewest decimals that write every tick exactly (to a thousandth
+        # of the spacing): neighbours never read alike
+        decimals = next(d for d in range(11) if np.all(
+            np.abs(np.round(locs, d) - locs) <= 1e-3 * step))
+        text = f"{x:.{decimals}f}"
+        return "0" if float(text) == 0 else text
+
+
+def plain_ticks() -> Formatter:
+    """A tick formatter that writes plain numbers, no offset.
+
+    matplotlib's default writes ticks that differ in the fifth digit as
+    an offset and small differences (``1e-8`` and ``-3e-4`` above the
+    axis); this one writes each tick in full with the fewest decimals that
+    tell neighbours apart (``-0.00030004``), in scientific notation only
+    for values of a million or more or spacings below ``1e-10``.
+
+    Returns
+    -------
+    matplotlib.ticker.Formatter
+
+    Examples
+    --------
+    >>> from control_ncs.plots import plain_ticks
+    >>> f = plain_ticks()
+    >>> ticks = [0.47335, 0.4734, 0.47345]
+    >>> f.set_locs(ticks)
+    >>> [f(x) for x in ticks]
+    ['0.47335', '0.47340', '0.47345']
+    """
+    return _PlainTicks()
 
 
 def _check_axes(ax: Any) -> None:
@@ -269,7 +322,9 @@ def design_map_plot(dmap: Any, quantity: str | None = None, *,
                          cmap="viridis")
     drawn: list = [mesh]
     label = {"h2": "H2 norm", "hinf": "ℓ2-gain bound"}.get(quantity, quantity)
-    ax.figure.colorbar(mesh, ax=ax, label=label)
+    # plain ticks: the default's offset made a map of η ≈ -0.0003 read
+    # "1e-8 - 3e-4" above ticks of -0.5 ... -4
+    ax.figure.colorbar(mesh, ax=ax, label=label, format=plain_ticks())
     if min(dmap.shape) >= 2 and dmap.feasible.any() \
             and not dmap.feasible.all():
         drawn.append(ax.contour(x, y, dmap.feasible.astype(float),

@@ -82,7 +82,7 @@ def test_package_imports_and_runs_under_python_OO():
             "print(cn.step_response(S, 4, trials=5, seed=0).trials)\n")
     env = dict(os.environ, PYTHONPATH=str(root))
     proc = subprocess.run([sys.executable, "-OO", "-c", code], cwd=root,
-                          env=env, capture_output=True, text=True, timeout=120)
+                          env=env, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "5"
 

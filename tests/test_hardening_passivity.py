@@ -297,7 +297,7 @@ def test_error_raised_in_a_process_pool_worker_reaches_the_caller():
     with ProcessPoolExecutor(max_workers=1) as pool:
         future = pool.submit(cn.get_input_ff_index, unstable)
         with pytest.raises(CertificationError) as info:
-            future.result(timeout=120)
+            future.result()
     assert info.value.reason == exceptions.NOT_MSS
     assert info.value.figures["ms_radius"] == pytest.approx(1.2)
 
