@@ -23,6 +23,8 @@ from .exceptions import CertificationError, NotPassiveWarning
 from .lq import critical_arrival
 from .performance import l2_gain, norm
 from .synthesis import h2syn, hinfsyn
+from ._map_grid import at_loss
+from .network import BurstyDelay, GilbertElliott
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
 from .loop import feedback
@@ -95,7 +97,12 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     float
         ``α*`` in ``(0, 1]``; 1.0 if the loop is mean-square stable (meets
         the spec) for every loss below 1; 0.0 if it is not even without
-        loss.
+        loss. Over a bursty (Gilbert–Elliott) link the loss is the link's
+        stationary loss at its own mean burst length ``b`` (bursts of that
+        length allow losses below ``b/(1 + b)``, the value returned when
+        the loop meets the spec at all of them); over a delayed link it is
+        a loss composed with the delay law (a packet is lost with
+        probability ``α``, else delayed, :ref:`theory-links-compose`).
 
     Raises
     ------
@@ -164,8 +171,22 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
                                  np.eye(B2.shape[1]))
         return float(1.0 - nu)
 
+    given = getattr(P, f"{link}_link")
+    if isinstance(getattr(P, f"{link}_delay"), BurstyDelay):
+        raise ControlArgument(
+            f"link: the {link} link's losses are in its bursty delay laws "
+            f"(one per channel state), not one loss probability; vary those "
+            f"laws (a design_map over them), or give the link a random_delay")
+    # a bursty link keeps its mean burst length while its loss varies, up
+    # to the largest loss bursts of that length allow; a loss on a delayed
+    # link composes with its delay law (a packet lost, else delayed)
+    burst = given.burst if isinstance(given, GilbertElliott) and \
+        not given.is_bernoulli else None
+    top = 1.0 - 1e-12 if burst is None else burst / (1.0 + burst) * (
+        1.0 - 1e-12)
+
     def stable(alpha: float) -> bool:
-        Pa = P.with_network(**{f"{link}_loss": alpha})
+        Pa = P.with_network(**{f"{link}_loss": at_loss(given, alpha, burst)})
         if K is None:
             return _best_meets(Pa, h2, hinf, eta, kwargs)
         CL = feedback(Pa, K, **kwargs)
@@ -188,9 +209,8 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
 
     if not stable(0.0):
         return 0.0
-    top = 1.0 - 1e-12
     if stable(top):
-        return 1.0
+        return 1.0 if burst is None else float(top)
     lo, hi = 0.0, top
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
