@@ -20,7 +20,7 @@ from control.exception import ControlArgument
 
 from ._checks import choice, finite_real, positive_real
 from .exceptions import CertificationError, NotPassiveWarning
-from .lq import critical_arrival
+from .lq import critical_control_arrival
 from .performance import l2_gain, norm
 from .performance_synthesis import h2syn, hinfsyn
 from .plant import NetworkedStateSpace
@@ -160,8 +160,7 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
                 "over the actuator link (link='actuator', period 1, y = x); "
                 "give a gain K otherwise")
         A, B2 = np.asarray(P.A, float), np.asarray(P.B2, float)
-        nu, _ = critical_arrival(A, B2, np.eye(A.shape[0]),
-                                 np.eye(B2.shape[1]))
+        nu = critical_control_arrival(A, B2).upper
         return float(1.0 - nu)
 
     def stable(alpha: float) -> bool:
