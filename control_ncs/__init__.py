@@ -15,13 +15,15 @@ reference simulator (``protocol``) export nothing here.
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from . import (connect, critical, estimator, exceptions, gain, jump, lq,
-               meancov, modes, network, openloop, passivity, performance,
+from . import (connect, critical, estimation, estimator, exceptions, gain,
+               jump, lq, meancov, modes, network, openloop, passivity,
+               performance,
                performance_synthesis, plant, plots, refine, responses,
                stability, strategies, sweeps, synthesis, verify)
 from ._lifting import lift
 from .connect import *  # noqa: F403
 from .critical import *  # noqa: F403
+from .estimation import *  # noqa: F403
 from .estimator import *  # noqa: F403
 from .exceptions import *  # noqa: F403
 from .gain import *  # noqa: F403
@@ -48,7 +50,7 @@ __all__ = [name for module in (
     network, modes, jump, openloop, plant, gain, strategies, stability,
     meancov, exceptions, verify, passivity, performance, lq,
     performance_synthesis, synthesis, refine, estimator, responses, plots,
-    connect, sweeps, critical)
+    connect, sweeps, critical, estimation)
     for name in module.__all__] + ["lift"]
 
 try:

@@ -34,7 +34,7 @@ with the dense spectral radius beside it when it is cheap.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Iterator, NamedTuple
+from typing import Any, ClassVar, Iterator, NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -377,7 +377,7 @@ class RiccatiSolution(CertifiedResult):
     certified bracket on the spectral radius of the second-moment map
     (:ref:`theory-estimation`).
 
-    Parameters
+    Attributes
     ----------
     residual : float
         ``‖S - g(S)‖ / max(1, ‖S‖)`` (Frobenius, over the link states).
@@ -399,11 +399,6 @@ class RiccatiSolution(CertifiedResult):
         ``'dense'`` (Kronecker solves) or ``'matrix-free'`` (GMRES).
     link : str
         The arrival law solved for.
-
-    Attributes
-    ----------
-    residual, ms_radius, ms_radius_bracket, radius_exact, start, newton_steps, route, link
-        As above.
     success : bool
         True (a solution exists only with its checks passed).
     status : str
@@ -428,7 +423,8 @@ class RiccatiSolution(CertifiedResult):
     route: str
     link: str
 
-    _repr_fields = ("residual", "ms_radius", "newton_steps")
+    _repr_fields: ClassVar[tuple[str, ...]] = ("residual", "ms_radius",
+                                               "newton_steps")
 
     @property
     def message(self) -> str:
