@@ -92,15 +92,15 @@ class Equation:
 
     # -- the maps ------------------------------------------------------------
     def riccati(self, X: np.ndarray) -> np.ndarray:
-        """One value-iteration step ``X ↦ g(X)``."""
-        A, C = self.A, self.C
-        AXA = A @ X @ A.T
-        corr = np.zeros_like(X)
-        for t in np.flatnonzero(self.acting):
-            AXC = A @ X[t] @ C.T
-            corr[t] = AXC @ np.linalg.solve(C @ X[t] @ C.T + self.R, AXC.T)
-        out = self.W + np.tensordot(self.a, AXA, axes=1) \
-            - np.tensordot(self.b, corr, axes=1)
+        """One value-iteration step ``X ↦ g(X)``, in the completed-square
+        form ``𝓛_L(X) + F_L`` at ``L = L_X``: a sum of positive
+        semidefinite terms. The subtractive form ``A X Aᵀ - A X Cᵀ(…)⁻¹C X
+        Aᵀ`` is the same map but loses the cancellation in floating point:
+        on Sinopoli et al.'s example at arrival 0.8 its iteration from 0
+        overshoots the solution and diverges (to 1e154 in 3000 steps),
+        where this form converges to it."""
+        L = self.gains(X)
+        out = self.apply(L, X) + self.forcing(L)
         return 0.5 * (out + out.transpose(0, 2, 1))
 
     def gains(self, X: np.ndarray) -> np.ndarray:
