@@ -566,9 +566,13 @@ def _newton(eq: Equation, fixed: Fixed, start: str,
         step = float(np.linalg.norm(new.X - X))
         X = new.X
         size = max(1.0, float(np.linalg.norm(X)))
-        if step <= 1e-14 * size or (step >= change and
-                                    step <= 1e-8 * size):
-            break                       # converged, or at rounding level
+        residual = eq.residual(X)
+        # converged, or at the rounding level of an ill-conditioned solve
+        # (near the critical probability the solution is determined to
+        # about cond·ε only, and the steps stop shrinking there)
+        if step <= 1e-14 * size or residual <= 1e-14 or (
+                step >= change and residual <= 1e-10):
+            break
         change = step
     L = eq.gains(X)
     final = solve_fixed(eq, L, x0=X, dense=dense, final=True)
