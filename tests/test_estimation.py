@@ -124,11 +124,18 @@ def test_the_solution_is_its_gains_exact_covariance_and_the_best(seed, n, p,
     A *= 1.05 / max(abs(np.linalg.eigvals(A)))
     W, R = G @ G.T, np.eye(p)
     L, S, E = ncs.dlqe(A, G, C, np.eye(n), R, arrival=lam)
+    AL = A - L @ C
+    lhs = (1 - lam) * A @ S @ A.T + lam * (AL @ S @ AL.T + L @ R @ L.T) + W
+    assert np.abs(lhs - S).max() <= 1e-12 * np.abs(S).max()
+    # the solution of (16.1) itself, to the accuracy its conditioning allows
+    rho = max(abs(np.linalg.eigvals((1 - lam) * np.kron(A, A)
+                                    + lam * np.kron(AL, AL))))
     np.testing.assert_allclose(fixed_gain_covariance(A, C, W, R, L, lam), S,
-                               rtol=1e-8, atol=1e-10 * np.abs(S).max())
+                               rtol=1e-12 / (1 - rho),
+                               atol=1e-12 / (1 - rho) * np.abs(S).max())
     other = L + 0.05 * rng.standard_normal(L.shape)
-    AL = A - other @ C
-    M = (1 - lam) * np.kron(A, A) + lam * np.kron(AL, AL)
+    AO = A - other @ C
+    M = (1 - lam) * np.kron(A, A) + lam * np.kron(AO, AO)
     if max(abs(np.linalg.eigvals(M))) < 1:
         worse = fixed_gain_covariance(A, C, W, R, other, lam)
         assert np.linalg.eigvalsh(worse - S)[0] >= -1e-9 * np.abs(S).max()

@@ -109,10 +109,10 @@ def test_critical_loss_without_a_gain_is_the_exact_single_input_value():
 
 
 # -- the kernel ------------------------------------------------------------------
-def random_equation(seed, n, p, lam):
+def random_equation(seed, n, p, lam, rho=1.1):
     rng = np.random.default_rng(seed)
     A = rng.standard_normal((n, n))
-    A *= 1.1 / max(abs(np.linalg.eigvals(A)))
+    A *= rho / max(abs(np.linalg.eigvals(A)))
     C = rng.standard_normal((p, n))
     G = rng.standard_normal((n, n))
     return _mare.Equation(A, C, G @ G.T, np.eye(p), *_mare.bernoulli(lam))
@@ -120,9 +120,12 @@ def random_equation(seed, n, p, lam):
 
 @settings(max_examples=12, deadline=None)
 @given(seed=st.integers(0, 10_000), n=st.integers(1, 4),
-       p=st.integers(1, 2), lam=st.floats(0.7, 1.0))
+       p=st.integers(1, 2), lam=st.floats(0.8, 1.0))
 def test_policy_iteration_equals_value_iteration_from_below(seed, n, p, lam):
-    eq = random_equation(seed, n, p, lam)
+    """ρ(A) = 1.05: every λ ≥ 0.8 is far above the critical probability
+    (at most 1 - 1/1.05⁸ = 0.32 with one measurement), where value iteration
+    converges fast enough to be the reference."""
+    eq = random_equation(seed, n, p, lam, rho=1.05)
     sol = _mare.solve(eq)
     X = np.zeros_like(sol.X)
     for _ in range(100_000):
