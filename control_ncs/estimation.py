@@ -848,6 +848,7 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
                                _lqg_loops.sqrt_psd(Qs),
                                _lqg_loops.sqrt_psd(0.5 * (R + R.T)), lam, nu)
     K0 = -Kc
+    search: dict[str, Any] = {}
     if tcp:
         CL = feedback(_cost_plant(P, data), PeriodicGain(
             K0, controller="estimator", estimator_gain=Lf))
@@ -857,7 +858,7 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
                 f"lqg: the loop's exact cost {J:.10g} and the closed form "
                 f"{closed:.10g} disagree", NOT_VERIFIED,
                 dict(cost=J, closed_form=closed))
-        K, Lfin, search = K0, Lf, {}
+        K, Lfin = K0, Lf
     else:
         K, Lfin, J_search, search = _lqg_loops.search(data, K0, Lf)
         if not np.isfinite(J_search):
@@ -886,7 +887,7 @@ def _udp_loop(P: NetworkedStateSpace, data: _lqg_loops.LoopData,
               K: np.ndarray, Lf: np.ndarray) -> Any:
     """The UDP-like loop as a jump system (modes ``(γ, ν)``)."""
     As, Bs, Cs, Ds, p = _lqg_loops.modes(data, K, Lf, acknowledged=False)
-    n, g, pm = data.A.shape[0], data.G.shape[1], data.C.shape[0]
+    g, pm = data.G.shape[1], data.C.shape[0]
     nq, nr = data.Qh.shape[0], data.Rh.shape[0]
     states = list(P.state_labels)
     return jss(As, Bs, Cs, Ds, p, P.dt,
