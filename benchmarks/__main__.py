@@ -37,6 +37,7 @@ SECTIONS = [
     ("bench_delays", "delays_section"),
     ("bench_delays", "delayed_design_section"),
     ("bench_structured", "structured_design_section"),
+    ("bench_estimation", "estimation_section"),
 ]
 
 

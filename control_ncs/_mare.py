@@ -47,9 +47,9 @@ from .exceptions import (NOT_FOUND, NOT_MSS, NOT_VERIFIED, SOLVER_FAILED,
 __all__ = ["RiccatiSolution"]
 
 #: The fixed-gain equation is solved by a dense Kronecker factorisation up
-#: to this many unknowns (``N·n(n+1)/2``; n = 60 for one link), by GMRES
+#: to this many unknowns (``N·n(n+1)/2``; n = 50 for one link), by GMRES
 #: on matrix products beyond (see benchmarks/bench_estimation.py).
-DENSE_MAX = 1900
+DENSE_MAX = 1300
 #: The dense operator's eigenvalues (the exact spectral radius) are
 #: computed up to this many unknowns; beyond, the certified bracket alone.
 EXACT_RADIUS_MAX = 600
@@ -60,8 +60,9 @@ RESIDUAL = 1e-9
 #: Eigenvalues of modulus at least this are corrected by the gain (unstable
 #: or on the unit circle).
 UNSTABLE = 1.0 - 1e-9
-#: Value-iteration steps after which its gain is tried as a start.
-VALUE_TRIALS = (8, 64, 512)
+#: Value-iteration steps tried before a policy start (16 times as many
+#: once the cheaper starts have failed).
+VALUE_STEPS = 256
 #: Relative tolerance of a singular value for "C sees the unstable subspace".
 RANK_TOL = 1e-10
 #: GMRES: relative residual, restart length and restarts.
@@ -204,7 +205,7 @@ class Fixed(NamedTuple):
     X: np.ndarray               #: covariance, ``X = 𝓛_L(X) + F_L``
     radius: float               #: certified upper bound on ``ρ(𝓛_L)``
     radius_lower: float         #: certified lower bound
-    radius_exact: float | None  #: dense spectral radius, when cheap
+    radius_exact: float | None  #: unused here (set by the solver's end)
     route: str                  #: 'dense' or 'matrix-free'
 
 
@@ -234,8 +235,8 @@ def solve_fixed(eq: Equation, L: np.ndarray, *, x0: np.ndarray | None = None,
 
     ``certify=False`` skips the proof on the matrix-free route (a policy
     step from a certified gain; the final answer is certified again);
-    ``final=True`` tightens the bracket and adds the dense spectral radius
-    when it is cheap."""
+    ``final=True`` tightens the bracket by power steps there (the dense
+    route always does: its proof comes with the factorisation)."""
     N, n = eq.N, eq.n
     i, j = _pairs(n)
     unknowns = N * i.size
@@ -255,8 +256,6 @@ def solve_fixed(eq: Equation, L: np.ndarray, *, x0: np.ndarray | None = None,
             return None
         X = _from_tri(sol[:, 0], N, n, i, j)
         Y = _from_tri(sol[:, 1], N, n, i, j)
-        if final and unknowns <= EXACT_RADIUS_MAX:
-            exact = float(np.max(np.abs(np.linalg.eigvals(op))))
     else:
         Xm = _gmres(eq, L, F, x0)
         if Xm is None:
@@ -267,7 +266,7 @@ def solve_fixed(eq: Equation, L: np.ndarray, *, x0: np.ndarray | None = None,
         if Ym is None:
             return None
         X, Y = Xm, Ym
-    bracket = collatz_wielandt(eq, L, Y, steps=40 if final else 1)
+    bracket = collatz_wielandt(eq, L, Y, steps=40 if final or dense else 1)
     if bracket is None or not bracket[1] < 1.0:
         return None
     return Fixed(X, bracket[1], bracket[0], exact,
@@ -441,28 +440,44 @@ class RiccatiSolution(CertifiedResult):
 
 
 def _starts(eq: Equation) -> Iterator[tuple[str, Any]]:
-    """Candidate gains, cheapest first; each is tried by one exact solve."""
-    try:
-        P = sla.solve_discrete_are(eq.A.T, eq.C.T, eq.W, eq.R)
-        L1 = eq.gains(np.broadcast_to(P, (eq.N, eq.n, eq.n)))
-        yield "loss-free Riccati gain", L1
-    except (ValueError, np.linalg.LinAlgError):
-        pass
+    """Candidate gains, cheapest first; each is tried by one exact solve.
+
+    Value iteration from below costs ``O(N n³)`` a step: far from the
+    critical probability it converges in tens of steps, and its gain is
+    then nearly optimal. Near it, the iteration crawls (rate → 1), and the
+    closed-form gain (when ``C`` sees the unstable subspace), the gain after
+    a fixed number of steps, the loss-free Riccati gain and the LMI's gain
+    are tried in turn."""
+    X = np.zeros((eq.N, eq.n, eq.n))
+    done, converged = 0, False
+    for done in range(1, VALUE_STEPS + 1):
+        new = eq.riccati(X)
+        if not np.all(np.isfinite(new)):
+            break
+        step = float(np.linalg.norm(new - X))
+        X = new
+        if step <= 1e-13 * float(np.linalg.norm(X)):
+            converged = True
+            break
+    finite = bool(np.all(np.isfinite(X)))
+    if converged:
+        yield f"value iteration (converged in {done} steps)", eq.gains(X)
     Lc = closed_form_gain(eq.A, eq.C)
     if Lc is not None:
         yield "closed-form gain", np.broadcast_to(Lc, (eq.N, eq.n, eq.p))
-    X = np.zeros((eq.N, eq.n, eq.n))
-    done = 0
-    for steps in VALUE_TRIALS:
-        for _ in range(steps - done):
-            new = eq.riccati(X)
-            if not np.all(np.isfinite(new)):
-                break
-            X = new
-        done = steps
-        if not np.all(np.isfinite(X)):
-            break
-        yield f"value iteration ({steps} steps)", eq.gains(X)
+    if finite and not converged:
+        yield f"value iteration ({done} steps)", eq.gains(X)
+    try:
+        P = sla.solve_discrete_are(eq.A.T, eq.C.T, eq.W, eq.R)
+        yield "loss-free Riccati gain", eq.gains(
+            np.broadcast_to(P, (eq.N, eq.n, eq.n)))
+    except (ValueError, np.linalg.LinAlgError):
+        pass
+    if finite and not converged:
+        for _ in range(VALUE_STEPS, 16 * VALUE_STEPS):
+            X = eq.riccati(X)
+        if np.all(np.isfinite(X)):
+            yield f"value iteration ({16 * VALUE_STEPS} steps)", eq.gains(X)
     yield "LMI", None        # resolved by the caller (needs cvxpy)
 
 
@@ -527,7 +542,7 @@ def solve(eq: Equation, *, solver: str | None = None,
         raise MareError("no gain is stabilising: the lost part alone has "
                         f"spectral radius {bound:.6g} >= 1", NOT_MSS,
                         dict(lost_radius=bound, proof="closed form"))
-    fixed, start, answer = None, "", None
+    fixed, start, answer, L0 = None, "", None, None
     for name, L in _starts(eq):
         if L is None:
             answer = lmi_gain(eq, solver)
@@ -535,7 +550,7 @@ def solve(eq: Equation, *, solver: str | None = None,
         else:
             fixed = solve_fixed(eq, L, dense=dense)
         if fixed is not None:
-            start = name
+            start, L0 = name, (answer.gain if L is None else L)
             break
     if fixed is None:
         figures: dict[str, Any] = dict(lost_radius=bound)
@@ -548,42 +563,55 @@ def solve(eq: Equation, *, solver: str | None = None,
         raise MareError("no stabilising gain was found (value iteration and "
                         "the LMI); nothing is proven either way", NOT_FOUND,
                         figures)
-    return _newton(eq, fixed, start, dense)
+    return _newton(eq, fixed, np.array(L0), start, dense)
 
 
-def _newton(eq: Equation, fixed: Fixed, start: str,
+def _newton(eq: Equation, fixed: Fixed, L: np.ndarray, start: str,
             dense: bool | None) -> Solution:
-    """Policy iteration from a certified stabilising gain."""
-    X = fixed.X
+    """Policy iteration from a certified stabilising gain ``L`` (``fixed``
+    its exact covariance): ``L ← L_X``, ``X ←`` the covariance of ``L``,
+    until the Riccati residual of ``X`` reaches the rounding level. The
+    answer is the last gain with its exact covariance and its certificate.
+    """
     change = np.inf
     steps = 0
     for steps in range(1, NEWTON_STEPS + 1):
-        new = solve_fixed(eq, eq.gains(X), x0=X, dense=dense, certify=False)
+        residual = eq.residual(fixed.X)
+        if residual <= 1e-14:
+            break
+        L_new = eq.gains(fixed.X)
+        new = solve_fixed(eq, L_new, x0=fixed.X, dense=dense,
+                          certify=False)
         if new is None:
             raise MareError("a policy step lost its stability certificate "
                             "(the fixed-gain solve failed)", NOT_VERIFIED,
                             dict(start=start, newton_steps=steps))
-        step = float(np.linalg.norm(new.X - X))
-        X = new.X
-        size = max(1.0, float(np.linalg.norm(X)))
-        residual = eq.residual(X)
-        # converged, or at the rounding level of an ill-conditioned solve
-        # (near the critical probability the solution is determined to
-        # about cond·ε only, and the steps stop shrinking there)
-        if step <= 1e-14 * size or residual <= 1e-14 or (
-                step >= change and residual <= 1e-10):
+        step = float(np.linalg.norm(new.X - fixed.X))
+        fixed, L = new, L_new
+        # at the rounding level of an ill-conditioned solve (near the
+        # critical probability the solution is determined to about cond·ε
+        # only), the steps stop shrinking
+        if step <= 1e-14 * max(1.0, float(np.linalg.norm(fixed.X))) or (
+                step >= change and eq.residual(fixed.X) <= 1e-10):
             break
         change = step
-    L = eq.gains(X)
-    final = solve_fixed(eq, L, x0=X, dense=dense, final=True)
-    residual = eq.residual(X)
-    if final is None or not residual <= RESIDUAL:
+    if fixed.route != "dense" or np.isnan(fixed.radius):
+        certified = solve_fixed(eq, L, x0=fixed.X, dense=dense, final=True)
+    else:
+        certified = fixed
+    residual = eq.residual(fixed.X)
+    if certified is None or not residual <= RESIDUAL:
         raise MareError(
             f"the solution fails its checks (residual {residual:.3g}, "
-            f"stability {'not ' if final is None else ''}certified)",
+            f"stability {'not ' if certified is None else ''}certified)",
             NOT_VERIFIED, dict(residual=residual, start=start))
-    return Solution(X, L, residual, final.radius, final.radius_lower,
-                    final.radius_exact, start, steps, final.route)
+    exact = certified.radius_exact
+    if exact is None and eq.N * eq.n * (eq.n + 1) // 2 <= EXACT_RADIUS_MAX:
+        exact = float(np.max(np.abs(np.linalg.eigvals(
+            dense_operator(eq, L)))))
+    return Solution(certified.X, L, eq.residual(certified.X),
+                    certified.radius, certified.radius_lower, exact, start,
+                    steps, certified.route)
 
 
 # -- the critical probability of one Bernoulli link ---------------------------
