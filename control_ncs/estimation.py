@@ -632,7 +632,7 @@ class LQGResult(CertifiedResult):
         The loop's exact stationary cost ``lim E(xᵀQx + uᵀRu)``
         (``= ncs.norm(CL, 2)**2``).
     lower_bound : float
-        The TCP-like optimum (16.4 of :ref:`theory-estimation`): no
+        The TCP-like optimum (its closed form, :ref:`theory-estimation`): no
         controller of the estimator's structure does better, with or without
         acknowledgements (a proven bound).
     gap : float

@@ -30,7 +30,7 @@ def sinopoli(lam):
 
 def mare_iteration(A, C, W, R, lam, steps=200_000):
     """S ← g_λ(S) from S = 0 until it stops moving (monotone from below,
-    MATH 16.2), with g_λ written completed-square, (1 - λ) A S Aᵀ +
+    theory: estimation), with g_λ written completed-square, (1 - λ) A S Aᵀ +
     λ ((A - L C) S (A - L C)ᵀ + L R Lᵀ) + W at L = A S Cᵀ (C S Cᵀ + R)⁻¹:
     the subtractive form diverges in floating point on this example."""
     S = np.zeros_like(W)
@@ -232,7 +232,7 @@ def _riccati_step(A, C, W, R, S):
 
 
 def bursty_iteration(A, C, W, R, T, steps=100_000):
-    """MATH 16.4 "One gain": Q_j = Σ_i (π_i T[i, j]/π_j) h_i(Q_i),
+    """Theory (estimation), one gain: Q_j = Σ_i (π_i T[i, j]/π_j) h_i(Q_i),
     h_0 = A Q Aᵀ + W, h_1 the loss-free Riccati map (completed-square);
     iterated from 0."""
     pi = np.array([T[1, 0], T[0, 1]]) / (T[1, 0] + T[0, 1])
@@ -273,7 +273,7 @@ def test_bursty_link_one_gain_solves_the_coupled_equations():
 
 
 def previous_iteration(A, C, W, R, Tr, steps=100_000):
-    """MATH 16.4 gains on the previous arrival: P_0 = Σ_ℓ T̃[0, ℓ] A P_ℓ Aᵀ
+    """Theory (estimation), gains on the previous arrival: P_0 = Σ_ℓ T̃[0, ℓ] A P_ℓ Aᵀ
     + W, P_1 = Σ_ℓ T̃[1, ℓ] g_1(P_ℓ)."""
     P = np.zeros((2,) + A.shape)
     for _ in range(steps):

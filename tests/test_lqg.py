@@ -21,7 +21,7 @@ from control_ncs import _lqg_loops
 
 
 def scalar_plant(sensor_loss=0.2, actuator_loss=0.1, **network):
-    """x⁺ = 1.2 x + θ2 u + w, y = x + v (MATH 16.5's example)."""
+    """x⁺ = 1.2 x + θ2 u + w, y = x + v (the scalar example of theory: estimation)."""
     return ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]],
                    [[0.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
                    sensor_loss=sensor_loss, actuator_loss=actuator_loss,
@@ -81,7 +81,7 @@ def test_loss_free_lqg_is_the_textbook_lqg():
 
 def simulate_controller(P, K, Lf, Q, R, QN, RN, *, acknowledged, trials,
                         steps, seed):
-    """The estimator controller of MATH 16.5/16.6 run path by path: the
+    """The estimator controller of theory: estimation run path by path: the
     plant, the two links, the correction, the command and the prediction
     with the command that arrived (TCP-like) or its expected value
     (UDP-like). Returns one cost sample per path (its mean over the last
@@ -174,7 +174,7 @@ def test_udp_gradient_is_the_derivative_of_the_exact_cost():
 
 
 def test_the_udp_formulas_with_acknowledgements_give_the_feedback_loop():
-    """The jump system of MATH 16.6 with ν in place of ν̄ is the loop
+    """The UDP-like jump system of theory: estimation with ν in place of ν̄ is the loop
     feedback builds for the estimator controller."""
     P = two_state_plant(0.25, 0.15)
     K, CL, J = ncs.lqg(P, np.eye(2), [[1.0]], np.eye(2), [[1.0]])

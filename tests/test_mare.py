@@ -5,7 +5,7 @@ iteration, the dense route against the matrix-free one, the certified
 spectral-radius bracket against the dense eigenvalue; ``dlqr`` next to the
 critical probability (the scalar closed form), and the critical
 probability of single-input plants against an LMI written here (Sinopoli
-et al.'s, MATH 16.3, for the dual pair) and the kernel's own bisection.
+et al.'s, theory: estimation, for the dual pair) and the kernel's own bisection.
 """
 
 import math
@@ -49,7 +49,7 @@ def single_input(seed):
 
 
 def lmi_gain(A, C, lam):
-    """MATH (16.3) as written there, most interior point: maximise t with
+    """Sinopoli et al.'s LMI, 3 × 3 blocks, most interior point: maximise t with
     the 3 × 3 block ⪰ t I, t I ⪯ P ⪯ I; the gain L = -P⁻¹ Z (None when
     t* ≤ 1e-9: no gain, on the solver's word)."""
     n = A.shape[0]
