@@ -56,9 +56,10 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     beyond which *no* gain stabilises a
     state-feedback loop over its actuator link, see the critical arrival
     probability :func:`control_ncs.dlqr` states; ``K=None`` returns that
-    loss (``1 - ν_c``: exact when ``B2`` is square and invertible, from a
-    bisection otherwise). ``K=None`` with a spec measures the best design
-    at each loss instead of one gain's loop: :func:`control_ncs.h2syn` or
+    loss (``1 - ν_c``: exact when ``B2`` reaches the whole unstable subspace
+    or is one input, else the certified end of a bisection). ``K=None``
+    with a spec measures the best design at each loss instead of one gain's
+    loop: :func:`control_ncs.h2syn` or
     :func:`control_ncs.hinfsyn` (their exact programs where the gain sees
     the whole state, the global optimum; their local searches otherwise)
     or :func:`control_ncs.passivesyn` for ``eta``, with ``**kwargs`` as
