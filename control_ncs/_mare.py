@@ -450,15 +450,14 @@ def _starts(eq: Equation) -> Iterator[tuple[str, Any]]:
     are tried in turn."""
     X = np.zeros((eq.N, eq.n, eq.n))
     done, converged = 0, False
-    for done in range(1, VALUE_STEPS + 1):
+    while done < VALUE_STEPS and not converged:
         new = eq.riccati(X)
         if not np.all(np.isfinite(new)):
             break
+        done += 1
         step = float(np.linalg.norm(new - X))
         X = new
-        if step <= 1e-13 * float(np.linalg.norm(X)):
-            converged = True
-            break
+        converged = step <= 1e-13 * float(np.linalg.norm(X))
     finite = bool(np.all(np.isfinite(X)))
     if converged:
         yield f"value iteration (converged in {done} steps)", eq.gains(X)
