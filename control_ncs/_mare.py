@@ -545,11 +545,11 @@ def solve(eq: Equation, *, solver: str | None = None,
     for name, L in _starts(eq):
         if L is None:
             answer = lmi_gain(eq, solver)
-            fixed = answer.fixed
+            fixed, L = answer.fixed, answer.gain
         else:
             fixed = solve_fixed(eq, L, dense=dense)
         if fixed is not None:
-            start, L0 = name, (answer.gain if L is None else L)
+            start, L0 = name, L
             break
     if fixed is None:
         figures: dict[str, Any] = dict(lost_radius=bound)
