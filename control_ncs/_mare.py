@@ -52,7 +52,7 @@ __all__ = ["RiccatiSolution"]
 DENSE_MAX = 1300
 #: The dense operator's eigenvalues (the exact spectral radius) are
 #: computed up to this many unknowns; beyond, the certified bracket alone.
-EXACT_RADIUS_MAX = 600
+EXACT_RADIUS_MAX = 300
 #: Policy (Newton) steps at most; quadratic convergence needs a handful.
 NEWTON_STEPS = 80
 #: Relative residual the returned solution must meet.

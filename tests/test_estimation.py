@@ -437,3 +437,27 @@ def test_dlqe_refuses_what_it_does_not_solve():
         ncs.dlqe([[1.2]], [[1.0]], [[1.0]], [[1.0]])
     with pytest.raises(ValueError, match="not seen"):
         ncs.critical_arrival(np.diag([1.2, 0.5]), [[0.0, 1.0]])
+
+
+def test_a_state_space_system_is_read_as_python_control_reads_it():
+    """dlqe(sys, QN, RN): G = sys.B, C = sys.C."""
+    sys = ct.ss(SINOPOLI_A, np.eye(3), SINOPOLI_C, np.zeros((1, 3)), True)
+    got = ncs.dlqe(sys, 20 * np.eye(3), [[2.5]], arrival=0.8)
+    want = sinopoli(0.8)
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+
+
+def test_results_and_errors_survive_pickling():
+    import pickle
+    res = ncs.critical_arrival(SINOPOLI_A, SINOPOLI_C)
+    again = pickle.loads(pickle.dumps(res))
+    assert again.fixed_gain == res.fixed_gain and again.exact
+    info = ncs.dlqe([[1.5]], [[1.0]], [[1.0]], [[1.0]], [[1.0]], arrival=0.6,
+                    full_output=True)[3]
+    assert pickle.loads(pickle.dumps(info)).residual == info.residual
+    with pytest.raises(ncs.SynthesisError) as err:
+        ncs.dlqe([[2.0]], [[1.0]], [[1.0]], [[1.0]], [[1.0]], arrival=0.5)
+    back = pickle.loads(pickle.dumps(err.value))
+    assert back.reason == "not_mss" and isinstance(back, ValueError)
+    assert back.figures == err.value.figures
