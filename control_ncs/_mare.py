@@ -18,10 +18,11 @@ is the minimum over gains of the fixed-gain equation
 X_t A_tᵀ``, ``A_t = A - L_t C``, ``F_L,s = W + Σ_t b[s, t] L_t R L_tᵀ``,
 
 the exact stationary covariance of those gains (mean-square stable iff
-``ρ(𝓛_L) < 1``). The solver finds a stabilising start (the loss-free
-Riccati gain, the closed-form gain when ``C`` sees the whole unstable
-subspace, value iteration from below, or the gain of the LMI of
-:mod:`control_ncs.lmi.mare`), then runs policy (Newton) iteration: each
+``ρ(𝓛_L) < 1``). The solver finds a stabilising start (value iteration
+from below when it converges, the closed-form gain when ``C`` sees the
+whole unstable subspace, more value iteration, the loss-free Riccati gain,
+or the gain of the LMI of :mod:`control_ncs.lmi.mare`), then runs policy
+(Newton) iteration: each
 step solves the fixed-gain equation exactly (a Kronecker solve on the
 symmetric unknowns, or GMRES preconditioned by a Stein solve for large
 ``n``), converging quadratically, also next to the critical probability
@@ -73,8 +74,9 @@ class MareError(SynthesisError, ValueError):
     """No stabilising solution (``reason='not_mss'``), or none found.
 
     A :class:`control_ncs.SynthesisError` that is also a ``ValueError``,
-    the error :func:`control.dlqr` and :func:`control.dlqe` raise for a
-    Riccati equation without a stabilising solution.
+    the kind of error :func:`control.dlqr` and :func:`control.dlqe` raise
+    for a Riccati equation without a stabilising solution (numpy's
+    ``LinAlgError``).
     """
 
 
@@ -88,8 +90,6 @@ class Equation:
         self.a, self.b = np.atleast_2d(a), np.atleast_2d(b)
         self.N, self.n, self.p = self.a.shape[0], A.shape[0], C.shape[0]
         self.acting = self.b.sum(axis=0) > 0
-        self.scale = max(1.0, float(np.linalg.norm(W)),
-                         float(np.linalg.norm(R)))
 
     # -- the maps ------------------------------------------------------------
     def riccati(self, X: np.ndarray) -> np.ndarray:
