@@ -309,6 +309,14 @@ def _fixed_gain_text(th: _mare.Threshold) -> str:
 
 
 def _refuse(lam: float, th: _mare.Threshold, why: str) -> None:
+    if not th.exact and lam >= th.upper:
+        # a gain is certified at th.upper and solvability only grows with
+        # the arrivals: a solution exists, the solver did not reach it
+        raise MareError(
+            f"arrival: {lam:g} is above the certified critical probability "
+            f"{th.upper:.6g}, so a stabilising solution exists, but no "
+            f"stabilising start was found ({why}): the solver did not "
+            f"reach it", NOT_FOUND, dict(arrival=lam, critical=th.upper))
     raise MareError(
         f"arrival: {lam:g} is at or below the critical arrival probability "
         f"of a stationary gain, {_fixed_gain_text(th)}: no fixed gain keeps "

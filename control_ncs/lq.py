@@ -28,7 +28,7 @@ from control.exception import ControlArgument, ControlDimension
 from . import _mare
 from ._checks import flag, matrix, no_extra_kwargs
 from ._mare import MareError
-from .exceptions import NOT_MSS
+from .exceptions import NOT_FOUND, NOT_MSS
 from .network import GilbertElliott
 from .plant import NetworkedStateSpace
 
@@ -264,6 +264,14 @@ def _closed_threshold(A: np.ndarray, B: np.ndarray
 
 
 def _refuse(nu: float, th: _mare.Threshold, why: str) -> None:
+    if not th.exact and nu >= th.upper:
+        # a gain is certified at th.upper and solvability only grows with
+        # the arrivals: a solution exists, the solver did not reach it
+        raise MareError(
+            f"arrival: {nu:g} is above the certified critical probability "
+            f"{th.upper:.6g}, so a stabilising solution exists, but no "
+            f"stabilising start was found ({why}): the solver did not "
+            f"reach it", NOT_FOUND, dict(arrival=nu, critical=th.upper))
     raise MareError(
         f"arrival: {nu:g} is at or below the {_threshold_text(th)}: no gain "
         f"makes the lossy loop mean-square stable, so the expected cost is "
