@@ -31,7 +31,7 @@ from .report import Section, Target, fmt_t, fmt_x
 
 #: The plain iteration stops here (steps), or after ITERATION_BUDGET s.
 ITERATION_STEPS = 1_000_000
-ITERATION_BUDGET = 300.0
+ITERATION_BUDGET = 120.0
 
 
 def plant(n: int, outputs: int, radius: float, seed: int = 0):
@@ -144,7 +144,8 @@ def estimation_section(quick: bool) -> Section:
                 r["route"], f"{r['residual']:.1e}", f"{r['radius']:.6f}",
                 fmt_t(r["iterate"]) + ("" if r["converged"] else
                                        " (not converged)"),
-                r["steps"], fmt_x(r["ratio"]), f"{r['diff']:.1e}"]
+                r["steps"], ("≥ " if not r["converged"] else "")
+                + fmt_x(r["ratio"]), f"{r['diff']:.1e}"]
                for r in rows])
     m = 8 if quick else 20
     crit = critical_rows(m)
