@@ -15,9 +15,10 @@ runs alone::
   seeing the unstable subspace), where the iteration crawls and policy
   iteration does not.
 * ``critical_arrival`` at n = 20 with two outputs that cannot see the
-  unstable subspace (the LMI bisection and its certificates), against a
-  bisection on the convergence of the iterated equation (5000 steps per
-  trial, no certificate): time, and where each lands.
+  unstable subspace (the certified bracket: the solution followed down by
+  a safeguarded secant, the LMI where it stops), against a bisection on the
+  convergence of the iterated equation (5000 steps per trial, no
+  certificate): time, and where each lands.
 """
 
 from __future__ import annotations
@@ -150,11 +151,11 @@ def estimation_section(quick: bool) -> Section:
     m = 8 if quick else 20
     crit = critical_rows(m)
     sec.add(f"`critical_arrival` at n = {m} (two outputs; the unstable "
-            "eigenvalues outnumber them, so no closed form: the LMI "
-            "bisection to a bracket of 1e-7, its upper end certified by the "
-            "exact check of a gain), against a bisection on whether the "
-            "iterated equation converges within 5000 steps (no certificate; "
-            "one run each).", "")
+            "eigenvalues outnumber them, so no closed form: a bracket of "
+            "1e-7, its upper end certified by the exact check of a gain, "
+            "its lower end the LMI's infeasibility or 1 - 1/ρ²), against a "
+            "bisection on whether the iterated equation converges within "
+            "5000 steps (no certificate; one run each).", "")
     sec.table(["n", "unstable eigenvalues", "critical_arrival",
                "fixed-gain bracket", "LMIs (open)", "1 - 1/ρ²",
                "iteration bisection", "its value"],

@@ -664,7 +664,7 @@ class Threshold(NamedTuple):
     gain: np.ndarray | None   #: the gain certified at ``upper``, if any
     radius: float         #: its certified ``ρ(𝓛_L)`` bound at ``upper``
     trials: int           #: LMIs solved
-    inconclusive: int     #: trials the solver left open (counted as below)
+    inconclusive: int     #: LMIs the solver left open (counted as below)
 
 
 def bernoulli(lam: float) -> tuple[np.ndarray, np.ndarray]:
@@ -699,10 +699,10 @@ def threshold(A: np.ndarray, C: np.ndarray, *, tol: float = 1e-7,
     Closed forms: ``1 - 1/ρ(A)²`` when ``C`` sees the whole unstable
     subspace (Plarre and Bullo 2009); ``1 - 1/Π|μ_u|²`` (the unstable
     eigenvalues' product) when ``C`` has one row (the dual of Elia's
-    mean-square capacity of a fading input channel, 2005). Otherwise
-    bisection of the LMI, whose upper end is certified by the exact check
-    of a gain and whose lower end rests on the solver (from ``1 -
-    1/ρ(A)²``, a proof, on). ``closed_forms=False`` bisects always (the
+    mean-square capacity of a fading input channel, 2005). Otherwise a
+    bracket (:func:`_bisect`) whose upper end is certified by the exact
+    check of a gain and whose lower end rests on the LMI's solver, or is
+    ``1 - 1/ρ(A)²`` (a proof). ``closed_forms=False`` brackets always (the
     tests compare both).
 
     Raises
@@ -725,39 +725,93 @@ def threshold(A: np.ndarray, C: np.ndarray, *, tol: float = 1e-7,
         value = 1.0 - 1.0 / mahler(A) ** 2
         return Threshold(value, value, True, "one channel", None,
                          float("nan"), 0, 0)
+    return _bisect(A, C, low, tol, solver)
+
+
+def _below(eq: Equation, S: np.ndarray, L: np.ndarray) -> Solution | None:
+    """The solution at an arrival below one already solved (``S``, its
+    gain ``L``): ``S`` lies below the new solution, so value iteration
+    from it is a start from below; the old gain and the iterates' gains
+    are tried, then policy iteration. None when no gain passes the check
+    (nothing proven)."""
+    X = np.array(S)
+    candidates = [("the gain one step above", L)]
+    for steps in (16, 64, 256):
+        for _ in range(steps):
+            X = eq.riccati(X)
+        if not np.all(np.isfinite(X)):
+            break
+        candidates.append((f"value iteration from above's solution "
+                           f"({steps} steps)", eq.gains(X)))
+    for name, gain in candidates:
+        fixed = solve_fixed(eq, gain)
+        if fixed is not None:
+            try:
+                return _newton(eq, fixed, gain, name, None)
+            except MareError:
+                return None
+    return None
+
+
+def _bisect(A: np.ndarray, C: np.ndarray, low: float, tol: float,
+            solver: str | None) -> Threshold:
+    """``λ_max`` between ``low`` (a proof) and 1, to ``tol``.
+
+    A safeguarded secant: from above, the stabilising solution ``S(λ)`` is
+    followed down, and ``1 / tr S(λ)``, which vanishes at ``λ_max`` (nearly
+    linearly next to it), gives the next trial by the secant through the
+    last two solutions, or the bisection midpoint when that falls outside
+    the bracket. A solution found from the one above (value iteration from
+    below, policy iteration) certifies the upper end; where none is found
+    the LMI decides: its checked gain moves the upper end, its
+    infeasibility the lower. When the trial comes within half the tolerance
+    of the upper end, the next one is just below it, to settle the lower
+    end in one LMI."""
     n, p = A.shape[0], C.shape[0]
     W, R = np.eye(n), np.eye(p)
 
-    def certified(lam: float) -> tuple[str, Any, float]:
-        eq = Equation(A, C, W, R, *bernoulli(lam))
-        answer = lmi_gain(eq, solver)
-        if answer.gain is not None and answer.fixed is not None:
-            return "feasible", answer.gain[0], answer.fixed.radius
-        if answer.verdict == "open":
-            # the LMI's point was too close to its boundary: value iteration
-            # from below may still give a gain that passes the check
-            for _, L in _starts(eq):
-                fixed = None if L is None else solve_fixed(eq, L)
-                if fixed is not None:
-                    return "feasible", L[0], fixed.radius
-                if L is None:
-                    break
-        return answer.verdict, None, np.nan
+    def equation(lam: float) -> Equation:
+        return Equation(A, C, W, R, *bernoulli(lam))
 
-    P = sla.solve_discrete_are(A.T, C.T, W, R)
-    gain = Equation(A, C, W, R, *bernoulli(1.0)).gains(P[None])[0]
-    radius = spectral_radius(A - gain @ C) ** 2
-    lo, hi, trials, open_ = low, 1.0, 0, 0
-    while hi - lo > tol:
+    best = solve(equation(1.0), solver=solver)
+    lo, hi = low, 1.0
+    points = [(1.0, 1.0 / np.trace(best.X[0]))]
+    trials = open_ = 0
+    fresh = False               # a solution was added by the last trial
+    for _ in range(200):
+        if not hi - lo > tol * (1 + 1e-9):
+            break
         mid = 0.5 * (lo + hi)
-        verdict, L, r = certified(mid)
-        trials += 1
-        if verdict == "feasible":
-            hi, gain, radius = mid, L, r
-        else:
-            lo = mid
-            open_ += verdict == "open"
-    return Threshold(lo, hi, False, "bisection", gain, radius, trials, open_)
+        if fresh and len(points) >= 2:
+            (l1, f1), (l2, f2) = points[-2], points[-1]
+            if f1 > f2:
+                guess = l2 - f2 * (l1 - l2) / (f1 - f2)
+                mid = guess if lo < guess < hi else mid
+            if hi - mid < 0.5 * tol:
+                mid = max(hi - tol, lo)   # settle the lower end just below
+        fresh = False
+        eq = equation(mid)
+        found = _below(eq, best.X, best.gains)
+        if found is None:
+            answer = lmi_gain(eq, solver)
+            trials += 1
+            if answer.gain is not None and answer.fixed is not None:
+                try:
+                    found = _newton(eq, answer.fixed, answer.gain, "LMI",
+                                    None)
+                except MareError:
+                    found = None
+                if found is None:   # certified, but not followed further
+                    hi = mid
+                    continue
+            else:
+                lo = mid
+                open_ += answer.verdict == "open"
+                continue
+        hi, best, fresh = mid, found, True
+        points.append((mid, 1.0 / np.trace(found.X[0])))
+    return Threshold(lo, hi, False, "bisection", best.gains[0], best.radius,
+                     trials, open_)
 
 
 def decide(eq: Equation, solver: str | None = None
