@@ -41,6 +41,7 @@ SECTIONS = [
     ("bench_jsr", "jsr_section"),
     ("bench_worstcase", "worstcase_section"),
     ("bench_intersample", "intersample_section"),
+    ("bench_estimation", "estimation_section"),
 ]
 
 

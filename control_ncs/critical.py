@@ -20,7 +20,7 @@ from control.exception import ControlArgument
 
 from ._checks import choice, finite_real, positive_real
 from .exceptions import CertificationError, NotPassiveWarning
-from .lq import critical_arrival
+from .lq import critical_control_arrival
 from .performance import l2_gain, norm
 from .synthesis import h2syn, hinfsyn
 from ._map_grid import at_loss
@@ -58,9 +58,10 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     beyond which *no* gain stabilises a
     state-feedback loop over its actuator link, see the critical arrival
     probability :func:`control_ncs.dlqr` states; ``K=None`` returns that
-    loss (``1 - ν_c``: exact when ``B2`` is square and invertible, from a
-    bisection otherwise). ``K=None`` with a spec measures the best design
-    at each loss instead of one gain's loop: :func:`control_ncs.h2syn` or
+    loss (``1 - ν_c``: exact when ``B2`` reaches the whole unstable subspace
+    or is one input, else the certified end of a bisection). ``K=None``
+    with a spec measures the best design at each loss instead of one gain's
+    loop: :func:`control_ncs.h2syn` or
     :func:`control_ncs.hinfsyn` (their exact programs where the gain sees
     the whole state, the global optimum; their local searches otherwise)
     or :func:`control_ncs.passivesyn` for ``eta``, with ``**kwargs`` as
@@ -167,8 +168,7 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
                 "over the actuator link (link='actuator', period 1, y = x); "
                 "give a gain K otherwise")
         A, B2 = np.asarray(P.A, float), np.asarray(P.B2, float)
-        nu, _ = critical_arrival(A, B2, np.eye(A.shape[0]),
-                                 np.eye(B2.shape[1]))
+        nu = critical_control_arrival(A, B2).upper
         return float(1.0 - nu)
 
     given = getattr(P, f"{link}_link")

@@ -9,9 +9,12 @@ Schenato et al. (2007),
 
 ``ν`` the probability that a command arrives. The optimal gain is the
 loss-free formula at this ``S``; it exists only above a critical arrival
-probability (for a scalar plant ``ν > 1 - 1/a²``). Over a bursty
-(Gilbert–Elliott) link the cost-to-go depends on the previous link state,
-and the equations are coupled (:func:`_bursty`).
+probability. The equation is the dual of the estimator's
+(:ref:`theory-estimation`): ``A → Aᵀ``, ``C → Bᵀ``, solved as an equation
+by the same kernel (:mod:`control_ncs._mare`: a stabilising start, then
+policy iteration on exact fixed-gain solves, every answer checked). Over a
+bursty (Gilbert–Elliott) link the cost-to-go depends on the previous link
+state, and the equations are coupled.
 """
 
 from __future__ import annotations
@@ -22,63 +25,49 @@ import control as ct
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import matrix, no_extra_kwargs
-from .jump import jss
+from . import _mare
+from ._checks import flag, matrix, no_extra_kwargs
+from ._mare import MareError
+from .exceptions import NOT_FOUND, NOT_MSS
 from .network import GilbertElliott
 from .plant import NetworkedStateSpace
-from .stability import ms_radius
 
 __all__ = ["dlqr"]
 
-#: Value iteration: at most this many steps, stopped when the relative
-#: change is below ``CONVERGED``; above ``DIVERGED`` times the data's scale
-#: the iteration has no fixed point (below the critical probability).
-MAX_ITERATIONS = 100_000
-CONVERGED = 1e-14
-DIVERGED = 1e12
-#: Value-iteration steps per trial of the critical probability's bisection.
-BISECTION_ITERATIONS = 5000
+
+def critical_control_arrival(A: np.ndarray, B: np.ndarray
+                             ) -> _mare.Threshold:
+    """The arrival probability above which a gain makes ``x⁺ = A x + θ B
+    u``, ``u = -K x``, mean-square stable (the modified Riccati equation
+    then has its stabilising solution): the estimator's ``λ_max`` of the
+    dual pair ``(Aᵀ, Bᵀ)`` (:func:`control_ncs._mare.threshold`). Exact
+    (``1 - 1/ρ(A)²``) when ``B`` reaches the whole unstable subspace, exact
+    (``1 - 1/Π|μ_u|²``) for one input, a certified bracket otherwise.
+
+    Raises
+    ------
+    ValueError
+        If ``(A, B)`` is not stabilisable.
+    """
+    try:
+        return _mare.threshold(A.T, B.T)
+    except ValueError as err:
+        raise ValueError(f"(A, B) is not stabilisable: {err}".replace(
+            "seen by the measurement", "reached by the input").replace(
+            "makes the error stable", "stabilises the loop")) from None
 
 
-def _iterate(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
-             nu: float, iterations: int = MAX_ITERATIONS,
-             converged: float = CONVERGED) -> np.ndarray | None:
-    """The stabilising solution by value iteration from ``S = Q``, or None
-    if the iteration diverges (or has not converged in ``iterations``)."""
-    S = Q.copy()
-    scale = max(1.0, float(np.linalg.norm(Q)), float(np.linalg.norm(R)))
-    for _ in range(iterations):
-        BS = B.T @ S
-        G = np.linalg.solve(BS @ B + R, BS @ A)
-        new = A.T @ S @ A + Q - nu * (A.T @ S @ B) @ G
-        new = 0.5 * (new + new.T)
-        if not np.all(np.isfinite(new)) or np.linalg.norm(new) > \
-                DIVERGED * scale:
-            return None
-        if np.linalg.norm(new - S) <= converged * max(
-                1.0, float(np.linalg.norm(new))):
-            return new
-        S = new
-    return None
-
-
-def critical_arrival(A: np.ndarray, B: np.ndarray, Q: np.ndarray,
-                     R: np.ndarray) -> tuple[float, bool]:
-    """The arrival probability below which no solution exists, and whether
-    it is exact: ``1 - 1/ρ(A)²`` when ``B`` is square and invertible
-    (Schenato et al. 2007), else by bisection on convergence to 1e-4
-    (the iteration slows down near the critical value; each trial is cut
-    at ``BISECTION_ITERATIONS``, so the value is approximate)."""
-    if B.shape[0] == B.shape[1] and np.linalg.cond(B) < 1e12:
-        radius = float(np.abs(np.linalg.eigvals(A)).max())
-        return (max(0.0, 1.0 - 1.0 / radius ** 2) if radius > 0 else 0.0,
-                True)
-    lo, hi = 0.0, 1.0
-    while hi - lo > 1e-4:
-        mid = 0.5 * (lo + hi)
-        found = _iterate(A, B, Q, R, mid, BISECTION_ITERATIONS, 1e-8)
-        lo, hi = (lo, mid) if found is not None else (mid, hi)
-    return hi, False
+def _threshold_text(th: _mare.Threshold) -> str:
+    """The critical probability as the error message states it."""
+    if th.exact:
+        why = ("B reaches the whole unstable subspace: 1 - 1/ρ(A)²"
+               if th.how == "subspace" else
+               "one input: 1 - 1/Π|μ|² over the unstable eigenvalues μ")
+        return (f"critical arrival probability {th.upper:.6g} (exact, "
+                f"{why}; loss {1 - th.upper:.6g})")
+    return (f"critical arrival probability, which lies in "
+            f"[{th.lower:.6g}, {th.upper:.6g}] (the upper end certified by "
+            f"a gain, the lower end on the LMI solver's word)")
 
 
 def _plant(args: tuple, arrival: Any) -> tuple[np.ndarray, np.ndarray, Any]:
@@ -133,14 +122,18 @@ def _plant(args: tuple, arrival: Any) -> tuple[np.ndarray, np.ndarray, Any]:
     return A, B, nu
 
 
-def dlqr(*args: Any, arrival: float | None = None, **kwargs: Any
-         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def dlqr(*args: Any, arrival: float | None = None,
+         full_output: bool = False, **kwargs: Any) -> tuple:
     """Optimal LQ state feedback over a lossy actuator link.
 
     ``dlqr(sys, Q, R)`` or ``dlqr(A, B, Q, R)`` as :func:`control.dlqr`,
     for ``x⁺ = A x + θ B u``, ``θ = 1`` with probability ``arrival``
     (TCP-like: the controller knows past arrivals), minimising
-    ``E Σ (xᵀQx + θ uᵀRu)``. The gain is for ``u = -K x``.
+    ``E Σ (xᵀQx + θ uᵀRu)``. The gain is for ``u = -K x``. The modified
+    Riccati equation is solved as an equation (policy iteration from a
+    stabilising gain, each step an exact solve; :ref:`theory-estimation`),
+    and its answer is checked: the residual, and the mean-square stability
+    of the lossy loop, proven.
 
     Parameters
     ----------
@@ -155,6 +148,8 @@ def dlqr(*args: Any, arrival: float | None = None, **kwargs: Any
         Probability that a command arrives, in (0, 1] (default 1: the
         loss-free :func:`control.dlqr`). A bursty link is given through a
         ``NetworkedStateSpace``.
+    full_output : bool, optional
+        Also return how the equation was solved and its checks.
     **kwargs
         Reserved: any keyword raises ``TypeError``.
 
@@ -176,30 +171,49 @@ def dlqr(*args: Any, arrival: float | None = None, **kwargs: Any
     E : ndarray
         Eigenvalues of the mean closed loop ``A - ν B K``; over a bursty
         link those of ``A - B K_ℓ`` (commands arriving), shape ``(2, n)``.
+    info : RiccatiSolution
+        Only with ``full_output=True``: the residual, the certified
+        mean-square rate of the loop and how the equation was solved.
 
     Raises
     ------
+    SynthesisError
+        ``reason='not_mss'`` (also a ``ValueError``) if ``arrival`` is at or
+        below the critical probability: the message states it, exact (a
+        closed form: ``B`` reaching the whole unstable subspace, or one
+        input) or as the bracket of a certified bisection; over a bursty
+        link, if the link stays down too long for the plant.
+        ``'not_found'`` or ``'not_verified'`` (nothing proven) if no
+        stabilising start was found or the answer fails its checks.
     ValueError
-        If ``arrival`` is at or below the critical probability (the message
-        gives it), or the solution fails its checks (residual, mean-square
-        stability of the loop).
+        A bad weight or arrival probability.
 
     References
     ----------
     .. [1] L. Schenato, B. Sinopoli, M. Franceschetti, K. Poolla and
            S. Sastry, "Foundations of control and estimation over lossy
            networks", *Proceedings of the IEEE* 95(1), 2007.
+    .. [2] N. Elia, "Remote stabilization over fading channels", *Systems &
+           Control Letters* 54(3), 2005.
 
     Examples
     --------
     ``x⁺ = 1.2 x + θ u``, ``q = r = 1``, half the commands lost:
 
-    >>> import control_ncs as ncs
     >>> K, S, E = ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]], arrival=0.5)
     >>> round(float(S[0, 0]), 10)
     5.7626154148
+
+    Just above the critical probability ``1 - 1/1.2² = 0.305556`` the cost
+    is large but finite:
+
+    >>> K, S, E = ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]],
+    ...                    arrival=0.305656)
+    >>> round(float(S[0, 0]))
+    9956
     """
     no_extra_kwargs("dlqr", kwargs)
+    full_output = flag(full_output, "full_output")
     if len(args) not in (3, 4):
         raise ControlArgument(f"dlqr: expected (sys, Q, R) or (A, B, Q, R), "
                               f"got {len(args)} positional arguments")
@@ -213,93 +227,88 @@ def dlqr(*args: Any, arrival: float | None = None, **kwargs: Any
     if np.linalg.eigvalsh(R)[0] <= 0:
         raise ValueError("R: expected a positive definite weight")
     if isinstance(nu, GilbertElliott):
-        return _bursty(A, B, Q, R, nu)
-    S = _iterate(A, B, Q, R, nu)
-    if S is None:
-        critical, exact = critical_arrival(A, B, Q, R)
-        about = "" if exact else "about "
-        raise ValueError(
-            f"arrival: {nu:g} is at or below the critical arrival probability "
-            f"{about}{critical:.5g} (loss {1 - critical:.5g}): the expected "
-            f"cost is unbounded for every controller; more arrivals are "
-            f"needed")
-    K = np.linalg.solve(B.T @ S @ B + R, B.T @ S @ A)
-    residual = A.T @ S @ A + Q - nu * (A.T @ S @ B) @ K - S
-    if np.linalg.norm(residual) > 1e-9 * max(1.0, float(np.linalg.norm(S))):
-        raise ValueError(f"dlqr: the Riccati residual "
-                         f"{np.linalg.norm(residual):.3g} fails the check")
-    # the loop x⁺ = (A - θ B K) x must be mean-square stable
-    loop = jss([A - B @ K, A], np.zeros((n, 1)), np.zeros((1, n)),
-               np.zeros((1, 1)), [nu, 1 - nu])
-    if not ms_radius(loop) < 1.0:
-        raise ValueError("dlqr: the gain does not make the lossy loop "
-                         "mean-square stable (the Riccati solution is not the "
-                         "stabilising one)")
-    return K, S, np.linalg.eigvals(A - nu * B @ K)
+        K, S, E, sol = _bursty(A, B, Q, R, nu)
+    else:
+        K, S, E, sol = _bernoulli(A, B, Q, R, nu)
+    return (K, S, E, sol) if full_output else (K, S, E)
+
+
+def _bernoulli(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
+               nu: float) -> tuple:
+    """The MARE of one Bernoulli actuator link, as the dual estimator's."""
+    if nu < 1.0:
+        # a closed-form threshold refuses at once, before any solve
+        low = _closed_threshold(A, B)
+        if low is not None and nu <= low.upper:
+            _refuse(nu, low, "")
+    eq = _mare.Equation(A.T, B.T, Q, R, *_mare.bernoulli(nu))
+    try:
+        sol = _mare.solve(eq)
+    except MareError as err:
+        if err.reason != NOT_MSS:
+            raise
+        _refuse(nu, critical_control_arrival(A, B), str(err))
+    S, K = sol.X[0], sol.gains[0].T
+    link = "loss-free" if nu == 1.0 else f"Bernoulli, arrival {nu:g}"
+    return K, S, np.linalg.eigvals(A - nu * B @ K), sol.result(link)
+
+
+def _closed_threshold(A: np.ndarray, B: np.ndarray
+                      ) -> _mare.Threshold | None:
+    """The critical probability when a closed form gives it, else None."""
+    if _mare.undetectable(A.T, B.T):
+        return None
+    if _mare.closed_form_gain(A.T, B.T) is None and B.shape[1] != 1:
+        return None
+    return critical_control_arrival(A, B)
+
+
+def _refuse(nu: float, th: _mare.Threshold, why: str) -> None:
+    if not th.exact and nu >= th.upper:
+        # a gain is certified at th.upper and solvability only grows with
+        # the arrivals: a solution exists, the solver did not reach it
+        raise MareError(
+            f"arrival: {nu:g} is above the certified critical probability "
+            f"{th.upper:.6g}, so a stabilising solution exists, but no "
+            f"stabilising start was found ({why}): the solver did not "
+            f"reach it", NOT_FOUND, dict(arrival=nu, critical=th.upper))
+    raise MareError(
+        f"arrival: {nu:g} is at or below the {_threshold_text(th)}: no gain "
+        f"makes the lossy loop mean-square stable, so the expected cost is "
+        f"unbounded; more arrivals are needed"
+        + (f" ({why})" if why else ""), NOT_MSS,
+        dict(arrival=nu, critical=th.upper, critical_lower=th.lower,
+             exact=th.exact))
 
 
 def _bursty(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
-            link: GilbertElliott
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            link: GilbertElliott) -> tuple:
     """TCP-like LQ over a Gilbert–Elliott actuator link: the coupled
     Riccati equations of the previous link state ``ℓ`` (0 lost, 1
-    delivered), by value iteration from ``S_ℓ = Q``,
+    delivered),
 
-    ``S_ℓ = Q + Aᵀ S̄_ℓ A - g_ℓᵀ H_ℓ⁻¹ g_ℓ``, ``S̄_ℓ = Σ_i T[ℓ, i] S_i``,
-    ``H_ℓ = Σ_i T[ℓ, i] θ_i (R + Bᵀ S_i B)``, ``g_ℓ = Σ_i T[ℓ, i] θ_i Bᵀ
-    S_i A``, ``K_ℓ = H_ℓ⁻¹ g_ℓ`` (:ref:`theory-performance`)."""
+    ``S_ℓ = Q + Σ_i T[ℓ, i] Aᵀ S_i A - T[ℓ, 1] AᵀS_1B (BᵀS_1B + R)⁻¹
+    BᵀS_1A``, ``K_ℓ = (BᵀS_1B + R)⁻¹ BᵀS_1A``
+
+    (only a delivered command acts, so both gains are equal), the dual of
+    the estimator's with the link's forward chain: weights ``a = T``,
+    ``b = T`` on the delivered column (:ref:`theory-estimation`)."""
     T = np.asarray(link.transition, float)
-    theta = np.array([0.0, 1.0])
-    n = A.shape[0]
-    S = np.array([Q, Q])
-    scale = max(1.0, float(np.linalg.norm(Q)), float(np.linalg.norm(R)))
-    K = np.zeros((2, B.shape[1], n))
-    def step(S: np.ndarray) -> np.ndarray:
-        """One step of the coupled equations (and the gains ``K``)."""
-        new = np.empty_like(S)
-        for ell in range(2):
-            t = T[ell] * theta
-            H = sum(t[i] * (R + B.T @ S[i] @ B) for i in range(2))
-            g = sum(t[i] * B.T @ S[i] @ A for i in range(2))
-            K[ell] = np.linalg.solve(H, g)
-            Sbar = T[ell, 0] * S[0] + T[ell, 1] * S[1]
-            new[ell] = Q + A.T @ Sbar @ A - g.T @ K[ell]
-        return 0.5 * (new + new.transpose(0, 2, 1))
-
-    for _ in range(MAX_ITERATIONS):
-        new = step(S)
-        if not np.all(np.isfinite(new)) or np.linalg.norm(new) > \
-                DIVERGED * scale:
-            raise ValueError(
-                f"sys: over this bursty link (fail {link.fail:g}, recover "
-                f"{link.recover:g}) the coupled Riccati iteration diverges: "
-                f"the expected cost is unbounded for every controller (the "
-                f"link stays down too long for the plant); shorter bursts "
-                f"or fewer losses are needed")
-        done = np.linalg.norm(new - S) <= CONVERGED * max(
-            1.0, float(np.linalg.norm(new)))
-        S = new
-        if done:
-            break
-    else:
-        raise ValueError("dlqr: the coupled Riccati iteration did not "
-                         "converge")
-    residual = step(S) - S                  # also sets K from S
-    if np.linalg.norm(residual) > 1e-9 * max(1.0, float(np.linalg.norm(S))):
-        raise ValueError(f"dlqr: the coupled Riccati residual "
-                         f"{np.linalg.norm(residual):.3g} fails the check")
-    # the loop with gains on the previous link state must be mean-square
-    # stable: Markov modes (ℓ, i), x⁺ = (A - θ_i B K_ℓ) x
-    modes = [A - theta[i] * B @ K[ell] for ell in range(2) for i in range(2)]
-    chain = np.kron(np.ones((2, 1)), np.eye(2))     # (ℓ, i) → (i, ·)
-    pair_T = np.array([[T[i, j] if chain[a, i] else 0.0
-                        for i in range(2) for j in range(2)]
-                       for a in range(4)])
-    loop = jss(np.array(modes), np.zeros((n, 1)), np.zeros((1, n)),
-               np.zeros((1, 1)), None, transition=pair_T)
-    if not ms_radius(loop) < 1.0:
-        raise ValueError("dlqr: the gains do not make the bursty loop "
-                         "mean-square stable (the Riccati solution is not "
-                         "the stabilising one)")
-    return K, S, np.array([np.linalg.eigvals(A - B @ K[ell])
-                           for ell in range(2)])
+    b = T * np.array([0.0, 1.0])[None, :]
+    eq = _mare.Equation(A.T, B.T, Q, R, T, b)
+    try:
+        sol = _mare.solve(eq)
+    except MareError as err:
+        if err.reason != NOT_MSS:
+            raise
+        raise MareError(
+            f"sys: over this bursty link (fail {link.fail:g}, recover "
+            f"{link.recover:g}) no gain makes the loop mean-square stable "
+            f"({err}): the expected cost is unbounded for every controller "
+            f"(the link stays down too long for the plant); shorter bursts "
+            f"or fewer losses are needed", NOT_MSS, err.figures) from None
+    S = sol.X
+    K = np.array([sol.gains[1].T, sol.gains[1].T])
+    E = np.array([np.linalg.eigvals(A - B @ K[ell]) for ell in range(2)])
+    return K, S, E, sol.result(f"Gilbert–Elliott, fail {link.fail:g}, "
+                               f"recover {link.recover:g}")

@@ -76,6 +76,13 @@ CALLS = {
         nmeas=1, ncon=1), [[-2.0]], tol=1e-2, **kw),
     "dlqr": lambda **kw: ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]],
                                   arrival=0.5, **kw),
+    "dlqe": lambda **kw: ncs.dlqe([[1.2]], [[1.0]], [[1.0]], [[1.0]],
+                                  [[1.0]], arrival=0.5, **kw),
+    "critical_arrival": lambda **kw: ncs.critical_arrival([[1.2]], [[1.0]],
+                                                          **kw),
+    "isestimable": lambda **kw: ncs.isestimable([[1.2]], [[1.0]], 0.3, **kw),
+    "lqg": lambda **kw: ncs.lqg(_plant(), [[1.0]], [[1.0]], [[1.0]],
+                                [[1.0]], **kw),
     "JumpStateSpace.step_response": lambda **kw: _loop().step_response(
         5, trials=4, seed=1, **kw),
     "JumpStateSpace.impulse_response": lambda **kw: _loop().impulse_response(

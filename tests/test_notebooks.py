@@ -23,6 +23,7 @@ EXPECTED = [
     "08_bursts_matter.ipynb",
     "09_delays_or_losses.ipynb",
     "10_performance_beyond_passivity.ipynb",
+    "11_estimation_over_lossy_links.ipynb",
     "12_what_jitter_costs.ipynb",
 ]
 

@@ -236,7 +236,7 @@ def test_lossless_dlqr_equals_python_control():
 
 def test_dlqr_below_the_critical_probability_says_what_it_is():
     with pytest.raises(ValueError, match=r"critical arrival probability "
-                       r"0\.30556"):
+                       r"0\.305556 \(exact"):
         ncs.dlqr([[1.2]], [[1.0]], [[1.0]], [[1.0]], arrival=0.3)
 
 
@@ -286,7 +286,8 @@ def test_dlqr_over_a_bursty_link_solves_the_coupled_riccati_equations():
     assert sum(pi[ell] * np.trace(S[ell]) for ell in range(2)) == \
         pytest.approx(h2 ** 2, rel=1e-9)
     np.testing.assert_allclose(-K[1], Kh.gains[0, -1], rtol=1e-5)
-    with pytest.raises(ValueError, match="^sys: .*diverges"):
+    with pytest.raises(ValueError, match="^sys: .*no gain makes the loop "
+                       "mean-square stable"):
         ncs.dlqr(_lq_plant(loss=ncs.gilbert_elliott(fail=0.3, recover=0.3)),
                  [[1.0]], [[1.0]])
 
@@ -405,17 +406,21 @@ def test_h2syn_designs_locally_what_its_exact_program_does_not_cover():
         ncs.hinfsyn(_lq_plant(), actuator="hold", solver="CLARABEL")
 
 
-def test_dlqr_states_an_approximate_critical_probability_that_brackets():
-    """One input, two states: no closed form is used; the bisection's value
-    must separate arrivals that work from arrivals that do not."""
+def test_dlqr_states_the_exact_critical_probability_of_a_two_state_plant():
+    """One input reaching the one unstable eigenvalue 1.1: the critical
+    probability is 1 - 1/1.1² exactly, and it separates arrivals that work
+    from arrivals that do not to 1e-6."""
     A = np.array([[1.1, 0.2], [0.0, 0.9]])
     B = np.array([[0.0], [1.0]])
-    with pytest.raises(ValueError, match="about") as info:
+    critical = 1 - 1 / 1.1 ** 2
+    with pytest.raises(ncs.SynthesisError, match="exact") as info:
         ncs.dlqr(A, B, np.eye(2), np.eye(1), arrival=0.1)
-    critical = float(str(info.value).split("about ")[1].split()[0])
-    ncs.dlqr(A, B, np.eye(2), np.eye(1), arrival=critical + 0.01)
+    assert info.value.reason == "not_mss"
+    assert info.value.figures["critical"] == pytest.approx(critical,
+                                                          abs=1e-15)
+    ncs.dlqr(A, B, np.eye(2), np.eye(1), arrival=critical + 1e-6)
     with pytest.raises(ValueError):
-        ncs.dlqr(A, B, np.eye(2), np.eye(1), arrival=critical - 0.01)
+        ncs.dlqr(A, B, np.eye(2), np.eye(1), arrival=critical - 1e-6)
 
 
 def test_critical_loss_of_a_gain_matches_the_closed_form():

@@ -3,7 +3,6 @@ lossy link's is (the designs and analyses read only the one open loop)."""
 
 import warnings
 
-import numpy as np
 import pytest
 
 import control_ncs as ncs
