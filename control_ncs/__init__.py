@@ -15,13 +15,16 @@ reference simulator (``protocol``) export nothing here.
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from . import (automata, connect, critical, estimator, exceptions, gain,
+from . import (automata, budgets, connect, constrained, critical, estimator,
+               exceptions, gain,
                intersample, joint_spectral, jump, loop, lq, meancov, modes,
                network, openloop, passivity, performance, plant, plots,
                responses, stability, strategies, sweeps, switching, synthesis,
                verify, worstcase, worstcase_synthesis)
 from ._lifting import lift
 from .automata import *  # noqa: F403
+from .budgets import *  # noqa: F403
+from .constrained import *  # noqa: F403
 from .connect import *  # noqa: F403
 from .critical import *  # noqa: F403
 from .estimator import *  # noqa: F403
@@ -55,7 +58,7 @@ __all__ = [name for module in (
     meancov, exceptions, verify, passivity, performance, lq, synthesis,
     estimator, responses, plots,
     connect, sweeps, critical, automata, joint_spectral, switching,
-    worstcase, worstcase_synthesis, intersample)
+    worstcase, worstcase_synthesis, intersample, constrained, budgets)
     for name in module.__all__] + ["lift"]
 
 try:
