@@ -13,8 +13,10 @@ layout :meth:`JumpPlant.close <control_ncs.JumpPlant.close>` takes, and
 certifies them again on the loop that ``close`` builds: its joint spectral
 radius below the rate (:func:`~control_ncs.jsr`) and its worst-case ℓ2 gain
 or passivity level (:func:`~control_ncs.worst_case_gain`,
-:func:`~control_ncs.worst_case_passivity`). The design maps over (misses,
-window) run one such design per cell (:func:`budget_cell`).
+:func:`~control_ncs.worst_case_passivity`). :func:`budget_plant` is the
+first step on its own (the graph and the way back to the gains), for a
+design by hand with :func:`~control_ncs.worst_case_design`. The design maps
+over (misses, window) run one route per cell (:func:`budget_cell`).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from .exceptions import (CERTIFIED, CERTIFIED_SHORTAGE, NOT_VERIFIED,
                          SUFFICIENT_FAILED, CertificationError,
                          SynthesisError)
 from .joint_spectral import JSRResult, jsr
+from .lmi import check_options, check_solver
 from .openloop import JumpPlant
 from .strategies import build
 from .switching import ConstrainedPlant, SwitchingGraph
@@ -41,7 +44,8 @@ from .worstcase import (CYCLE_LENGTH, MARGIN, TOL, worst_case_gain,
                         worst_case_passivity)
 from .worstcase_synthesis import WorstCaseDesign, worst_case_design
 
-__all__ = ["worst_case_route", "BudgetDesign"]
+__all__ = ["worst_case_route", "BudgetDesign", "budget_plant",
+           "BudgetPlant"]
 
 #: The specifications of the route, in the dispatchers' words, and the
 #: one :func:`worst_case_design` calls them.
@@ -284,6 +288,121 @@ def _layout(plant: JumpPlant, nodes: list, K: np.ndarray) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class BudgetPlant:
+    """An open loop over a loss budget on its graph of budget states.
+
+    The :class:`~control_ncs.ConstrainedPlant` that
+    :func:`~control_ncs.worst_case_design` reads, and the way back from
+    its gains per node to the gains :meth:`JumpPlant.close` and
+    :func:`control_ncs.feedback` take. Made by :func:`budget_plant`.
+
+    Parameters
+    ----------
+    plant : ConstrainedPlant
+        One mode per (phase, budget state) a pattern reaches; node ``j`` of
+        its graph is ``nodes[j]``; patterns start at node 0 (``'rest'``).
+    nodes : tuple
+        ``'rest'`` (before step 0), then ``(phase k, budget state of step
+        k - 1)``: what the controller knows at step ``k``, by name
+        (:attr:`Constraint.names`).
+    source : JumpPlant
+        The open loop it was made from.
+
+    Attributes
+    ----------
+    plant, nodes, source
+        As given.
+
+    Examples
+    --------
+    >>> P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]],
+    ...             [[0.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+    ...             actuator_loss=ncs.max_consecutive_losses(1))
+    >>> bp = ncs.budget_plant(ncs.build(P))
+    >>> bp.nodes
+    ('rest', (0, (0, 1)), (0, (1, 0)))
+    >>> bp.plant.graph.edges.tolist()
+    [[0, 1, 0], [0, 2, 1], [1, 1, 0], [1, 2, 1], [2, 1, 0]]
+    """
+
+    plant: ConstrainedPlant
+    nodes: tuple
+    source: JumpPlant
+
+    def gains(self, K: Any) -> np.ndarray:
+        """Gains per node as ``K_{k,ℓ}`` per phase and previous mode.
+
+        Every previous mode ``ℓ`` of budget state ``c`` takes the gain of
+        the node ``(k, c)``; previous modes no pattern reaches, and phases
+        whose controller reads nothing, get 0.
+
+        Parameters
+        ----------
+        K : array_like, shape (V, nu, nx)
+            A gain per node of :attr:`plant`'s graph (as
+            ``worst_case_design(...).K``).
+
+        Returns
+        -------
+        ndarray, shape (N, M, nu, nk)
+        """
+        con = self.source.constraint
+        assert con is not None
+        index = [node if node == REST else (node[0],
+                                            con.names.index(node[1]))
+                 for node in self.nodes]
+        return _layout(self.source, index, np.asarray(K, float))
+
+
+def budget_plant(plant: JumpPlant) -> BudgetPlant:
+    """The open loop over a loss budget as a ConstrainedPlant.
+
+    A node of its graph is the phase ``k`` with the budget state of step
+    ``k - 1`` (the automaton state and the last outcome, which the
+    controller knows from what arrived and the acknowledgements); an edge
+    to an allowed next state applies the plant of that phase and budget
+    state (a lost command or an unread measurement: no input). Patterns
+    start from rest at node 0. :func:`~control_ncs.worst_case_design` on
+    it gives a gain per node; :meth:`BudgetPlant.gains` turns them into
+    the gains the plant is closed with.
+
+    Parameters
+    ----------
+    plant : JumpPlant
+        From :func:`control_ncs.build` (static controller, zero actuator,
+        the state measured, nothing random besides the budgets).
+
+    Returns
+    -------
+    BudgetPlant
+
+    Raises
+    ------
+    ControlArgument
+        A plant the graph does not describe, named (as
+        :func:`worst_case_route`).
+
+    Examples
+    --------
+    >>> P = ncs.nss([[2.0]], [[1.0, 1.0]], [[1.0], [1.0]],
+    ...             [[0.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+    ...             actuator_loss=ncs.weakly_hard(1, 3))
+    >>> bp = ncs.budget_plant(ncs.build(P))
+    >>> design = ncs.worst_case_design(bp.plant, spec="stability")
+    >>> CL = ncs.feedback(P, bp.gains(design.K))
+    >>> bool(ncs.jsr(CL).upper < 1)
+    True
+    """
+    plant = _check_plant(plant)
+    nodes, edges, modes = _design_graph(plant)
+    names = plant.constraint.names if plant.constraint is not None else ()
+    shown = tuple(node if node == REST else (node[0], names[node[1]])
+                  for node in nodes)
+    return BudgetPlant(_constrained_plant(plant, edges, modes), shown,
+                       plant)
+
+
 # -- run ----------------------------------------------------------------------------
 def _certify(plant: JumpPlant, gains: np.ndarray, spec: str, rate: float,
              cycle_length: int, tol: float, solver: str | None,
@@ -396,6 +515,7 @@ def worst_case_route(plant: JumpPlant, spec: str = "hinf", *,
     True
     """
     spec = choice(spec, "spec", tuple(SPECS))
+    check_options(check_solver(solver), solver_options)
     plant = _check_plant(plant)
     if eta is not None and spec != "passivity":
         raise ControlArgument(f"eta: only spec='passivity' takes a level, "
@@ -404,13 +524,12 @@ def worst_case_route(plant: JumpPlant, spec: str = "hinf", *,
     cycle_length = positive_int(cycle_length, "cycle_length")
     tol = positive_real(tol, "tol")
     margin = positive_real(margin, "margin")
-    nodes, edges, modes = _design_graph(plant)
-    open_loop = _constrained_plant(plant, edges, modes)
-    design = worst_case_design(open_loop, spec=SPECS[spec], rate=rate,
+    graph = budget_plant(plant)
+    design = worst_case_design(graph.plant, spec=SPECS[spec], rate=rate,
                                cycle_length=cycle_length, tol=tol,
                                solver=solver, margin=margin,
                                **solver_options)
-    gains = _layout(plant, nodes, design.K)
+    gains = graph.gains(design.K)
     loop, bracket, analysis, figure, bound = _certify(
         plant, gains, spec, rate, cycle_length, tol, solver, margin,
         solver_options)
@@ -420,15 +539,12 @@ def worst_case_route(plant: JumpPlant, spec: str = "hinf", *,
             f"eta = {eta:.6g} (gains per budget state; nothing is proven "
             f"about gains that remember more)", SUFFICIENT_FAILED,
             dict(eta=figure))
-    names = plant.constraint.names if plant.constraint is not None else ()
-    shown = tuple(node if node == REST else (node[0], names[node[1]])
-                  for node in nodes)
     exact = bool(abs(figure - bound) <= tol * max(abs(figure), abs(bound),
                                                   1e-300))
     return BudgetDesign(gains, spec, float(figure), float(bound), exact,
                         float(bracket.upper), float(bracket.lower),
-                        bracket.cycle, bracket, analysis, loop, design, shown,
-                        tol)
+                        bracket.cycle, bracket, analysis, loop, design,
+                        graph.nodes, tol)
 
 
 # -- one cell of a design map ---------------------------------------------------------

@@ -51,7 +51,7 @@ def _frozen(value: Any, dtype: Any) -> Any:
 
 @dataclass(frozen=True, eq=False)
 class Constraint:
-    """Which mode sequences loss budgets allow, and the law of the rest.
+    """Which modes loss budgets allow in turn, and the law of the rest.
 
     Every mode ``i`` of a loop over loss budgets is a pair: the state
     ``state[i]`` of the budgets' chain (no probabilities: the automaton
@@ -145,8 +145,18 @@ class Constraint:
             np.any((self.law > 0).sum(axis=1) > 1))
 
     def weights(self, k: int) -> np.ndarray:
-        """The probability of each mode's stochastic state at phase ``k``
-        (given its budget state), shape (M,)."""
+        """Each mode's probability given its budget state, at phase k.
+
+        Parameters
+        ----------
+        k : int
+            Phase (taken modulo the period).
+
+        Returns
+        -------
+        ndarray, shape (M,)
+            The probability of each mode's stochastic state.
+        """
         return self.law[k % self.period][self.part]
 
     def pairs(self) -> "Constraint":
@@ -194,7 +204,7 @@ class Constraint:
 
 @dataclass(frozen=True, eq=False)
 class ConstrainedLoop:
-    """A closed loop whose modes follow loss budgets, not probabilities.
+    """A closed loop whose modes follow loss budgets, not chance.
 
     (:ref:`theory-worst-case`.) Per phase ``k`` and mode ``i``:
     ``ξ⁺ = A[k, i] ξ + B[k, i] w``, ``z = C[k, i] ξ + D[k, i] w``; the
@@ -240,10 +250,10 @@ class ConstrainedLoop:
 
     >>> P = ncs.nss([[2.0]], [[0.0, 1.0]], [[0.0], [1.0]],
     ...             [[1.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
-    ...             actuator_loss=ncs.max_consecutive_losses(1))
+    ...             actuator_loss=ncs.max_consecutive_losses(1), name="servo")
     >>> CL = ncs.feedback(P, [[-1.5]])
     >>> CL
-    <ConstrainedLoop sys[0] (closed loop): 1 states, period 1, 2 budget states (at most 1 consecutive loss), nothing random>
+    <ConstrainedLoop servo (closed loop): 1 states, period 1, 2 budget states (at most 1 consecutive loss), nothing random>
     >>> res = ncs.jsr(CL)
     >>> round(res.upper, 6), res.scale, res.cycle
     (1.0, 'matrices', ((0, (1, 0)), (0, (0, 1))))
@@ -311,8 +321,9 @@ class ConstrainedLoop:
 
     # -- the graph of budget states -------------------------------------------
     def nodes(self) -> tuple:
-        """The reachable ``(phase, budget state name)`` pairs, in the order
-        of :meth:`switching`'s nodes.
+        """The reachable ``(phase, budget state name)`` pairs.
+
+        In the order of :meth:`switching`'s nodes.
 
         Returns
         -------
@@ -427,8 +438,7 @@ class ConstrainedLoop:
                 self.scale)
 
     def switching(self) -> SwitchingSystem:
-        """The loop as a :class:`~control_ncs.SwitchingSystem` (nothing
-        random).
+        """The loop as a SwitchingSystem (when nothing is random).
 
         Node ``j`` is ``nodes()[j]``; its edges apply mode ``j``, the loop
         ``(A, B, C, D)`` of that phase and budget state. The start nodes
