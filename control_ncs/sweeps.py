@@ -130,6 +130,11 @@ class DesignMap:
         The certified figure of each cell: ``eta`` for ``'eta'``, the
         designed loop's exact H2 norm for ``'h2'``, its certified ℓ2-gain
         bound for ``'hinf'`` (NaN where none).
+    worst_case : bool
+        True for a map over a loss budget's (misses, window): each figure
+        is certified for every allowed pattern
+        (:func:`control_ncs.worst_case_route`), and ``ms_radius`` holds
+        the squared certified decay rate of every pattern.
 
     Examples
     --------
@@ -153,6 +158,7 @@ class DesignMap:
     elapsed: float = 0.0
     objective: str = "eta"
     value: np.ndarray | None = None
+    worst_case: bool = False
 
     def __post_init__(self) -> None:
         if self.value is None:
@@ -172,14 +178,19 @@ class DesignMap:
 
     def summary(self) -> str:
         """A few lines for humans: the grid, the counts, the best cell."""
+        what = _MAP_OBJECTIVES[self.objective]
+        if self.worst_case:
+            what = {"eta": "certified worst-case η",
+                    "hinf": "certified worst-case ℓ2 gain"}[
+                        self.objective] + \
+                " for every allowed pattern (worst_case_route)"
         lines = [repr(self),
                  f"  {self.axes[0]}: {np.round(self.values[0], 6).tolist()}",
                  f"  {self.axes[1]}: {np.round(self.values[1], 6).tolist()}",
                  (f"  eta={'max' if self.eta_requested is None else self.eta_requested}"
                   f", decay={self.decay}, elapsed {self.elapsed:.3g} s"
-                  if self.objective == "eta" else
-                  f"  {_MAP_OBJECTIVES[self.objective]}, elapsed "
-                  f"{self.elapsed:.3g} s")]
+                  if self.objective == "eta" and not self.worst_case else
+                  f"  {what}, elapsed {self.elapsed:.3g} s")]
         reasons, counts = np.unique(self.reason.astype(str), return_counts=True)
         lines.append("  verdicts: " + ", ".join(
             f"{r} {c}" for r, c in zip(reasons, counts)))
@@ -188,10 +199,13 @@ class DesignMap:
             best = np.nanargmax(value) if self.objective == "eta" \
                 else np.nanargmin(value)
             i, j = np.unravel_index(best, self.shape)
+            rate = (f"worst-case rate {np.sqrt(self.ms_radius[i, j]):.6g}"
+                    if self.worst_case else
+                    f"ms_radius {self.ms_radius[i, j]:.6g}")
             lines.append(f"  best {self.objective} = {value[i, j]:.6g} at "
                          f"{self.axes[0]} = {self.values[0][i]:g}, "
                          f"{self.axes[1]} = {self.values[1][j]:g} "
-                         f"(ms_radius {self.ms_radius[i, j]:.6g})")
+                         f"({rate})")
         return "\n".join(lines)
 
     def to_pandas(self) -> Any:
@@ -488,7 +502,7 @@ def _budget_map(cells: list, axes: tuple, values: tuple, objective: str,
         feasible=np.array([r[2] for r in out], dtype=bool).reshape(shape),
         reason=reason, eta_requested=eta, decay=decay, controller=controller,
         actuator=actuator, elapsed=time.perf_counter() - start,
-        objective=objective, value=value)
+        objective=objective, value=value, worst_case=True)
 
 
 def _performance_options(objective: str, eta: Any, decay: Any,

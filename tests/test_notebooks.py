@@ -24,6 +24,7 @@ EXPECTED = [
     "09_delays_or_losses.ipynb",
     "10_performance_beyond_passivity.ipynb",
     "12_what_jitter_costs.ipynb",
+    "13_deadline_misses.ipynb",
 ]
 
 
