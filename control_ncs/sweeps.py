@@ -34,7 +34,8 @@ from .plant import NetworkedStateSpace
 from ._checks import (choice, decay_bound, finite_real, flag,
                       positive_int)
 from ._map_grid import loss, map_cells
-from .budgets import budget_cell
+from .budgets import budget_cell, budget_plant
+from .strategies import build
 from ._sweep_cells import design_cells, perform
 from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
@@ -488,6 +489,7 @@ def _budget_map(cells: list, axes: tuple, values: tuple, objective: str,
             f"{other}_loss: over a {link}_budget the {other} link must be "
             f"perfect (the route designs for a network the budget alone "
             f"decides)")
+    budget_plant(build(cells[0]))     # what the route refuses, said once
     rate = 1.0 if decay is None else decay
     out = run_tasks(budget_cell, [(c, objective, eta, rate) for c in cells],
                     executor, progress, "design_map")
