@@ -97,6 +97,7 @@ def test_the_budgets_loss_fraction_is_its_worst_periodic_pattern(states,
     assert budget_loss(aut) == pytest.approx(worst, abs=1e-12)
 
 
+@pytest.mark.filterwarnings("ignore::control_ncs.ScheduleWarning")
 def test_pickling_keeps_a_plant_with_a_budget_and_its_loop():
     P = scalar_plant(2.0, actuator_loss=ncs.weakly_hard(1, 3),
                      sensor_schedule=[1, 0, 1], actuator_schedule=[1, 1, 0])
@@ -246,6 +247,7 @@ def _random_automaton(data, states):
     return ncs.loss_automaton(edges)
 
 
+@pytest.mark.filterwarnings("ignore::control_ncs.ScheduleWarning")
 @settings(max_examples=12, deadline=None,
           suppress_health_check=[HealthCheck.too_slow])
 @given(st.data())
