@@ -15,14 +15,16 @@ reference simulator (``protocol``) export nothing here.
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from . import (automata, connect, critical, estimation, estimator,
-               exceptions, gain, intersample, joint_spectral, jump, loop, lq,
-               meancov, modes,
+from . import (automata, budgets, connect, constrained, critical,
+               estimation, estimator, exceptions, gain, intersample,
+               joint_spectral, jump, loop, lq, meancov, modes,
                network, openloop, passivity, performance, plant, plots,
                responses, stability, strategies, sweeps, switching, synthesis,
                verify, worstcase, worstcase_synthesis)
 from ._lifting import lift
 from .automata import *  # noqa: F403
+from .budgets import *  # noqa: F403
+from .constrained import *  # noqa: F403
 from .connect import *  # noqa: F403
 from .critical import *  # noqa: F403
 from .estimation import *  # noqa: F403
@@ -57,7 +59,8 @@ __all__ = [name for module in (
     meancov, exceptions, verify, passivity, performance, lq, synthesis,
     estimator, responses, plots,
     connect, sweeps, critical, automata, joint_spectral, switching,
-    worstcase, worstcase_synthesis, intersample, estimation)
+    worstcase, worstcase_synthesis, intersample, estimation, constrained,
+    budgets)
     for name in module.__all__] + ["lift"]
 
 try:

@@ -75,7 +75,12 @@ def is_mean_copy(sys: Any) -> bool:
 
 
 def refuse_mean_copy(sys: Any, name: str = "sys") -> None:
-    """Raise ``ControlArgument`` if ``sys`` is a copy of a mean face."""
+    """Raise ``ControlArgument`` if ``sys`` is a copy of a mean face, or a
+    system that has no mean face and says which analysis it takes instead
+    (a loop over a loss budget: its ``_analysis_refusal(name)``)."""
+    refusal = getattr(type(sys), "_analysis_refusal", None)
+    if callable(refusal):
+        raise ControlArgument(refusal(sys, name))
     if is_mean_copy(sys):
         raise ControlArgument(
             f"{name}: a plain StateSpace copied from the mean face of the "

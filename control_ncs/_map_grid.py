@@ -6,7 +6,9 @@ a link's stationary loss (a bursty link keeps its mean burst length, so a
 map over a bursty link stays bursty), and a burst grid makes the link a
 Gilbert–Elliott chain of that loss and that mean burst length
 (:ref:`theory-markov`); a grid of delay laws gives the sensor link each
-law, scaled to the cell's loss (:ref:`theory-delays`).
+law, scaled to the cell's loss (:ref:`theory-delays`); a grid of loss
+budgets (misses, window) gives one link ``weakly_hard(misses, window)``
+(:ref:`theory-worst-case`).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 from control.exception import ControlArgument
 
 from ._checks import finite_real
+from .automata import LossAutomaton, weakly_hard
 from .network import GilbertElliott, RandomDelay, gilbert_elliott, random_delay
 from .plant import NetworkedStateSpace
 
@@ -120,9 +123,64 @@ def at_delay(link: RandomDelay, value: float) -> RandomDelay:
     return random_delay(q * (1.0 - value) / q.sum(), link.buffer)
 
 
+def count_grid(values: Any, name: str, least: int) -> np.ndarray:
+    """A 1-D grid of integers ``>= least``."""
+    arr = _grid(values, name, f"integers >= {least}")
+    out = []
+    for i, v in enumerate(arr):
+        if isinstance(v, (bool, np.bool_)) or not isinstance(
+                v, (int, np.integer)) or v < least:
+            raise ValueError(f"{name}[{i}]: expected an integer >= {least}, "
+                             f"got {v!r}")
+        out.append(int(v))
+    return np.array(out)
+
+
+def budget_grid(value: Any, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(misses, window)``: two 1-D grids, of losses allowed (``>= 0``)
+    and of window lengths (``>= 1``)."""
+    if not isinstance(value, (tuple, list)) or len(value) != 2:
+        raise ValueError(f"{name}: expected (misses, window), two grids of "
+                         f"integers (losses allowed in a window, window "
+                         f"lengths), got {value!r}")
+    return (count_grid(value[0], f"{name} misses", 0),
+            count_grid(value[1], f"{name} window", 1))
+
+
+def at_budget(misses: int, window: int) -> LossAutomaton:
+    """At most ``misses`` lost in any ``window``; ``misses >= window``
+    allows every pattern (``weakly_hard(window, window)``)."""
+    return weakly_hard(min(misses, window), window)
+
+
+def _budget_cells(P: NetworkedStateSpace, a1: np.ndarray, a2: np.ndarray,
+                  budgets: dict) -> tuple:
+    """The cells of a map over one link's (misses, window) budget; the
+    other link keeps its one given loss, the budget link's loss grid is
+    not used (it must be the default 0)."""
+    (link, grid), = budgets.items()
+    other = "actuator" if link == "sensor" else "sensor"
+    misses, windows = budget_grid(grid, f"{link}_budget")
+    own, fixed = (a1, a2) if link == "sensor" else (a2, a1)
+    if own.size != 1 or own[0] != 0.0:
+        raise ControlArgument(
+            f"{link}_loss: with {link}_budget the {link} link is the budget "
+            f"of each cell; give no {link}_loss grid")
+    if fixed.size != 1:
+        raise ControlArgument(
+            f"{other}_loss: with {link}_budget the map's axes are the "
+            f"budget's misses and window; give one {other} loss, got "
+            f"{fixed.size}")
+    kept = at_loss(getattr(P, f"{other}_link"), float(fixed[0]))
+    cells = [P.with_network(**{f"{link}_loss": at_budget(m, K),
+                               f"{other}_loss": kept})
+             for m in misses for K in windows]
+    return ((f"{link}_misses", f"{link}_window"), (misses, windows), cells)
+
+
 def map_cells(P: NetworkedStateSpace, sensor_loss: Any, actuator_loss: Any,
               sensor_burst: Any, actuator_burst: Any,
-              sensor_delay: Any = None
+              sensor_delay: Any = None, budgets: dict | None = None
               ) -> tuple[tuple[str, str], tuple[np.ndarray, np.ndarray],
                          list[NetworkedStateSpace]]:
     """``(axes, values, cells)`` of a map, cells row-major.
@@ -131,11 +189,22 @@ def map_cells(P: NetworkedStateSpace, sensor_loss: Any, actuator_loss: Any,
     a burst grid (``sensor_burst`` or ``actuator_burst``) they are that
     link's loss and mean burst length; with ``sensor_delay`` (delay laws)
     the sensor link's loss and the laws, valued by their mean delay, each
-    law scaled to the cell's loss. The other link takes its one given
-    loss.
+    law scaled to the cell's loss. With ``budgets`` (``{link: (misses,
+    window)}``) the axes are that link's losses allowed and window
+    lengths, the cell's link ``weakly_hard(misses, window)``. The other
+    link takes its one given loss.
     """
     a1 = loss_grid(sensor_loss, "sensor_loss")
     a2 = loss_grid(actuator_loss, "actuator_loss")
+    if budgets:
+        given = [name for name, value in (
+            ("sensor_burst", sensor_burst), ("actuator_burst", actuator_burst),
+            ("sensor_delay", sensor_delay)) if value is not None]
+        if given or len(budgets) > 1:
+            what = ", ".join(given + [f"{k}_budget" for k in budgets])
+            raise ControlArgument(f"{what}: a map has two axes; a budget's "
+                                  f"(misses, window) are both of them")
+        return _budget_cells(P, a1, a2, budgets)
     bursts = {link: grid for link, grid in
               (("sensor", sensor_burst), ("actuator", actuator_burst))
               if grid is not None}

@@ -26,6 +26,7 @@ from .exceptions import (CERTIFIED, INFEASIBLE, NOT_VERIFIED, SOLVER_FAILED,
 from ._lifting import unseen_modes
 from .jump import JumpStateSpace
 from .network import GilbertElliott
+from .automata import LossAutomaton
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
 
@@ -110,6 +111,14 @@ def _check_plant(P: Any) -> NetworkedStateSpace:
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
+    if P.sensor_delay is not None or P.input_delay is not None:
+        raise ControlArgument(
+            "P: the estimation-error loop here is for a sensor link that "
+            "loses messages without delaying them; over a delayed link "
+            "close the loop with controller='estimator' (it keeps "
+            "predicting over the delay) and analyse that loop")
+    if isinstance(P.sensor_link, LossAutomaton):
+        P._refuse_budget("the estimation error's mean square")
     return P
 
 

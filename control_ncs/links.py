@@ -10,10 +10,16 @@ random delay is the age chain of the freshest packet (:ref:`theory-delays`),
 thinned by a Bernoulli loss on the same link; a bursty delay is the pair
 (channel state, age). The sub-sample input delay of a sampled plant is one
 more chain (i.i.d. over the delay grid) whose emission is the delay's index.
+A loss budget (a :class:`~control_ncs.LossAutomaton`,
+:ref:`theory-worst-case`) is a *constrained* chain: its transition is the
+0/1 pattern of the moves the automaton allows, not probabilities, and its
+states remember the automaton state and the last outcome (a Moore machine).
 
 The two links are independent: the network's mode chain is the product of
-the links' chains with the schedule's phases (:func:`product`). This module
-is the one place that knows which link kind produced a chain; the builder
+the links' chains with the schedule's phases (:func:`product`); with a
+budget among them, :func:`constraint` separates the allowed moves of the
+budgets from the probabilities of the rest. This module is the one place
+that knows which link kind produced a chain; the builder
 (:mod:`control_ncs.strategies`) reads only the chains.
 """
 
@@ -25,7 +31,9 @@ from typing import Any, Sequence
 import numpy as np
 from control.exception import ControlArgument
 
-from .modes import age_chain
+from .automata import LossAutomaton
+from .constrained import Constraint
+from .modes import age_chain, periodic_stationary
 from .network import BurstyDelay, GilbertElliott, RandomDelay
 
 __all__: list[str] = []
@@ -49,6 +57,14 @@ class LinkChain:
         A name per state, for people.
     nominal : int
         The loss-free state (delivered, age 0).
+    constrained : bool
+        A loss budget: ``transition`` holds the allowed moves (0/1, rows
+        need not sum to 1), not probabilities.
+    start : ndarray of bool, shape (S,), or None
+        A budget's states at phase 0 (None for a stochastic chain).
+    known : bool
+        A budget whose state the receiver can track from the outcomes (a
+        deterministic automaton).
     """
 
     transition: np.ndarray
@@ -56,6 +72,9 @@ class LinkChain:
     buffer: int
     states: tuple
     nominal: int = 0
+    constrained: bool = False
+    start: np.ndarray | None = None
+    known: bool = True
 
     @property
     def stale(self) -> int:
@@ -77,9 +96,13 @@ class LinkChain:
         phase-``k`` state (the controllers with memory are updated by the
         measurement that arrives at the end of the step,
         :ref:`theory-predictor`)."""
+        start = self.start
+        if start is not None:       # the states one step after phase 0
+            start = (start.astype(float) @ self.transition[0]) > 0
         return LinkChain(np.roll(self.transition, -1, axis=0),
                          np.roll(self.emission, -1, axis=0), self.buffer,
-                         self.states, self.nominal)
+                         self.states, self.nominal, self.constrained, start,
+                         self.known)
 
     def pairs(self) -> "LinkChain":
         """The chain of consecutive states ``(s_k, s_{k+1})`` at phase ``k``,
@@ -88,6 +111,9 @@ class LinkChain:
         Whether the packet in use at ``k + 1`` is new (fresher than the one
         at ``k``) depends on both; the estimator corrects only on a new
         packet (:ref:`theory-delays`)."""
+        if self.constrained:
+            raise ControlArgument("a loss budget has no buffer: its chain "
+                                  "is never read in pairs")
         N, S = self.period, self.size
         T = np.zeros((N, S * S, S * S))
         nxt = np.roll(self.transition, -1, axis=0)      # s_{k+1} -> s_{k+2}
@@ -111,7 +137,8 @@ class LinkChain:
         reps = period // self.period
         return LinkChain(np.tile(self.transition, (reps, 1, 1)),
                          np.tile(self.emission, (reps, 1)), self.buffer,
-                         self.states, self.nominal)
+                         self.states, self.nominal, self.constrained,
+                         self.start, self.known)
 
 
 def _loss_chain(link: float | GilbertElliott, sent: np.ndarray) -> LinkChain:
@@ -125,6 +152,60 @@ def _loss_chain(link: float | GilbertElliott, sent: np.ndarray) -> LinkChain:
     emission = np.ones((N, 2), int)                   # stale = 1
     emission[:, 1] = np.where(sent, 0, 1)
     return LinkChain(T, emission, 0, ("lost", "delivered"), 1)
+
+
+def _budget_chain(aut: LossAutomaton, sent: np.ndarray) -> LinkChain:
+    """A loss budget as a constrained chain (:ref:`theory-worst-case`).
+
+    States ``(q, θ)``: the automaton state after the step and the step's
+    outcome (1 delivered; 0 lost, or nothing sent). At a phase that sends,
+    ``(q, θ) → (q', θ')`` for every edge ``(q, q', θ')``; at a phase that
+    sends nothing the automaton takes no step (``(q, θ) → (q, 0)``,
+    :meth:`LossAutomaton.periodic`'s rule). Emission: age 0 when the step
+    delivered a packet, stale otherwise. States no pattern reaches at any
+    phase are dropped."""
+    N = sent.size
+    Q = len(aut.states)
+    src, dst, d = aut.transition_graph()
+    step = np.zeros((2 * Q, 2 * Q), bool)        # (q, θ) -> (q', θ')
+    for q, q2, t in zip(src, dst, d):
+        step[2 * q:2 * q + 2, 2 * q2 + t] = True
+    idle = np.zeros((2 * Q, 2 * Q), bool)
+    for q in range(Q):
+        idle[2 * q:2 * q + 2, 2 * q] = True
+    # the move from phase k to k + 1 is the automaton's step at k + 1
+    T = np.array([step if sent[(k + 1) % N] else idle for k in range(N)])
+    init = np.zeros(2 * Q, bool)
+    init[[2 * q + t for q in (range(Q) if aut.initial is None else
+                              [aut.states.index(s) for s in aut.initial])
+          for t in (0, 1)]] = True
+    start = ((init @ step) > 0) if sent[0] else ((init @ idle) > 0)
+    seen = np.zeros((N, 2 * Q), bool)
+    seen[0] = start
+    todo = [(0, int(c)) for c in np.flatnonzero(start)]
+    while todo:
+        k, c = todo.pop()
+        nk = (k + 1) % N
+        for c2 in np.flatnonzero(T[k, c] & ~seen[nk]):
+            seen[nk, c2] = True
+            todo.append((nk, int(c2)))
+    keep = np.flatnonzero(seen.any(axis=0))
+    T = T[:, keep][:, :, keep].astype(float)
+    emission = np.where((keep % 2 == 1)[None, :] & sent[:, None], 0, 1)
+    names = tuple((aut.states[c // 2], int(c % 2)) for c in keep)
+    delivered = [j for j, c in enumerate(keep) if c % 2 == 1]
+    first = [j for j in delivered if start[keep[j]]] or delivered or [0]
+    known = all(len(v) == 1 for v in _successors(aut).values())
+    return LinkChain(T, emission, 0, names, first[0], True, start[keep],
+                     known)
+
+
+def _successors(aut: LossAutomaton) -> dict:
+    """The successors of each (state, outcome), as lists."""
+    out: dict = {}
+    for q, q2, t in zip(*aut.transition_graph()):
+        out.setdefault((int(q), int(t)), []).append(int(q2))
+    return out
 
 
 def _delay_chain(delay: RandomDelay, loss: float, sent: np.ndarray
@@ -152,8 +233,9 @@ def link_chain(loss: Any, delay: Any, sent: Any, name: str) -> LinkChain:
 
     Parameters
     ----------
-    loss : float or GilbertElliott
-        The link's loss model (a Bernoulli probability, or bursts).
+    loss : float, GilbertElliott or LossAutomaton
+        The link's loss model (a Bernoulli probability, bursts, or a loss
+        budget).
     delay : RandomDelay, BurstyDelay or None
         The link's delay model.
     sent : array_like of bool, shape (N,)
@@ -169,9 +251,17 @@ def link_chain(loss: Any, delay: Any, sent: Any, name: str) -> LinkChain:
     ------
     ControlArgument
         For a combination no finite chain models: a Gilbert–Elliott loss
-        with a delay, or a Bernoulli loss with a bursty delay.
+        with a delay, a Bernoulli loss with a bursty delay, a loss budget
+        with a delay.
     """
     sent = np.asarray(sent, bool).ravel()
+    if isinstance(loss, LossAutomaton):
+        if delay is not None:
+            raise ControlArgument(
+                f"{name}_loss: a loss budget beside a delay on the same link "
+                f"has no model (the budget counts lost transmissions, the "
+                f"delay law delivers them late by chance)")
+        return _budget_chain(loss, sent)
     if delay is None:
         return _loss_chain(loss, sent)
     if isinstance(loss, GilbertElliott):
@@ -226,3 +316,56 @@ def product(chains: Sequence[LinkChain]) -> tuple[np.ndarray, np.ndarray]:
             [np.tile(em, (1, S, 1)),
              np.repeat(c.emission, old, axis=1)[:, :, None]], axis=2)
     return T, em
+
+
+def constraint(chains: Sequence[LinkChain]) -> Constraint | None:
+    """The budgets' allowed moves and the law of the rest, per mode.
+
+    Parameters
+    ----------
+    chains : sequence of LinkChain
+        The chains of :func:`product`, in its order.
+
+    Returns
+    -------
+    Constraint or None
+        None when no chain is constrained. Otherwise, per mode of the
+        product, the index of its state in the product of the constrained
+        chains (their allowed moves the product of theirs) and in the
+        product of the others (their transition the product of theirs: an
+        i.i.d. law when every row of every phase agrees, else Markov).
+    """
+    fixed = [c for c in chains if c.constrained]
+    if not fixed:
+        return None
+    rest = [c for c in chains if not c.constrained]
+    M = int(np.prod([c.size for c in chains]))
+    modes = np.arange(M)
+    state = np.zeros(M, int)
+    part = np.zeros(M, int)
+    stride, scale_c, scale_r = 1, 1, 1
+    for c in chains:
+        digit = (modes // stride) % c.size
+        stride *= c.size
+        if c.constrained:
+            state += scale_c * digit
+            scale_c *= c.size
+        else:
+            part += scale_r * digit
+            scale_r *= c.size
+    allowed = product(fixed)[0] > 0
+    start = np.ones(1, bool)
+    names: list = [()]
+    for c in fixed:
+        assert c.start is not None
+        start = np.kron(c.start, start).astype(bool)
+        names = [n + (s,) for s in c.states for n in names]
+    N = chains[0].period
+    T = product(rest)[0] if rest else np.ones((N, 1, 1))
+    if np.all(T == T[:, :1, :]):
+        law, transition = np.roll(T[:, 0, :], 1, axis=0), None
+    else:
+        law, transition = periodic_stationary(T), T
+    return Constraint(state, part, allowed, start, law, transition,
+                      tuple(n[0] if len(n) == 1 else n for n in names),
+                      all(c.known for c in fixed))

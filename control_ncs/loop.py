@@ -19,6 +19,7 @@ from control.exception import ControlArgument, ControlDimension
 from ._checks import caller_stacklevel, choice, no_extra_kwargs, real_array
 from ._lti import lti_operand
 from .exceptions import ScheduleWarning
+from .constrained import ConstrainedLoop
 from .gain import PeriodicGain
 from .jump import JumpStateSpace
 from .openloop import JumpPlant
@@ -30,7 +31,8 @@ __all__ = ["feedback"]
 
 def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
              actuator: str | None = None, sensor: str | None = None,
-             estimator_gain: Any = None, **kwargs: Any) -> JumpStateSpace:
+             estimator_gain: Any = None, **kwargs: Any
+             ) -> JumpStateSpace | ConstrainedLoop:
     """Close the loop of ``P`` with a gain or an LTI controller.
 
     Sign convention ``u = K y``: the gain or controller is applied as it
@@ -89,7 +91,12 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         ``[x; xc; ŷ; u⁻]`` (plant, controller, received measurements of the
         sensors some phase schedules, held inputs); ``ŷ`` at step 0 is what
         arrived then (e.g. ``C2 x0`` for a first message that got through,
-        0 for one that was lost).
+        0 for one that was lost). Over a loss budget
+        (``nss(..., actuator_loss=ncs.weakly_hard(m, K))``, any
+        :class:`~control_ncs.LossAutomaton`): a
+        :class:`~control_ncs.ConstrainedLoop`, whose modes follow the
+        budget instead of probabilities; analyse it for every allowed
+        pattern with :func:`control_ncs.jsr` (:ref:`theory-worst-case`).
 
     Raises
     ------
@@ -306,7 +313,7 @@ def _lti_controller(P: NetworkedStateSpace, K: Any, controller: str | None,
 
 def _feedback_lti(P: NetworkedStateSpace, K: Any, controller: str | None,
                   actuator: str | None, sensor: str | None,
-                  estimator_gain: Any) -> JumpStateSpace:
+                  estimator_gain: Any) -> JumpStateSpace | ConstrainedLoop:
     """:func:`feedback` with an LTI controller: checks, then build + close."""
     Kss = _lti_controller(P, K, controller, estimator_gain)
     realisation = np.block([[Kss.D, Kss.C], [Kss.B, Kss.A]])

@@ -89,6 +89,7 @@ def _plant(args: tuple, arrival: Any) -> tuple[np.ndarray, np.ndarray, Any]:
                     "state measured (period 1, sensor_loss=0, no delays); "
                     "for schedules, sensor losses or delays design with "
                     "h2syn (z = [Q^½ x; R^½ u]) or passivesyn")
+            sys._refuse_budget("dlqr (LQ in mean)")
             link = sys.actuator_link
             A, B = np.asarray(sys.A, float), np.asarray(sys.B2, float)
             if isinstance(link, GilbertElliott) and not link.is_bernoulli:

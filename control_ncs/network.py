@@ -18,6 +18,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ._checks import caller_stacklevel, real_or_nan
+from .automata import LossAutomaton
 from .exceptions import ScheduleWarning
 from .modes import age_chain, transition_matrix
 
@@ -517,10 +518,21 @@ def gilbert_elliott(fail: float | None = None, recover: float | None = None,
                           "and burst= (one pair, both of its values)")
 
 
-def link_model(value: Any, name: str) -> float | GilbertElliott:
-    """A link's loss model: a float (Bernoulli), a :class:`GilbertElliott`
-    or a 2×2 transition matrix (state order (lost, delivered))."""
+def link_model(value: Any, name: str
+               ) -> float | GilbertElliott | LossAutomaton:
+    """A link's loss model: a float (Bernoulli), a :class:`GilbertElliott`,
+    a 2×2 transition matrix (state order (lost, delivered)) or a loss
+    budget (a :class:`~control_ncs.LossAutomaton` of one link,
+    :ref:`theory-worst-case`)."""
     if isinstance(value, GilbertElliott):
+        return value
+    if isinstance(value, LossAutomaton):
+        if value.channels != 1:
+            from control.exception import ControlArgument
+            raise ControlArgument(
+                f"{name}: the automaton carries the outcomes of "
+                f"{value.channels} links; give each link its own automaton "
+                f"(the loop takes the product of the two links itself)")
         return value
     arr = np.asarray(value) if isinstance(value, (list, tuple, np.ndarray)) \
         else None
@@ -537,6 +549,66 @@ def link_model(value: Any, name: str) -> float | GilbertElliott:
         return GilbertElliott(T[1, 0], T[0, 1])
     except ValueError as err:
         raise ValueError(f"{name}: transition {T.tolist()}: {err}") from None
+
+
+def budget_loss(automaton: LossAutomaton) -> float:
+    """The largest long-run fraction of transmissions a budget may lose.
+
+    The maximum, over the automaton's cycles, of the fraction of lost
+    outcomes on the cycle (Karp's maximum cycle mean of the weights
+    ``1 - delivered``, :ref:`theory-worst-case`): ``misses / window`` for
+    :func:`~control_ncs.weakly_hard`, ``k / (k + 1)`` for
+    :func:`~control_ncs.max_consecutive_losses`. It is what
+    ``NetworkedStateSpace.sensor_loss`` reports for a budget: not a
+    probability, the worst average the budget admits.
+
+    Parameters
+    ----------
+    automaton : LossAutomaton
+        One link's budget.
+
+    Returns
+    -------
+    float
+        In ``[0, 1]``.
+
+    Examples
+    --------
+    >>> from control_ncs.network import budget_loss
+    >>> budget_loss(ncs.weakly_hard(2, 5)), budget_loss(
+    ...     ncs.max_consecutive_losses(3))
+    (0.4, 0.75)
+    """
+    src, dst, delivered = automaton.transition_graph()
+    V = len(automaton.states)
+    weight = 1.0 - np.asarray(delivered, float).reshape(len(src), -1)[:, 0]
+    # Karp (1978) from a virtual source joined to every state: D[k][v] is
+    # the largest weight of a walk of k edges ending at v. Two passes keep
+    # one row at a time: D[V] first, then the minimum over k of
+    # (D[V] - D[k]) / (V - k) for every v.
+    order = np.argsort(dst, kind="stable")
+    src, dst, weight = src[order], dst[order], weight[order]
+    heads = np.flatnonzero(np.r_[True, dst[1:] != dst[:-1]])
+    ends = dst[heads]
+
+    def step(row: np.ndarray) -> np.ndarray:
+        out = np.full(V, -np.inf)
+        out[ends] = np.maximum.reduceat(row[src] + weight, heads)
+        return out
+
+    row = np.zeros(V)
+    for _ in range(V):
+        row = step(row)
+    last = row
+    best = np.full(V, np.inf)
+    row = np.zeros(V)
+    for k in range(V):
+        with np.errstate(invalid="ignore"):
+            best = np.minimum(best, np.where(np.isfinite(row),
+                                             (last - row) / (V - k), np.inf))
+        row = step(row)
+    rates = best[np.isfinite(last) & np.isfinite(best)]
+    return float(min(max(rates.max(), 0.0), 1.0)) if rates.size else 0.0
 
 
 class BurstyDelay:
@@ -806,7 +878,14 @@ def mode_transition(sensor_link: Any, actuator_link: Any) -> np.ndarray:
     return np.kron(T2, T1)
 
 
-def _link_transition(link: float | GilbertElliott) -> np.ndarray:
+def _link_transition(link: float | GilbertElliott | LossAutomaton
+                     ) -> np.ndarray:
+    if isinstance(link, LossAutomaton):
+        from control.exception import ControlArgument
+        raise ControlArgument(
+            f"a loss budget ({link.name}) has no transition probabilities; "
+            f"the loop over it is analysed for every allowed pattern "
+            f"(feedback, then ncs.jsr)")
     if isinstance(link, GilbertElliott):
         return link.transition
     return np.array([[link, 1.0 - link], [link, 1.0 - link]])

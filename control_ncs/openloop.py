@@ -15,6 +15,7 @@ from typing import Any, Mapping
 import numpy as np
 from control.exception import ControlArgument
 
+from .constrained import ConstrainedLoop, Constraint
 from .jump import JumpStateSpace
 from .modes import apply_groups, merge_groups
 
@@ -99,6 +100,15 @@ class JumpPlant:
         ``nmeas``, ``ncon``); :meth:`close` gives the closed loop's
         ``info['sampling']``, which :func:`control_ncs.cost` reads
         (:mod:`control_ncs.intersample` defines the entries).
+    constraint : Constraint, optional
+        A network with a loss budget (:ref:`theory-worst-case`): the
+        budget state and stochastic state of each mode, the moves the
+        budgets allow per phase and the law of the rest. ``probabilities``
+        are then those of each mode's stochastic state given its budget
+        state (rows sum to 1 over the modes of one budget state, not over
+        the phase: the budgets have no probabilities), ``transition`` is
+        None, and :meth:`close` gives a
+        :class:`~control_ncs.ConstrainedLoop`.
 
     Attributes
     ----------
@@ -155,6 +165,7 @@ class JumpPlant:
     Gw: np.ndarray | None = None
     description: Mapping = field(default_factory=dict)
     sampling: Mapping | None = None
+    constraint: Constraint | None = None
 
     _FIELDS = ("A", "Bu", "Bw", "Cz", "Du", "Dw")
 
@@ -222,8 +233,17 @@ class JumpPlant:
         """True for i.i.d. modes.
 
         Synthesis from ``probabilities`` alone (:ref:`theory-synthesis`) is
-        valid only then."""
-        return self.transition is None
+        valid only then (never over a loss budget)."""
+        return self.transition is None and self.constraint is None
+
+    def _refuse_budget(self, what: str) -> None:
+        if self.constraint is not None:
+            raise ControlArgument(
+                f"P: {what} needs the probabilities of every mode, but the "
+                f"network has a loss budget (modes allowed by an automaton, "
+                f"without probabilities); design for every allowed pattern "
+                f"with control_ncs.worst_case_route, analyse the loop with "
+                f"control_ncs.jsr")
 
     @property
     def shape(self) -> dict:
@@ -268,7 +288,9 @@ class JumpPlant:
         s = self.shape
         return (self.period, s["nu"], s["nk"])
 
-    def close(self, gains: np.ndarray, **info: Any) -> JumpStateSpace:
+    # the loop is a JumpStateSpace, or a ConstrainedLoop over a loss budget
+    # (the designs close only plants without one, as JumpStateSpace)
+    def close(self, gains: np.ndarray, **info: Any) -> Any:
         """The closed loop with ``v = K_k E_k ξ`` (a JumpStateSpace).
 
         The gain acts in positive feedback, as it is (``u = K x`` for
@@ -277,20 +299,25 @@ class JumpPlant:
 
         Parameters
         ----------
-        gains : array_like, shape (N, nu, nk)
-            ``K_k`` per phase (:meth:`gain_shape`).
+        gains : array_like, shape (N, nu, nk) or (N, M, nu, nk)
+            ``K_k`` per phase (:meth:`gain_shape`), or ``K_{k,ℓ}`` per phase
+            and previous mode ``ℓ`` (:ref:`theory-markov`).
         **info
             Added to the result's ``info``.
 
         Returns
         -------
-        JumpStateSpace
+        JumpStateSpace or ConstrainedLoop
             Coinciding modes merged; named ``'<name> (closed loop)'`` after
             the plant's ``name``, when the builder recorded it (as
-            :func:`control_ncs.build` does).
+            :func:`control_ncs.build` does). Over a loss budget
+            (:attr:`constraint`): a :class:`~control_ncs.ConstrainedLoop`,
+            its modes unmerged (gains per previous mode: per pair).
         """
         K = np.asarray(gains, float)
         name = None if self.name is None else f"{self.name} (closed loop)"
+        if self.constraint is not None:
+            return self._close_budget(K, name, info)
         if K.ndim == 4 or self.Gw is not None:
             if K.ndim == 3:     # one gain for every previous mode
                 K = np.repeat(K[:, None], self.probabilities.shape[1], 1)
@@ -332,6 +359,38 @@ class JumpPlant:
                               inputs=self.inputs, outputs=self.outputs,
                               states=self.states, name=name,
                               info=self._info(K, info, record))
+
+    def _close_budget(self, K: np.ndarray, name: Any, info: dict
+                      ) -> ConstrainedLoop:
+        """The loop over a loss budget (:ref:`theory-worst-case`): the
+        closed-loop matrices per phase and mode with the plant's
+        constraint; gains per previous mode (or noise that reached the state
+        with the last message) make them depend on pairs ``(ℓ, i)``, whose
+        constraint is :meth:`Constraint.pairs`."""
+        assert self.constraint is not None
+        out = dict(self.info, gains=K, **info)
+        if K.ndim == 4 or self.Gw is not None:
+            if K.ndim == 3:
+                K = np.repeat(K[:, None], self.probabilities.shape[1], 1)
+            A, B, C, D = self._lumped_pairs(K)[:4]
+            N, M = self.probabilities.shape
+            loop = [X.reshape((N, M * M) + X.shape[3:]) for X in (A, B, C, D)]
+            constraint = self.constraint.pairs()
+            out["pair_modes"] = True
+        else:
+            E, Ew = self.readings()
+            F = np.einsum("kuj,kmjx->kmux", K, E)
+            B, D = self.Bw, self.Dw
+            if Ew is not None:
+                Fw = np.einsum("kuj,kmjw->kmuw", K, Ew)
+                B = B + self.Bu @ Fw
+                D = D + self.Du @ Fw
+            loop = [self.A + self.Bu @ F, B, self.Cz + self.Du @ F, D]
+            constraint = self.constraint
+        return ConstrainedLoop(loop[0], loop[1], loop[2], loop[3],
+                               constraint, self.dt,
+                               inputs=self.inputs, outputs=self.outputs,
+                               states=self.states, name=name, info=out)
 
     def _info(self, K: np.ndarray, info: dict, record: dict | None) -> dict:
         out = dict(self.info, gains=K, **info)
@@ -390,7 +449,13 @@ class JumpPlant:
         Returns
         -------
         ndarray
+
+        Raises
+        ------
+        ControlArgument
+            Over a loss budget (no probabilities).
         """
+        self._refuse_budget("transitions()")
         if self.transition is not None:
             return self.transition
         M = self.probabilities.shape[1]
@@ -515,9 +580,10 @@ class JumpPlant:
         JumpPlant
             Same ``E``, fewer modes where modes coincide.
         """
-        if self.transition is not None or self.Gw is not None:
+        if self.transition is not None or self.Gw is not None or \
+                self.constraint is not None:
             # Markov modes are not merged (theory: Markov losses), nor modes
-            # that Gw tells apart as previous modes
+            # that Gw tells apart as previous modes, nor a budget's
             return self
         mats = [getattr(self, f) for f in self._FIELDS]
         per_mode = [X for X in (self.E, self.Ew) if X is not None
@@ -539,7 +605,13 @@ class JumpPlant:
         -------
         A, Bu, Bw, Cz, Du, Dw : ndarray, each shape (N, ., .)
             In the order of the attributes, as :meth:`Modes.mean`.
+
+        Raises
+        ------
+        ControlArgument
+            Over a loss budget (no probabilities, no mean).
         """
+        self._refuse_budget("mean()")
         p = self.probabilities
         return tuple(np.einsum("km,kmij->kij", p, getattr(self, f))
                      for f in self._FIELDS)
@@ -599,5 +671,6 @@ class JumpPlant:
         s = self.shape
         return (f"<JumpPlant: {s['nx']} states, {s['nw']} w, {s['nz']} z, "
                 f"{s['nu']} u, period {self.period}, "
-                f"{self.probabilities.shape[1]} modes, "
+                f"{self.probabilities.shape[1]} modes"
+                f"{'' if self.constraint is None else ' over a loss budget'}, "
                 f"controller={self.controller!r}, actuator={self.actuator!r}>")

@@ -14,7 +14,8 @@ from control.exception import ControlArgument, ControlDimension
 
 from ._checks import discrete_dt, flag, matrix, no_extra_kwargs, real_array
 from .exceptions import ScheduleWarning
-from .network import (BurstyDelay, GilbertElliott, common_period,
+from .automata import LossAutomaton
+from .network import (BurstyDelay, GilbertElliott, budget_loss, common_period,
                       delay_model, link_model,
                       mode_probabilities, mode_transition, schedule,
                       warn_silent_nodes)
@@ -97,10 +98,20 @@ class NetworkedStateSpace(ct.StateSpace):
     sensor_schedule, actuator_schedule : None, index vector or 0/1 matrix
         See :func:`control_ncs.network.schedule`. ``None``: everyone sends at
         every step.
-    sensor_loss, actuator_loss : float in [0, 1], GilbertElliott or 2x2 array
+    sensor_loss, actuator_loss : float in [0, 1], GilbertElliott, 2x2 array or LossAutomaton
         ``α1 = P(θ1 = 0)`` and ``α2 = P(θ2 = 0)`` (paper notation), or a
         bursty link: :func:`control_ncs.gilbert_elliott` or its transition
-        matrix (rows: from lost, from delivered).
+        matrix (rows: from lost, from delivered). Or a loss budget without
+        probabilities (:ref:`theory-worst-case`): a
+        :class:`~control_ncs.LossAutomaton` such as
+        :func:`control_ncs.weakly_hard` or
+        :func:`control_ncs.max_consecutive_losses`, whose allowed patterns
+        count the link's transmissions (a phase that sends nothing takes
+        no step of the budget). The loop over a budget is a
+        :class:`~control_ncs.ConstrainedLoop`, analysed for every allowed
+        pattern by :func:`control_ncs.jsr`. A budget beside a delay on the
+        same link is refused (a budget counts lost transmissions; a delay
+        law delivers them late, by chance).
     shared_channel : bool
         If True, at most one message crosses the network per step: no phase
         may schedule a sensor and an actuator together (paper §2).
@@ -142,8 +153,12 @@ class NetworkedStateSpace(ct.StateSpace):
         Both written over the common ``period``.
     sensor_loss, actuator_loss : float
         Loss probabilities ``α1`` and ``α2`` of each link (stationary ones
-        for a bursty link; a delay law's own loss included).
-    sensor_link, actuator_link : float or GilbertElliott
+        for a bursty link; a delay law's own loss included). For a loss
+        budget: not a probability, the largest long-run fraction of the
+        link's transmissions the budget allows to be lost (the maximum
+        cycle mean of its losses, ``misses / window`` for
+        ``weakly_hard(misses, window)``).
+    sensor_link, actuator_link : float, GilbertElliott or LossAutomaton
         The loss models as given (a matrix becomes a GilbertElliott).
     shared_channel : bool
         Whether at most one message crosses the network per step.
@@ -228,7 +243,8 @@ class NetworkedStateSpace(ct.StateSpace):
         self.sensor_link = link_model(sensor_loss, "sensor_loss")
         self.actuator_link = link_model(actuator_loss, "actuator_loss")
         self.sensor_loss, self.actuator_loss = (
-            x.loss if isinstance(x, GilbertElliott) else x
+            x.loss if isinstance(x, GilbertElliott) else
+            budget_loss(x) if isinstance(x, LossAutomaton) else x
             for x in (self.sensor_link, self.actuator_link))
         self.shared_channel = flag(shared_channel, "shared_channel")
         if input_delay is not None and not isinstance(input_delay,
@@ -282,6 +298,13 @@ class NetworkedStateSpace(ct.StateSpace):
             if delay is None:
                 continue
             link = getattr(self, f"{side}_link")
+            if isinstance(link, LossAutomaton):
+                raise ControlArgument(
+                    f"{side}_loss: a loss budget beside a delay on the same "
+                    f"link has no model here: the budget counts lost "
+                    f"transmissions, the delay law delivers packets late by "
+                    f"chance (is a late packet lost for the budget?); give "
+                    f"the {side} link either the budget or the delay")
             if isinstance(link, GilbertElliott):
                 raise ControlArgument(
                     f"{side}_loss: a bursty (Gilbert–Elliott) loss on a "
@@ -377,13 +400,28 @@ class NetworkedStateSpace(ct.StateSpace):
         >>> P.mode_probabilities()[(1, 1)]
         0.5
         """
+        self._refuse_budget("mode_probabilities()")
         return mode_probabilities(self.sensor_loss, self.actuator_loss)
 
     @property
     def is_iid(self) -> bool:
-        """True when both links lose packets i.i.d. (Bernoulli)."""
-        return all(not isinstance(x, GilbertElliott) or x.is_bernoulli
+        """True when both links lose packets i.i.d. (Bernoulli).
+
+        False over a loss budget: its patterns have no probabilities."""
+        return all(not isinstance(x, (GilbertElliott, LossAutomaton))
+                   or (isinstance(x, GilbertElliott) and x.is_bernoulli)
                    for x in (self.sensor_link, self.actuator_link))
+
+    def _refuse_budget(self, what: str) -> None:
+        """Raise ``ControlArgument`` for a probability asked of a budget."""
+        for side in ("sensor", "actuator"):
+            link = getattr(self, f"{side}_link")
+            if isinstance(link, LossAutomaton):
+                raise ControlArgument(
+                    f"P: {what} needs probabilities, but the {side} link is a "
+                    f"loss budget ({link.name}) without any; close the loop "
+                    f"(feedback) and analyse it for every allowed pattern "
+                    f"with ncs.jsr")
 
     def mode_transition(self) -> np.ndarray | None:
         """Transition matrix of the four network modes, or None.
@@ -406,6 +444,7 @@ class NetworkedStateSpace(ct.StateSpace):
         >>> P.mode_transition()[3].round(3).tolist()
         [0.0, 0.1, 0.0, 0.9]
         """
+        self._refuse_budget("mode_transition()")
         if self.is_iid:
             return None
         return mode_transition(self.sensor_link, self.actuator_link)
@@ -555,10 +594,17 @@ class NetworkedStateSpace(ct.StateSpace):
         return lines
 
     def _bursts(self) -> str:
-        return "".join(f", {what} bursts {x.burst:.4g}"
-                       for what, x in (("sensor", self.sensor_link),
-                                       ("actuator", self.actuator_link))
-                       if isinstance(x, GilbertElliott) and not x.is_bernoulli)
+        """The links' bursts and budgets, for ``repr`` and ``str`` (a
+        budget's α is the largest long-run loss fraction it allows)."""
+        out = []
+        for i, what, x in ((1, "sensor", self.sensor_link),
+                           (2, "actuator", self.actuator_link)):
+            if isinstance(x, GilbertElliott) and not x.is_bernoulli:
+                out.append(f", {what} bursts {x.burst:.4g}")
+            elif isinstance(x, LossAutomaton):
+                out.append(f", {what} budget '{x.name}' (α{i}: its worst "
+                           f"long-run loss)")
+        return "".join(out)
 
     def __str__(self) -> str:
         s1 = self.sensor_schedule.pattern.astype(int).tolist()

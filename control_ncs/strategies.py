@@ -25,7 +25,9 @@ from control.exception import ControlArgument, ControlDimension
 from ._checks import choice, positive_int, real_array
 from ._lifting import check_lifted_size
 from .gain import ACTUATORS, CONTROLLERS
-from .links import LinkChain, link_chain, product, timing_chain
+from .automata import LossAutomaton
+from .constrained import Constraint
+from .links import LinkChain, constraint, link_chain, product, timing_chain
 from .modes import periodic_stationary
 from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
@@ -57,6 +59,11 @@ class Network:
         Per mode: sensor age, actuator age, delay index (0 without one).
     previous : ndarray of int, shape (N, M), or None
         The sensor age the step before (pairs only).
+    constraint : Constraint or None
+        With a loss budget among the links: the budget state and the
+        stochastic state of each mode, the moves the budgets allow and the
+        law of the rest (:ref:`theory-worst-case`); ``transition`` then
+        mixes 0/1 moves with probabilities and is not a law.
     """
 
     sensor: LinkChain
@@ -65,6 +72,7 @@ class Network:
     transition: np.ndarray
     emissions: np.ndarray
     previous: np.ndarray | None
+    constraint: Constraint | None = None
 
     @property
     def count(self) -> int:
@@ -74,7 +82,13 @@ class Network:
     def law(self) -> tuple[np.ndarray, np.ndarray | None]:
         """``(probabilities, transition)``: i.i.d. modes when every row of
         every phase is the same (transition None), else the periodic
-        stationary marginals and the chain."""
+        stationary marginals and the chain. Over a loss budget: the
+        probability of each mode's stochastic state given its budget state
+        (rows sum to 1 over the modes of one budget state), and no
+        transition (:attr:`constraint` holds the rest)."""
+        if self.constraint is not None:
+            c = self.constraint
+            return np.array([c.weights(k) for k in range(c.period)]), None
         T = self.transition
         if np.all(T == T[:, :1, :]):
             return np.roll(T[:, 0, :], 1, axis=0), None
@@ -95,8 +109,13 @@ class Network:
         """What the controller knows of the previous mode, per phase: equal
         labels for modes whose emissions (ages the controller reads or is
         told through acknowledgements) are equal; the sub-sample delay is
-        never seen."""
+        never seen. A budget's state is known when its automaton is
+        deterministic (the controller follows it from the outcomes)."""
         em = self.emissions[:, :, :2]
+        c = self.constraint
+        if c is not None and c.known:
+            em = np.concatenate([em, np.broadcast_to(
+                c.state[None, :, None], em.shape[:2] + (1,))], axis=2)
         if self.previous is not None:
             em = np.concatenate([em, self.previous[:, :, None]], axis=2)
         em = np.roll(em, 1, axis=0)                 # [k] = the mode at k - 1
@@ -137,7 +156,8 @@ def network(P: NetworkedStateSpace, controller: str, N: int) -> Network:
         previous = previous[:, np.arange(T.shape[1]) % sensor.size]
     if timing is None:
         em = np.concatenate([em, np.zeros(em.shape[:2] + (1,), int)], axis=2)
-    return Network(sensor, actuator, timing, T, em, previous)
+    return Network(sensor, actuator, timing, T, em, previous,
+                   constraint(chains))
 
 
 # -- the loop state ---------------------------------------------------------------
@@ -610,7 +630,8 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
         transition=T, nominal=net.nominal(), inputs=P.disturbance_labels,
         outputs=P.performance_labels, states=_state_names(P, layout, ctx),
         name=P.name, controller=controller, actuator=actuator,
-        observed=None if T is None else net.observed(),
+        observed=None if T is None and net.constraint is None
+        else net.observed(), constraint=net.constraint,
         estimator_gain=options.get("L"), Ew=Ew, Gw=Gw,
         description=description, sampling=sampling)
 
@@ -710,6 +731,12 @@ def _description(P: NetworkedStateSpace, net: Network) -> dict:
                      plant_period=P.period)
     if net.transition is not None:
         out.update(sensor_link=P.sensor_link, actuator_link=P.actuator_link)
+    if net.constraint is not None:
+        budgets = [(side, getattr(P, f"{side}_link").name)
+                   for side in ("sensor", "actuator")
+                   if isinstance(getattr(P, f"{side}_link"), LossAutomaton)]
+        out["budget"] = budgets[0][1] if len(budgets) == 1 else ", ".join(
+            f"{side}: {name}" for side, name in budgets)
     for side in ("sensor", "actuator"):
         if getattr(P, f"{side}_delay") is not None:
             out[f"{side}_delay"] = getattr(P, f"{side}_delay")

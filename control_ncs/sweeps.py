@@ -34,6 +34,8 @@ from .plant import NetworkedStateSpace
 from ._checks import (choice, decay_bound, finite_real, flag,
                       positive_int)
 from ._map_grid import loss, map_cells
+from .budgets import budget_cell, budget_plant
+from .strategies import build
 from ._sweep_cells import design_cells, perform
 from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
@@ -129,6 +131,11 @@ class DesignMap:
         The certified figure of each cell: ``eta`` for ``'eta'``, the
         designed loop's exact H2 norm for ``'h2'``, its certified ℓ2-gain
         bound for ``'hinf'`` (NaN where none).
+    worst_case : bool
+        True for a map over a loss budget's (misses, window): each figure
+        is certified for every allowed pattern
+        (:func:`control_ncs.worst_case_route`), and ``ms_radius`` holds
+        the squared certified decay rate of every pattern.
 
     Examples
     --------
@@ -152,6 +159,7 @@ class DesignMap:
     elapsed: float = 0.0
     objective: str = "eta"
     value: np.ndarray | None = None
+    worst_case: bool = False
 
     def __post_init__(self) -> None:
         if self.value is None:
@@ -171,14 +179,19 @@ class DesignMap:
 
     def summary(self) -> str:
         """A few lines for humans: the grid, the counts, the best cell."""
+        what = _MAP_OBJECTIVES[self.objective]
+        if self.worst_case:
+            what = {"eta": "certified worst-case η",
+                    "hinf": "certified worst-case ℓ2 gain"}[
+                        self.objective] + \
+                " for every allowed pattern (worst_case_route)"
         lines = [repr(self),
                  f"  {self.axes[0]}: {np.round(self.values[0], 6).tolist()}",
                  f"  {self.axes[1]}: {np.round(self.values[1], 6).tolist()}",
                  (f"  eta={'max' if self.eta_requested is None else self.eta_requested}"
                   f", decay={self.decay}, elapsed {self.elapsed:.3g} s"
-                  if self.objective == "eta" else
-                  f"  {_MAP_OBJECTIVES[self.objective]}, elapsed "
-                  f"{self.elapsed:.3g} s")]
+                  if self.objective == "eta" and not self.worst_case else
+                  f"  {what}, elapsed {self.elapsed:.3g} s")]
         reasons, counts = np.unique(self.reason.astype(str), return_counts=True)
         lines.append("  verdicts: " + ", ".join(
             f"{r} {c}" for r, c in zip(reasons, counts)))
@@ -187,10 +200,13 @@ class DesignMap:
             best = np.nanargmax(value) if self.objective == "eta" \
                 else np.nanargmin(value)
             i, j = np.unravel_index(best, self.shape)
+            rate = (f"worst-case rate {np.sqrt(self.ms_radius[i, j]):.6g}"
+                    if self.worst_case else
+                    f"ms_radius {self.ms_radius[i, j]:.6g}")
             lines.append(f"  best {self.objective} = {value[i, j]:.6g} at "
                          f"{self.axes[0]} = {self.values[0][i]:g}, "
                          f"{self.axes[1]} = {self.values[1][j]:g} "
-                         f"(ms_radius {self.ms_radius[i, j]:.6g})")
+                         f"({rate})")
         return "\n".join(lines)
 
     def to_pandas(self) -> Any:
@@ -249,7 +265,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
                progress: bool | None = None, method: str = "auto",
                objective: str = "eta", sensor_burst: Any = None,
                actuator_burst: Any = None,
-               sensor_delay: Any = None) -> DesignMap:
+               sensor_delay: Any = None, sensor_budget: Any = None,
+               actuator_budget: Any = None) -> DesignMap:
     """Verified synthesis over a grid of loss probabilities.
 
     Cell ``[i, j]`` is ``passivesyn(P.with_network(sensor_loss=a1[i],
@@ -273,7 +290,12 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     laws (pmfs or :func:`control_ncs.random_delay` links), the axes are the
     sensor link's loss and its delay law, valued by its mean delay (of a
     delivered packet): cell ``[i, j]`` is law ``j`` scaled to the loss
-    ``a[i]`` (its shape and buffer kept).
+    ``a[i]`` (its shape and buffer kept). With ``actuator_budget`` (or
+    ``sensor_budget``), ``(misses, window)`` grids, the axes are a loss
+    budget's: cell ``[i, j]`` gives the link ``weakly_hard(misses[i],
+    window[j])`` (every pattern when ``misses >= window``) and is designed
+    for every allowed pattern by :func:`control_ncs.worst_case_route`
+    (:ref:`theory-worst-case`).
 
     Parameters
     ----------
@@ -320,6 +342,18 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         A grid of delay laws of the sensor link: the map's second axis (the
         actuator's loss grid must then have one value). Designs over
         delayed links are local searches on exact figures.
+    sensor_budget, actuator_budget : (sequence of int, sequence of int), optional
+        Grids of losses allowed and of window lengths of one link's
+        weakly-hard budget: the map's two axes (the other link must be
+        perfect, the budget link's own loss grid left out). Each cell is
+        :func:`control_ncs.worst_case_route` on the cell's
+        ``build(P)``: ``objective='eta'`` maximises the worst-case
+        passivity level (at least ``eta`` when given), ``'hinf'`` minimises
+        the worst-case ℓ2 gain; ``decay`` bounds the decay rate of every
+        pattern (``jsr < decay``); ``ms_radius`` holds the squared
+        certified rate (the same scale). Static state feedback with a zero
+        actuator only; ``'h2'`` is refused (an average over patterns has
+        no meaning without probabilities).
 
     Returns
     -------
@@ -363,9 +397,12 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     """
     objective = choice(objective, "objective", _MAP_OBJECTIVES)
     P = _plant(P, passivity=objective == "eta")
+    budgets = {link: grid for link, grid in (("sensor", sensor_budget),
+                                             ("actuator", actuator_budget))
+               if grid is not None}
     axes, (a1, a2), cells = map_cells(P, sensor_loss, actuator_loss,
                                       sensor_burst, actuator_burst,
-                                      sensor_delay)
+                                      sensor_delay, budgets)
     eta = finite_real(eta, "eta", allow_none=True)
     decay = None if decay is None else decay_bound(decay)
     controller = choice(controller, "controller", _CONTROLLERS)
@@ -380,10 +417,14 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
             "P: a memoryless (static) gain never closes this loop: no phase "
             "schedules a sensor and an actuator together (theory: static-gain loop). Use "
             "controller='predictor'.")
-    if objective != "eta":
-        _performance_options(objective, eta, decay, method)
     start = time.perf_counter()
     shape = (a1.size, a2.size)
+    if budgets:
+        return _budget_map(cells, axes, (a1, a2), objective, eta, decay,
+                           controller, actuator, method, executor, progress,
+                           start)
+    if objective != "eta":
+        _performance_options(objective, eta, decay, method)
     if objective != "eta":
         out = run_tasks(perform, [(c, objective, controller, actuator)
                                    for c in cells], executor, progress,
@@ -417,6 +458,53 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         feasible=np.array([r[2] for r in out], dtype=bool).reshape(shape),
         reason=reason, eta_requested=eta, decay=decay, controller=controller,
         actuator=actuator, elapsed=time.perf_counter() - start)
+
+
+def _budget_map(cells: list, axes: tuple, values: tuple, objective: str,
+                eta: float | None, decay: float | None, controller: str,
+                actuator: str, method: str, executor: Executor | None,
+                progress: bool, start: float) -> DesignMap:
+    """A map over a loss budget's (misses, window): one
+    :func:`control_ncs.worst_case_route` per cell, its options checked
+    before the first cell runs."""
+    (link, other) = ("sensor", "actuator") if axes[0].startswith(
+        "sensor") else ("actuator", "sensor")
+    if objective == "h2":
+        raise ControlArgument(
+            f"objective: an H2 norm is an average over the loss patterns; "
+            f"a {link}_budget has no probabilities to average with. Use "
+            f"objective='hinf' (the worst-case l2 gain) or 'eta'")
+    if controller != "static" or actuator != "zero":
+        raise ControlArgument(
+            f"controller, actuator: over a {link}_budget each cell designs "
+            f"a static state-feedback gain with a zero actuator, got "
+            f"controller={controller!r}, actuator={actuator!r}")
+    if method != "auto":
+        raise ControlArgument(
+            f"method: over a {link}_budget each cell is one convex program "
+            f"on the graph of budget states (worst_case_route); it takes no "
+            f"method, got {method!r}")
+    if getattr(cells[0], f"{other}_loss") != 0.0 or             getattr(cells[0], f"{other}_delay") is not None:
+        raise ControlArgument(
+            f"{other}_loss: over a {link}_budget the {other} link must be "
+            f"perfect (the route designs for a network the budget alone "
+            f"decides)")
+    budget_plant(build(cells[0]))     # what the route refuses, said once
+    rate = 1.0 if decay is None else decay
+    out = run_tasks(budget_cell, [(c, objective, eta, rate) for c in cells],
+                    executor, progress, "design_map")
+    shape = (values[0].size, values[1].size)
+    reason = np.empty(shape, dtype=object)
+    reason.ravel()[:] = [r[3] for r in out]
+    value = np.array([r[0] for r in out], float).reshape(shape)
+    return DesignMap(
+        axes=axes, values=values,
+        eta=value if objective == "eta" else np.full(shape, math.nan),
+        ms_radius=np.array([r[1] for r in out], float).reshape(shape),
+        feasible=np.array([r[2] for r in out], dtype=bool).reshape(shape),
+        reason=reason, eta_requested=eta, decay=decay, controller=controller,
+        actuator=actuator, elapsed=time.perf_counter() - start,
+        objective=objective, value=value, worst_case=True)
 
 
 def _performance_options(objective: str, eta: Any, decay: Any,

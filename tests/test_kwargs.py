@@ -129,6 +129,11 @@ CALLS = {
         ncs.ConstrainedPlant.lossy(1.5, 1.0, 1.0, 1.0, 0.0, 1.0,
                                    [(0, 0, 1), (0, 1, 0), (1, 0, 1)]),
         cycle_length=2, **kw),
+    "worst_case_route": lambda **kw: ncs.worst_case_route(
+        ncs.build(ncs.nss([[1.5]], [[1.0, 1.0]], [[1.0], [1.0]],
+                          [[0.0, 0.0], [0.0, 0.0]], nmeas=1, ncon=1,
+                          actuator_loss=ncs.max_consecutive_losses(1))),
+        cycle_length=2, **kw),
 }
 
 #: not a keyword funnel: the gain's info travels to the closed loop

@@ -25,6 +25,7 @@ EXPECTED = [
     "10_performance_beyond_passivity.ipynb",
     "11_estimation_over_lossy_links.ipynb",
     "12_what_jitter_costs.ipynb",
+    "13_deadline_misses.ipynb",
 ]
 
 

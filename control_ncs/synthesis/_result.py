@@ -214,8 +214,16 @@ class DesignResult(Result):
                "riccati": "a Riccati iteration",
                "local": "a local search (a local optimum)"}[self.route]
         name = FIGURES[self.spec]
-        text = (f"{MESSAGES[self.status]} ({name} = {self.value:.6g}, "
-                f"ms_radius = {self.ms_radius:.6g}); found by {how}")
+        radius = (f", ms_radius = {self.ms_radius:.6g}"
+                  if math.isfinite(self.ms_radius) else "")
+        said = MESSAGES[self.status]
+        if not math.isfinite(self.ms_radius):
+            # a loss budget: no probabilities, the verdict is for every
+            # allowed pattern
+            said = said.replace("mean-square stable",
+                                "stable under every allowed loss pattern")
+        text = (f"{said} ({name} = {self.value:.6g}{radius}); found by "
+                f"{how}")
         if self.spec == "passivity" and not self.passive:
             text += f"; the loop is not passive ({SHORTAGE_HELP})"
         return text

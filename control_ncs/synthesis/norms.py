@@ -26,6 +26,7 @@ from control.exception import ControlArgument, ControlDimension
 from .._checks import choice, decay_bound, positive_real
 from ._h2 import H2Objective, local_h2
 from ._hinf import GainObjective
+from ._budget import budget_design
 from ._result import Design
 from ._local import bfgs
 from ..exceptions import (NOT_FOUND, NOT_MSS, SOLVER_FAILED,
@@ -292,6 +293,7 @@ class Plan:
     margin: float
     estimator_gain: Any
     decay: float = 1.0
+    budget: bool = False     # a loss budget: the worst-case route
 
 
 def _plan(P: Any, controller: str, actuator: str, solver: str | None,
@@ -317,6 +319,16 @@ def _plan(P: Any, controller: str, actuator: str, solver: str | None,
         raise ControlArgument("estimator_gain: only with "
                               "controller='estimator'")
     plant = build(P, controller, actuator, estimator_gain=L)
+    if plant.constraint is not None:
+        if who == "h2syn":
+            raise ControlArgument(
+                "P: a link is a loss budget (an automaton of allowed "
+                "patterns, no probabilities): an H2 norm averages over the "
+                "patterns and has no worst case; design for every allowed "
+                "pattern with hinfsyn or passivesyn, or analyse with "
+                "ncs.jsr")
+        return Plan(plant, plant, False, controller, actuator, time_limit,
+                    name, checked_margin, L, r, budget=True)
     # a plant sampled from a continuous one: h2syn minimises the cost
     # between the samples (theory: intersample cost); hinfsyn the l2 gain
     # at the samples
@@ -571,6 +583,10 @@ def hinfsyn(P: NetworkedStateSpace, *, decay: float | None = None,
     """
     plan = _plan(P, controller, actuator, solver, margin, solver_options,
                  estimator_gain, initial_gain, time_limit, "hinfsyn", decay)
+    if plan.budget:
+        return budget_design(plan.plant, "hinf", decay=plan.decay,
+                             solver=solver,
+                             solver_options=solver_options).finish()
     if plan.local:
         return _local_design(P, plan, initial_gain, "hinfsyn").finish()
     model = hinf_model(_decayed(plan.plant, plan.decay), plan.margin)

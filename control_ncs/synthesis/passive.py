@@ -36,6 +36,7 @@ from ..strategies import build, require_state_measured
 from ..exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, SynthesisError)
 from ..verify import (level_floor)
 from .._lifting import unseen_modes
+from ._budget import budget_design
 from ._result import SHORTAGE_HELP, Design, DesignResult
 from ._routes import (_feedthrough, _open_loop_bound, _plant_arrays,
                                 _refine_route, _riccati_options, _routes)
@@ -397,6 +398,15 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         P, controller, actuator, method, initial_gain, estimator_gain, margin,
         time_limit)
     plant = _open_loop(P, controller, actuator, estimator_gain, decay, solver)
+    if plant.constraint is not None:
+        # a loss budget: certified for every allowed pattern
+        design = budget_design(plant, "passivity",
+                               eta=finite_real(eta, "eta", allow_none=True),
+                               decay=decay_bound(decay), solver=solver,
+                               solver_options=dict(solver_options))
+        if eta is None:
+            _warn_shortage(design.value, "stable under every allowed pattern")
+        return design.finish()
     plan = _plan(P, plant, eta, decay, controller, actuator, form, structure,
                  gain, solver, method, dict(solver_options), initial_gain)
     return _stated(_run(plant, plan, margin, deadline, initial_gain), plan)
@@ -620,15 +630,19 @@ def _stated(design: Design, plan: Plan) -> tuple:
     design = design.with_fields(note=note, exact=bool(
         plan.exact and f["method"] in ("lmi", "riccati")
         and f["structure"] == "full"))
-    got = design.value
-    if plan.requested is None and got < 0.0:
-        # the best certified level is a shortage: true, but not passivity
+    if plan.requested is None:
+        _warn_shortage(design.value, "mean-square stable")
+    return design.finish()
+
+
+def _warn_shortage(got: float, stable: str) -> None:
+    """A negative best level is a shortage: true, but not passivity."""
+    if got < 0.0:
         warnings.warn(NotPassiveWarning(
             f"passivesyn: the certified level eta = {got:.6g} is negative: "
-            f"the loop is mean-square stable and dissipative with an "
+            f"the loop is {stable} and dissipative with an "
             f"input-feedforward shortage, not passive; {SHORTAGE_HELP}"),
             stacklevel=caller_stacklevel())
-    return design.finish()
 
 
 def _estimator_plant(P: NetworkedStateSpace, actuator: str, L: Any,
