@@ -15,7 +15,7 @@ reference simulator (``protocol``) export nothing here.
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from . import (automata, budgets, connect, constrained, critical,
+from . import (automata, budgets, connect, constrained, critical, delays,
                estimation, estimator, exceptions, gain, intersample,
                joint_spectral, jump, loop, lq, meancov, modes,
                network, openloop, passivity, performance, plant, plots,
@@ -27,6 +27,7 @@ from .budgets import *  # noqa: F403
 from .constrained import *  # noqa: F403
 from .connect import *  # noqa: F403
 from .critical import *  # noqa: F403
+from .delays import *  # noqa: F403
 from .estimation import *  # noqa: F403
 from .estimator import *  # noqa: F403
 from .exceptions import *  # noqa: F403
@@ -55,7 +56,7 @@ from .worstcase import *  # noqa: F403
 from .worstcase_synthesis import *  # noqa: F403
 
 __all__ = [name for module in (
-    network, modes, jump, openloop, plant, gain, strategies, loop, stability,
+    network, delays, modes, jump, openloop, plant, gain, strategies, loop, stability,
     meancov, exceptions, verify, passivity, performance, lq, synthesis,
     estimator, responses, plots,
     connect, sweeps, critical, automata, joint_spectral, switching,

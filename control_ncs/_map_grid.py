@@ -20,7 +20,8 @@ from control.exception import ControlArgument
 
 from ._checks import finite_real
 from .automata import LossAutomaton, weakly_hard
-from .network import GilbertElliott, RandomDelay, gilbert_elliott, random_delay
+from .delays import RandomDelay, random_delay
+from .network import GilbertElliott, gilbert_elliott
 from .plant import NetworkedStateSpace
 
 __all__: list[str] = []

@@ -24,7 +24,8 @@ from .lq import critical_control_arrival
 from .performance import l2_gain, norm
 from .synthesis import h2syn, hinfsyn
 from ._map_grid import at_loss
-from .network import BurstyDelay, GilbertElliott
+from .delays import BurstyDelay
+from .network import GilbertElliott
 from .plant import NetworkedStateSpace
 from .stability import ms_radius
 from .loop import feedback

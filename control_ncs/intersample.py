@@ -68,8 +68,8 @@ from ._checks import choice, positive_real
 from ._results import Result
 from .jump import JumpStateSpace, as_jump
 from .plant import input_delay_sampling
-from .stability import (_forcing, _stationary, ms_radius, output_power,
-                        second_moment_operator)
+from .stability import (ms_radius, output_power, phase_forcing,
+                        second_moment_operator, stationary_covariances)
 
 __all__ = ["cost", "CostResult"]
 
@@ -423,7 +423,9 @@ def cost(sys: Any, *, method: str = "auto", tol: float = 1e-12) -> CostResult:
     ValueError
         If ``D11 ≠ 0`` (white noise straight into ``z`` has infinite
         power), or a noise is both continuous (a column of ``B1``) and
-        discrete (a column of ``D21``).
+        discrete (a column of ``D21``); or the loop's mean-square radius
+        is below 1 but its certified bracket still contains 1 (undecided:
+        no steady state is proven).
     ControlArgument
         Unknown ``method``.
 
@@ -593,15 +595,19 @@ def _root(cov: np.ndarray) -> np.ndarray:
 
 def _solve(sys: JumpStateSpace, method: str, tol: float
            ) -> tuple[np.ndarray, float]:
-    """The stationary second moment and its residual over one period."""
-    Q = _stationary(sys, method, tol)
+    """The stationary second moment and its residual over one period
+    (ValueError if the radius' certified bracket contains 1)."""
+    Q = stationary_covariances(sys, method=method, tol=tol)
+    modes = sys.modes
     N = sys.period
     shape = Q.shape[1:]
     scale = max(float(np.abs(Q).max()), np.finfo(float).tiny)
     residual = 0.0
     for k in range(N):
         step = second_moment_operator(sys, k).matvec(Q[k].ravel())
-        step = step.reshape(shape) + _forcing(sys, k)
+        T = None if modes.is_iid else modes.transitions()[k]
+        step = step.reshape(shape) + phase_forcing(
+            modes.B[k], modes.probabilities[k], T)
         residual = max(residual,
                        float(np.abs(step - Q[(k + 1) % N]).max()) / scale)
     return Q, residual

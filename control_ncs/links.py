@@ -34,7 +34,8 @@ from control.exception import ControlArgument
 from .automata import LossAutomaton
 from .constrained import Constraint
 from .modes import age_chain, periodic_stationary
-from .network import BurstyDelay, GilbertElliott, RandomDelay
+from .delays import BurstyDelay, RandomDelay
+from .network import GilbertElliott
 
 __all__: list[str] = []
 

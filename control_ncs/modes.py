@@ -21,6 +21,8 @@ from typing import Any, Sequence
 
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from ._checks import real_array
 
@@ -263,6 +265,99 @@ def merge_groups(mats: Sequence[np.ndarray], p: np.ndarray,
                                   if nominal[k] in grp)
         groups.append(phase)
     return groups, None if nominal is None else new_nominal
+
+
+def markov_classes(mats: Sequence[np.ndarray], T: np.ndarray,
+                   decimals: int = 12) -> list[np.ndarray]:
+    """The coarsest exact lumping of a periodic chain's modes: per phase
+    ``k``, the class of each mode (an int array of length M, classes
+    numbered from 0 by first member).
+
+    Two modes of a phase share a class when their matrices (every
+    ``X[k, i]`` of ``mats``) coincide exactly and they move into every
+    class of the next phase with the same probability (strong
+    lumpability, :ref:`theory-markov`). The second moments summed over a
+    class then follow the lumped chain: the state process is the same,
+    so every mean, moment and mean-square figure is unchanged. The
+    partition is refined from the matrices' classes until no class
+    splits; probabilities equal to ``decimals`` places are equal (sums in
+    another order).
+    """
+    N, M = T.shape[:2]
+    labels = []
+    for k in range(N):
+        index: dict = {}
+        keys = [b"".join(np.ascontiguousarray(X[k, i]).tobytes()
+                         for X in mats) for i in range(M)]
+        labels.append(np.array([index.setdefault(key, len(index))
+                                for key in keys]))
+    counts = [int(lab.max()) + 1 for lab in labels]
+    while True:
+        new = []
+        for k in range(N):
+            nxt = labels[(k + 1) % N]
+            into = np.zeros((M, int(nxt.max()) + 1))
+            np.add.at(into.T, nxt, T[k].T)          # mass into each class
+            sig = np.column_stack([labels[k], np.round(into, decimals)])
+            _, first, lab = np.unique(sig, axis=0, return_index=True,
+                                      return_inverse=True)
+            # number classes by their first member: stable, readable
+            order = np.argsort(np.argsort(first))
+            new.append(order[lab.ravel()])
+        labels = new
+        now = [int(lab.max()) + 1 for lab in labels]
+        if now == counts:
+            return labels
+        counts = now
+
+
+def lump_markov(mats: Sequence[np.ndarray], T: np.ndarray, p: np.ndarray,
+                labels: list[np.ndarray]
+                ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """The lumped chain of :func:`markov_classes`: matrices of each class's
+    first member, its transitions into classes and the classes'
+    marginals. Phases with fewer classes repeat their first class as a
+    copy no mode moves into (probability 0)."""
+    N = T.shape[0]
+    G = max(int(lab.max()) + 1 for lab in labels)
+    first = []
+    for lab in labels:
+        _, f = np.unique(lab, return_index=True)
+        first.append(np.concatenate([f, np.full(G - f.size, f[0])]))
+    out = [np.stack([X[k, first[k]] for k in range(N)]) for X in mats]
+    TL = np.zeros((N, G, G))
+    prob = np.zeros((N, G))
+    for k in range(N):
+        nxt = labels[(k + 1) % N]
+        rows = T[k, first[k]]
+        np.add.at(TL[k].T, nxt, rows.T)
+        np.add.at(prob[k], labels[k], p[k])
+    return out, TL, prob
+
+
+def join_labels(observed: np.ndarray, labels: list[np.ndarray]
+                ) -> np.ndarray:
+    """What a controller knows of the previous lumped mode: ``observed[k,
+    i]`` labels the mode ``i`` of phase ``k - 1``; a class of
+    :func:`markov_classes` holding modes of several labels joins them (the
+    coarsest labels constant on every class), per lumped class, padded
+    like :func:`lump_markov`."""
+    N = observed.shape[0]
+    G = max(int(lab.max()) + 1 for lab in labels)
+    out = np.zeros((N, G), int)
+    for k in range(N):
+        lab = labels[(k - 1) % N]
+        # classes and labels as one graph, an edge per mode: its
+        # components are the joined labels
+        C = int(lab.max()) + 1
+        _, o = np.unique(observed[k], return_inverse=True)
+        graph = coo_matrix((np.ones(lab.size), (lab, C + o.ravel())),
+                           shape=(C + o.max() + 1,) * 2)
+        comp = connected_components(graph, directed=False)[1][:C]
+        joined = np.unique(comp, return_inverse=True)[1].ravel()
+        out[k, :C] = joined
+        out[k, C:] = joined[0]
+    return out
 
 
 def apply_groups(mats: Sequence[np.ndarray], p: np.ndarray, groups: list

@@ -15,8 +15,8 @@ from control.exception import ControlArgument, ControlDimension
 from ._checks import discrete_dt, flag, matrix, no_extra_kwargs, real_array
 from .exceptions import ScheduleWarning
 from .automata import LossAutomaton
-from .network import (BurstyDelay, GilbertElliott, budget_loss, common_period,
-                      delay_model, link_model,
+from .delays import BurstyDelay, delay_model
+from .network import (GilbertElliott, budget_loss, common_period, link_model,
                       mode_probabilities, mode_transition, schedule,
                       warn_silent_nodes)
 

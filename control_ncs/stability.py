@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, ClassVar, Literal, overload
 
 import numpy as np
-from scipy.linalg import (LinAlgWarning, lu_factor, lu_solve,
+from scipy.linalg import (LinAlgWarning, lu_factor, lu_solve, matrix_balance,
                           solve_discrete_lyapunov)
 from scipy.sparse.linalg import (ArpackError, ArpackNoConvergence,
                                   LinearOperator, eigs, gmres)
@@ -573,7 +573,51 @@ def _arpack_estimate(sys: JumpStateSpace, apply: Callable[[np.ndarray],
 
 
 def _bracket(sys: JumpStateSpace, method: str, tol: float) -> RadiusBracket:
-    """:func:`ms_radius` with ``bracket=True``, on checked arguments."""
+    """:func:`ms_radius` with ``bracket=True``, on checked arguments.
+
+    A bracket rounding leaves wide (a badly scaled state: entries of
+    ``1e5`` beside ``1e-7``) is computed again in the coordinates
+    ``ξ = diag(t) ξ̃`` that balance ``Σ |A|`` (powers of two: exact both
+    ways, the same radius); its certificate is mapped back,
+    ``X = diag(t) X̃ diag(t)``."""
+    first = _bracket_once(sys, method, tol)
+    if first.width <= _BALANCE_WIDTH:
+        return first
+    t = _balancing(sys)
+    if t is None:
+        return first
+    A, B, C = sys.modes.A, sys.modes.B, sys.modes.C
+    modes = sys.modes
+    law: dict = (dict(transition=modes.transition) if not modes.is_iid else {})
+    scaled = JumpStateSpace(A * t[None, :] / t[:, None], B / t[:, None],
+                            C * t[None, :], modes.D,
+                            None if law else modes.probabilities, sys.dt,
+                            **law)
+    again = _bracket_once(scaled, method, tol)
+    if again.width >= first.width:
+        return first
+    X = again.certificate
+    if X is not None:
+        X = X * t[:, None] * t[None, :]
+    return RadiusBracket(again.radius, again.lower, again.upper, again.route,
+                         X, first.probes + again.probes)
+
+
+#: Relative bracket width beyond which :func:`_bracket` balances the state.
+_BALANCE_WIDTH = 1e-3
+
+
+def _balancing(sys: JumpStateSpace) -> np.ndarray | None:
+    """The state scaling of :func:`scipy.linalg.matrix_balance` on
+    ``Σ |A_ki|`` (powers of two), or None when it is the identity."""
+    W = np.abs(sys.modes.A).sum(axis=(0, 1))
+    _, (t, _) = matrix_balance(W, permute=False, separate=True)
+    return None if np.all(t == 1.0) else np.asarray(t, float)
+
+
+def _bracket_once(sys: JumpStateSpace, method: str, tol: float
+                  ) -> RadiusBracket:
+    """:func:`_bracket` in the given coordinates."""
     n, N = sys.modes.A.shape[-1], sys.period
     markov = not sys.modes.is_iid
     if n == 0:

@@ -28,7 +28,7 @@ from .gain import ACTUATORS, CONTROLLERS
 from .automata import LossAutomaton
 from .constrained import Constraint
 from .links import LinkChain, constraint, link_chain, product, timing_chain
-from .modes import periodic_stationary
+from .modes import join_labels, lump_markov, markov_classes, periodic_stationary
 from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
 
@@ -610,9 +610,15 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
                 fields[f].append(value)
     arr = {f: np.array(v).reshape((N, M) + v[0].shape)
            for f, v in fields.items()}
+    arr["tau"] = net.emissions[:, :, 2]
+    p, T = net.law()
+    nominal = net.nominal()
+    observed = None if T is None and net.constraint is None \
+        else net.observed()
+    if T is not None:
+        arr, p, T, nominal, observed = _lumped(arr, p, T, nominal, observed)
     E, Ew, Bu, Du = _per_phase_reading(arr["E"], arr["Ew"], arr["Bu"],
                                        arr["Du"])
-    p, T = net.law()
     Gw = None
     if np.any(arr["Gnext"]):
         # the noise of a measurement of the next step reaches the state with
@@ -621,22 +627,46 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
         Gw = np.roll(arr["Gnext"], 1, axis=0)
     if not np.any(Ew):
         Ew = None
-    sampling = None if P.continuous is None else _sampling(P, net, arr)
+    sampling = None if P.continuous is None else _sampling(P, arr)
     description = _description(P, net)
     if controller == "lti":
         description["sensor"] = "hold" if ctx.sensor_hold else "zero"
     return JumpPlant(
         arr["A"], Bu, arr["Bw"], arr["Cz"], Du, arr["Dw"], E, p, P.dt,
-        transition=T, nominal=net.nominal(), inputs=P.disturbance_labels,
+        transition=T, nominal=nominal, inputs=P.disturbance_labels,
         outputs=P.performance_labels, states=_state_names(P, layout, ctx),
         name=P.name, controller=controller, actuator=actuator,
-        observed=None if T is None and net.constraint is None
-        else net.observed(), constraint=net.constraint,
+        observed=observed, constraint=net.constraint,
         estimator_gain=options.get("L"), Ew=Ew, Gw=Gw,
         description=description, sampling=sampling)
 
 
-def _sampling(P: NetworkedStateSpace, net: Network, arr: dict) -> dict:
+def _lumped(arr: dict, p: np.ndarray, T: np.ndarray, nominal: np.ndarray,
+            observed: Any) -> tuple:
+    """The Markov modes lumped exactly (:func:`~control_ncs.modes.markov_
+    classes`): modes of equal matrices, readings and records that move
+    alike are one mode. The product of two links' chains repeats itself
+    (an estimator's pairs of ages differ only in whether the packet is
+    new; a burst state matters only through the next outcome), so the
+    loop has the modes its figures need. Gains per previous mode see the
+    lumped mode: a class holding modes the controller tells apart joins
+    their labels. Equal rows after lumping: i.i.d. modes."""
+    names = list(arr)
+    mats = [arr[f] for f in names]
+    labels = markov_classes(mats, T)
+    if all(int(lab.max()) + 1 == T.shape[1] for lab in labels):
+        return arr, p, T, nominal, observed
+    mats, lumped, pL = lump_markov(mats, T, p, labels)
+    TL: np.ndarray | None = lumped
+    nominal = np.array([labels[k][nominal[k]] for k in range(T.shape[0])])
+    if observed is not None:
+        observed = join_labels(observed, labels)
+    if np.all(lumped == lumped[:, :1, :]):
+        TL, observed = None, None
+    return dict(zip(names, mats)), pL, TL, nominal, observed
+
+
+def _sampling(P: NetworkedStateSpace, arr: dict) -> dict:
     """What the cost between the samples needs of the open loop
     (:mod:`control_ncs.intersample`'s record, before the gain): per phase
     and mode the rows of ``x_k``, of ``u_k`` on the state, the noise and
@@ -648,7 +678,7 @@ def _sampling(P: NetworkedStateSpace, net: Network, arr: dict) -> dict:
         sys.A, sys.B, sys.C, sys.D)), nmeas=P.nmeas, ncon=P.ncon,
         x=arr["x"], u=arr["u"], u_w=arr["u_w"], u_v=arr["u_v"],
         u_prev=arr["u_prev"], omega=arr["omega"],
-        tau=taus[net.emissions[:, :, 2]])
+        tau=taus[arr["tau"]])
 
 
 def _phase_key(ctx: Context, controller: str, k: int, emissions: tuple

@@ -181,3 +181,28 @@ def test_a_radius_below_the_float_range_of_the_probes_is_bracketed_by_zero():
     res = ms_radius(sys, bracket=True)
     assert res.lower == 0.0 and 0 < res.upper <= 1.0000001e-150
     assert res.lower <= res.radius <= res.upper and res.stable is True
+
+
+def test_a_badly_scaled_loop_is_bracketed_as_its_balanced_twin():
+    """x = diag(1e3, 1e-3) x̃ of a well-scaled two-mode loop: rounding
+    leaves the bracket of the scaled loop wide, the balanced coordinates
+    decide it; the certificate is the scaled loop's own (checked here)."""
+    A = 0.7 * np.array([[[0.5, 0.5], [0.2, 0.6]], [[0.9, 0.0], [0.3, 1.1]]])
+    T = np.diag([1e3, 1e-3])
+    Ti = np.linalg.inv(T)
+    p = np.array([0.6, 0.4])
+    well = jss(A, np.zeros((2, 2, 1)), np.zeros((2, 1, 2)),
+               np.zeros((2, 1, 1)), p)
+    bad = jss(np.array([T @ a @ Ti for a in A]), np.zeros((2, 2, 1)),
+              np.zeros((2, 1, 2)), np.zeros((2, 1, 1)), p)
+    want = ms_radius(well, bracket=True)
+    got = ms_radius(bad, bracket=True)
+    assert got.status == "certified" and got.width < 1e-9
+    assert got.lower <= want.upper and want.lower <= got.upper
+    X = got.certificate
+    image = sum(q * (T @ a @ Ti) @ X @ (T @ a @ Ti).T for q, a in zip(p, A))
+    # 𝒯(X) ≺ upper X, decided on the congruence that makes X the identity
+    R = np.linalg.cholesky(X)
+    Ri = np.linalg.inv(R)
+    gap = got.upper * np.eye(2) - Ri @ image @ Ri.T
+    assert np.linalg.eigvalsh(0.5 * (gap + gap.T)).min() > 0

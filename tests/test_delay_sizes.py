@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import control_ncs as ncs
-import control_ncs.network as network
-from control_ncs.network import MAX_BUFFER
+import control_ncs.delays as delays
+from control_ncs.delays import MAX_BUFFER
 
 
 def scalar_plant(**network_settings):
@@ -22,7 +22,7 @@ def no_chain_is_built(monkeypatch):
     """Building an age chain (the first large allocation) fails the test."""
     def refuse(*args, **kwargs):
         raise AssertionError("an age chain was built")
-    monkeypatch.setattr(network, "age_chain", refuse)
+    monkeypatch.setattr(delays, "age_chain", refuse)
 
 
 # -- sizes ------------------------------------------------------------------------

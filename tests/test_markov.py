@@ -563,3 +563,63 @@ def test_complex_transition_matrix_is_refused():
     with pytest.raises(ValueError, match="real"):
         jss([[[0.5]], [[1.2]]], [[1.0]], [[1.0]], [[0.0]],
             transition=np.eye(2) * (1 + 1j))
+
+
+# -- exact lumping of the loop's Markov modes -------------------------------
+@pytest.mark.parametrize("network, controller, lumps", [
+    (dict(sensor_delay=ncs.random_delay([0.5, 0.3, 0.2]),
+          actuator_loss=gilbert_elliott(fail=0.2, recover=0.6)), "estimator",
+     True),
+    (dict(sensor_delay=ncs.random_delay([0.6, 0.4], buffer=2),
+          actuator_loss=0.1), "predictor", True),
+    # a static gain sees every (burst state, age) pair differently: nothing
+    # to lump, and the builder must leave the chain as it is
+    (dict(sensor_loss=gilbert_elliott(fail=0.3, recover=0.5),
+          actuator_delay=ncs.random_delay([0.7, 0.3])), "static", False),
+])
+def test_lumped_modes_give_the_figures_of_the_whole_chain(monkeypatch,
+                                                          network,
+                                                          controller, lumps):
+    """The builder lumps Markov modes that share matrices and move alike;
+    the loop on the whole product chain (lumping switched off) has the
+    same radius, H2 norm and moments, with at least as many modes."""
+    from control_ncs import strategies
+    A = np.array([[1.1, 0.3], [0.0, 0.8]])
+    P = ncs.nss(A, [[1.0, 0.0], [0.2, 1.0]], [[1.0, 0.0], [1.0, 0.0],
+                                              [0.0, 1.0]],
+                np.zeros((3, 2)), nmeas=2, ncon=1, **network)
+    K = -np.array([[0.6, 0.9]])
+    kw = dict(controller=controller)
+    if controller == "estimator":
+        kw["estimator_gain"] = np.array([[0.5, 0.0], [0.0, 0.5]])
+    lumped = feedback(P, K, **kw)
+    monkeypatch.setattr(strategies, "_lumped",
+                        lambda arr, p, T, nominal, observed:
+                        (arr, p, T, nominal, observed))
+    whole = feedback(P, K, **kw)
+    assert (whole.nmodes > lumped.nmodes) == lumps
+    assert whole.nmodes >= lumped.nmodes
+    rho = ncs.ms_radius(whole, tol=1e-13)
+    assert ncs.ms_radius(lumped, tol=1e-13) == pytest.approx(rho, rel=1e-9)
+    if rho < 1:
+        assert ncs.norm(lumped, 2) == pytest.approx(ncs.norm(whole, 2),
+                                                    rel=1e-9)
+    w = np.cos(0.3 * np.arange(5))[None]
+    got = moments(lumped, 5, inputs=w, noise_covariance=np.eye(1))
+    want = moments(whole, 5, inputs=w, noise_covariance=np.eye(1))
+    np.testing.assert_allclose(got.outputs_cov, want.outputs_cov,
+                               rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(got.outputs_mean, want.outputs_mean,
+                               rtol=1e-9, atol=1e-12)
+
+
+def test_an_estimator_over_a_delayed_link_has_fewer_modes_than_its_pairs():
+    """The estimator's chain of pairs of ages matters only through the
+    age and whether the packet is new: the loop is lumped to those."""
+    P = ncs.nss([[1.2]], [[1.0, 1.0]], [[1.0], [1.0]], np.zeros((2, 2)),
+                nmeas=1, ncon=1,
+                sensor_delay=ncs.random_delay([0.5, 0.3, 0.2]),
+                actuator_loss=gilbert_elliott(fail=0.2, recover=0.6))
+    plant = ncs.build(P, "estimator", estimator_gain=[[0.8]])
+    ages = 4                                  # 0, 1, 2 and stale (buffer 2)
+    assert plant.probabilities.shape[1] < ages * ages * 2

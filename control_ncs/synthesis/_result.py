@@ -185,6 +185,23 @@ class DesignResult(Result):
         self._figure("passivity")
         return self.solver_value
 
+    @property
+    def tight(self) -> bool:
+        """Whether the figure is what the loop achieves, not only a bound.
+
+        h2: always (the norm is exact). hinf: the certificate's bracket
+        ``[lower, γ]`` is within 1 % (:attr:`GainResult.tight
+        <control_ncs.GainResult.tight>`). Passivity: the level is a
+        certified bound with no attained counterpart; asking raises
+        AttributeError.
+        """
+        if self.spec == "passivity":
+            raise AttributeError("tight: a passivity design certifies a "
+                                 "level eta, not a bracket (result.eta)")
+        if self.spec == "h2":
+            return True
+        return bool(getattr(self.certificate, "tight", False))
+
     # -- the verdict ---------------------------------------------------------
     @property
     def passive(self) -> bool:
