@@ -12,6 +12,7 @@ import numpy as np
 import control as ct
 from control.exception import ControlDimension
 
+from ._blas import serial_blas
 from ._checks import matrix, no_extra_kwargs, real_array
 from .jump import as_jump
 
@@ -312,9 +313,8 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     """
     no_extra_kwargs("moments", kwargs)
     sys = as_jump(sys)
-    A, B, C, D, p = (sys.modes.A, sys.modes.B, sys.modes.C, sys.modes.D,
-                     sys.modes.probabilities)
-    n, m, q = A.shape[-1], B.shape[-1], C.shape[-2]
+    n, m, q = (sys.modes.A.shape[-1], sys.modes.B.shape[-1],
+               sys.modes.C.shape[-2])
     t = time_grid(sys, timepts)
     T = t.size
     w = input_signal(inputs, m, T)
@@ -325,14 +325,23 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
     P0 = np.zeros((n, n)) if P0 is None else P0
     mean_x, mean_z = np.zeros((n, T)), np.zeros((q, T))
     Sx, Sz = np.zeros((n, n, T)), np.zeros((q, q, T))
-    if not sys.modes.is_iid:
-        _markov_moments(sys.modes, w, x0, P0, W, mean_x, mean_z, Sx, Sz)
-        cov_x = Sx - np.einsum("at,bt->abt", mean_x, mean_x)
-        cov_z = Sz - np.einsum("at,bt->abt", mean_z, mean_z)
-        return MomentsResponse(t, mean_x, mean_z, cov_x, cov_z, Sx, sys)
+    with serial_blas(n):
+        if sys.modes.is_iid:
+            _iid_moments(sys.modes, w, x0, P0, W, mean_x, mean_z, Sx, Sz)
+        else:
+            _markov_moments(sys.modes, w, x0, P0, W, mean_x, mean_z, Sx, Sz)
+    cov_x = Sx - np.einsum("at,bt->abt", mean_x, mean_x)
+    cov_z = Sz - np.einsum("at,bt->abt", mean_z, mean_z)
+    return MomentsResponse(t, mean_x, mean_z, cov_x, cov_z, Sx, sys)
+
+
+def _iid_moments(modes, w, x0, P0, W, mean_x, mean_z, Sx, Sz) -> None:
+    """Fill the moments of a jump system with i.i.d. modes: the recursion
+    of :func:`moments` from ``m_0 = x0``, ``Q_0 = P0 + x0 x0ᵀ``."""
+    A, B, C, D, p = modes.A, modes.B, modes.C, modes.D, modes.probabilities
     mk, Qk = x0.copy(), P0 + np.outer(x0, x0)
-    for j in range(T):
-        k = j % sys.period
+    for j in range(w.shape[1]):
+        k = j % modes.period
         pk = p[k]
         wk = w[:, j]
         W2 = np.outer(wk, wk) + W
@@ -343,9 +352,6 @@ def moments(sys: Any, timepts: Any, inputs: Any = None, initial_state: Any = Non
         mk, Qk = (np.einsum("i,iab,b->a", pk, A[k], mk)
                   + np.einsum("i,iab,b->a", pk, B[k], wk),
                   _second_moment_step(pk, A[k], B[k], Qk, mk, wk, W2))
-    cov_x = Sx - np.einsum("at,bt->abt", mean_x, mean_x)
-    cov_z = Sz - np.einsum("at,bt->abt", mean_z, mean_z)
-    return MomentsResponse(t, mean_x, mean_z, cov_x, cov_z, Sx, sys)
 
 
 def _markov_moments(modes, w, x0, P0, W, mean_x, mean_z, Sx, Sz) -> None:
