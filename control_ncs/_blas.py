@@ -47,7 +47,8 @@ def _blas_libraries() -> list[Any]:
     """The loaded BLAS libraries' controllers (threadpoolctl), found once."""
     global _libraries
     if _libraries is None:
-        from threadpoolctl import ThreadpoolController
+        from threadpoolctl import (  # type: ignore[import-untyped]
+            ThreadpoolController)
         _libraries = [lib for lib in ThreadpoolController().lib_controllers
                       if lib.user_api == "blas"]
     return _libraries

@@ -12,7 +12,8 @@ from hypothesis import given, settings, strategies as st
 from threadpoolctl import threadpool_info
 
 from control_ncs import _blas
-from control_ncs.stability import _sandwich, _Stein, phase_map
+from control_ncs._stein import Stein
+from control_ncs.stability import _sandwich, phase_map
 
 
 def _random(n, seed, radius):
@@ -29,7 +30,7 @@ def test_stein_solver_matches_scipy(n, seed, radius, mu):
     rng = np.random.default_rng(seed + 1)
     F = rng.standard_normal((n, n))
     F = F @ F.T
-    X = _Stein(Phi)(mu, F)
+    X = Stein(Phi)(mu, F)
     scale = max(1.0, np.linalg.norm(Phi, 2) ** 2 / mu)
     # the residual of the equation itself, independent of scipy's route
     res = mu * X - Phi @ X @ Phi.T - F
@@ -44,7 +45,7 @@ def test_stein_solver_matches_scipy(n, seed, radius, mu):
 
 def test_stein_solver_reuses_its_transform_across_right_hand_sides():
     Phi = _random(30, 4, 0.95)
-    solver = _Stein(Phi)
+    solver = Stein(Phi)
     rng = np.random.default_rng(5)
     for mu in (1.0, 1.0, 0.97, 1.0):
         F = rng.standard_normal((30, 30))
@@ -60,13 +61,13 @@ def test_stein_solver_with_a_jordan_block_and_complex_pairs():
     J = np.array([[0.9, 1.0, 0.0, 0.0], [0.0, 0.9, 0.0, 0.0],
                   [0.0, 0.0, 0.0, -0.8], [0.0, 0.0, 0.8, 0.0]])
     F = np.eye(4)
-    X = _Stein(J)(1.0, F)
+    X = Stein(J)(1.0, F)
     assert np.abs(X - J @ X @ J.T - F).max() < 1e-12 * np.abs(X).max()
 
 
 def test_stein_solver_singular_transform_gives_nan_then_recovers():
     # Φ/√μ = -I: the bilinear transform (Φ/√μ + I)⁻¹ does not exist
-    solver = _Stein(-np.eye(2))
+    solver = Stein(-np.eye(2))
     assert np.isnan(solver(1.0, np.eye(2))).all()
     X = solver(4.0, np.eye(2))            # 4X - X = I
     assert np.allclose(X, np.eye(2) / 3, rtol=1e-14)
