@@ -56,7 +56,6 @@ need every trial's outputs, ``p · trials · T`` floats; pass
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Iterator, NamedTuple
@@ -557,13 +556,11 @@ def columnwise_product(A: np.ndarray, X: np.ndarray,
 def run_chunks(run: Run, store: Storage | Kept, workers: int | None = None,
                progress: bool = False) -> None:
     """Simulate every trial of ``run`` into ``store`` (trial ``i`` in column
-    ``i``), chunk by chunk, on ``workers`` threads (default: the CPUs this
-    process may use, at most one per chunk); a :class:`Kept` store keeps
+    ``i``), chunk by chunk, on ``workers`` threads (default one; at most
+    one per chunk); a :class:`Kept` store keeps
     only its signals (:func:`simulate_kept`)."""
     chunks = list(run.chunks())
-    if workers is None:
-        workers = available_cpus()
-    workers = min(workers, len(chunks))
+    workers = min(1 if workers is None else workers, len(chunks))
     with progress_bar(progress_check(progress), len(chunks) * run.time.size,
                       "simulate", "step") as bar:
         if isinstance(store, Kept):
@@ -654,13 +651,3 @@ def ensemble_statistics(run: Run, levels: tuple, kept: Storage,
         else np.zeros((0, p, T))
     return Statistics(mean.T.copy(), cov.transpose(1, 2, 0).copy(), qv,
                       (states_sum / count).T.copy())
-
-
-def available_cpus() -> int:
-    """CPUs this process may run on (at least 1)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:         # not on Linux (macOS, Windows)
-        # Python 3.13 counts the CPUs of this process; before, of the machine
-        count = getattr(os, "process_cpu_count", os.cpu_count)()
-        return count or 1

@@ -515,11 +515,12 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
         any BLAS; see :mod:`control_ncs.montecarlo`).
     workers : int, optional
         Threads simulating chunks side by side (numpy's matrix products
-        release the GIL; each chunk writes its own trials). Default: the
-        CPUs this process may use (``os.sched_getaffinity``; where it does
-        not exist ``os.process_cpu_count``, Python >= 3.13, else
-        ``os.cpu_count``), at most one per chunk. Does not change the
-        result.
+        release the GIL; each chunk writes its own trials), at most one per
+        chunk. Default 1: a step is a few small products, and threads that
+        hand the GIL back and forth between them gain little on idle cores
+        (1.3× with 2 threads, n = 32) and lose much on busy ones (2–5×
+        slower with 2 threads on a loaded 2-core machine, n = 10;
+        docs/benchmarks.md). Does not change the result.
     progress : bool or None, optional
         Show a progress bar (needs the optional package ``tqdm``); None:
         only where a person watches (a terminal or a notebook).
