@@ -32,7 +32,7 @@ FLOOR_GOAL = 1.3
 
 
 def _product_time(n: int, count: int, rounds: int = 5) -> float:
-    """Median time of one ``n × n`` product, from ``count`` sandwiches
+    """Least time of one ``n × n`` product, from ``count`` sandwiches
     ``A Q Aᵀ`` (2·count products) per round, one BLAS thread."""
     from control_ncs._blas import serial_blas
     rng = np.random.default_rng(n)
@@ -45,7 +45,7 @@ def _product_time(n: int, count: int, rounds: int = 5) -> float:
             for a in A:
                 a @ Q @ a.T
             times.append((time.perf_counter() - t) / (2 * count))
-    return statistics.median(times)
+    return min(times)
 
 
 @contextmanager
@@ -112,13 +112,15 @@ def _profiled():
             setattr(owner, name, original)
 
 
-def _median(fn: Callable[[], Any], rounds: int) -> float:
+def _least(fn: Callable[[], Any], rounds: int) -> float:
+    """The least time of ``rounds`` calls: on a shared machine the run
+    least disturbed by other work (the floor is timed the same way)."""
     times = []
     for _ in range(rounds):
         t = time.perf_counter()
         fn()
         times.append(time.perf_counter() - t)
-    return statistics.median(times)
+    return min(times)
 
 
 def _calls(sys, T: int) -> dict:
@@ -149,7 +151,7 @@ def _moments_floor(sys, T: int, rounds: int = 3) -> float:
                     A[k, i] @ Q @ A[k, i].T
                     C[k, i] @ Q @ C[k, i].T
             times.append(time.perf_counter() - t)
-    return statistics.median(times)
+    return min(times)
 
 
 def kernel_floor_section(quick: bool) -> Section:
@@ -157,7 +159,7 @@ def kernel_floor_section(quick: bool) -> Section:
                   "floor")
     N = 4 if quick else 10
     sizes = [60] if quick else [60, 200]
-    rounds = 1 if quick else 3
+    rounds = 2 if quick else 5
     T = 50 if quick else 200
     rows, profile_rows, ratios = [], [], {}
     for n in sizes:
@@ -165,7 +167,7 @@ def kernel_floor_section(quick: bool) -> Section:
         t_prod = _product_time(n, 2 * N)
         for name, fn in _calls(sys, T).items():
             fn()                                     # warm: imports, caches
-            t = _median(fn, rounds)
+            t = _least(fn, rounds)
             if name.startswith("moments"):
                 floor = _moments_floor(sys, T)
                 counted = "–"
@@ -190,9 +192,11 @@ def kernel_floor_section(quick: bool) -> Section:
         profile_rows.append([n, "whole call", 1, fmt_t(total), "100 %"])
     sec.add(__doc__.split("\n\n", 1)[1].strip(), "",
             f"Loops: `bench_stability.random_loop(n, {N})` (two modes per "
-            f"phase). Median of {rounds} run(s) after a warm-up call; the "
-            "floor's product time is the median of 5 rounds of "
-            f"{2 * N} sandwiches.", "")
+            f"phase). Least time of {rounds} run(s) after a warm-up call; "
+            "the floor's product time is the least of 5 rounds of "
+            f"{2 * N} sandwiches, the moments' floor the least of 3 (on a "
+            "shared machine the least disturbed runs; medians moved by "
+            "tens of percent between runs).", "")
     sec.table(["call", "n", "N", "time", "n×n products", "floor",
                "time / floor"], rows)
     sec.add("Where the certified radius spends its time (one call, "
