@@ -1,9 +1,12 @@
 """Run the benchmarks: ``python -m benchmarks [--quick] [--out DIR]``.
 
-Writes ``DIR/benchmarks.md`` (default ``docs/``) and
+Writes ``DIR/benchmarks.md`` (default ``docs/``; with ``--quick`` a new
+temporary directory, so that a smoke run never replaces the report) and
 ``DIR/benchmarks_scaling.png``. The full run takes about 30 minutes on the
 project's 2-core machine; ``--quick`` runs tiny sizes only (under 30 s) to
-check that every section works.
+check that every section works. Every section states its targets; the run
+ends with one line per target: met, missed, or (a target of the full sizes
+in ``--quick``) not measured.
 """
 
 from __future__ import annotations
@@ -11,6 +14,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import tempfile
 import time
 import traceback
 import warnings
@@ -29,6 +33,7 @@ SECTIONS = [
     ("bench_stability", "monte_carlo_section"),
     ("bench_stability", "certified_radius_section"),
     ("bench_simulate", "simulate_section"),
+    ("bench_simulate", "simulate_scale_section"),
     ("bench_passivity", "passivity_section"),
     ("bench_sweeps", "sweeps_section"),
     ("bench_markov", "markov_section"),
@@ -42,6 +47,8 @@ SECTIONS = [
     ("bench_worstcase", "worstcase_section"),
     ("bench_intersample", "intersample_section"),
     ("bench_estimation", "estimation_section"),
+    ("bench_kernel", "kernel_floor_section"),
+    ("bench_kernel", "threads_section"),
 ]
 
 
@@ -172,12 +179,17 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks",
                                      description=__doc__)
     parser.add_argument("--quick", action="store_true",
-                        help="tiny sizes only (a smoke run, < 30 s)")
-    parser.add_argument("--out", default=os.path.join(ROOT, "docs"),
-                        help="output directory (default: docs/)")
+                        help="tiny sizes only (a smoke run, < 30 s, every "
+                        "target checked at those sizes)")
+    parser.add_argument("--out", default=None,
+                        help="output directory (default: docs/, or a new "
+                        "temporary directory with --quick)")
     parser.add_argument("--only", nargs="*", default=None,
                         help="run only sections whose name contains these")
     args = parser.parse_args(argv)
+    if args.out is None:
+        args.out = (tempfile.mkdtemp(prefix="benchmarks-quick-")
+                    if args.quick else os.path.join(ROOT, "docs"))
     os.makedirs(args.out, exist_ok=True)
     start = time.perf_counter()
     info = machine_info()
@@ -200,7 +212,24 @@ def main(argv=None) -> int:
     with open(md, "w") as fh:
         fh.write(text)
     print(f"[benchmarks] wrote {md} and {png} in {fmt_t(elapsed)}")
+    _print_targets(sections)
     return 0
+
+
+def _print_targets(sections: list) -> None:
+    """One line per target: met, missed or not measured in this run."""
+    count = {True: 0, False: 0, None: 0}
+    for s in sections:
+        if not s.targets and "(failed)" not in s.title:
+            print(f"[target] –      {s.title}: states no target")
+        for t in s.targets:
+            count[t.met] += 1
+            word = {True: "met", False: "MISSED", None: "–"}[t.met]
+            print(f"[target] {word:6s} {t.name}: {t.measured}")
+    failed = [s.title for s in sections if "(failed)" in s.title]
+    print(f"[benchmarks] targets: {count[True]} met, {count[False]} missed, "
+          f"{count[None]} not measured in this run; "
+          f"{len(failed)} section(s) failed")
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from .report import Section, fmt_t, fmt_x
+from .report import Section, Target, fmt_t, fmt_x
 
 
 def random_pair(n: int, seed: int = 0) -> list:
@@ -130,4 +130,10 @@ def jsr_section(quick: bool) -> Section:
     sec.table(["case", "n", "jsr lower", "jsr upper", "relative width",
                "route", "jsr time", "common quadratic", "over",
                "SDP time", "time ratio"], rows)
+    above = [name for name, d in data.items()
+             if d["lower"] > d["sdp"] * (1 + 1e-6)]
+    sec.targets.append(Target(
+        "jsr's proven lower end never above the common quadratic form's "
+        "bound", not above, "above: " + (", ".join(above) or "none"),
+        "two independent routes around the same radius"))
     return sec

@@ -101,6 +101,11 @@ def performance_section(quick: bool) -> Section:
             "run each.", "")
     sec.table(["n", "h2syn", "‖G‖₂", "hinfsyn", "γ certified",
                "γ lower bound"], syn_rows)
+    if quick:
+        sec.full_run_only("h2syn and hinfsyn at n = 16 under a minute",
+                          "n = 16 only in the full run")
+        sec.full_run_only("ncs.norm(·, 2) at n = 200, N = 10 under 10 s "
+                          "(matrix-free)", "n = 200 only in the full run")
     if not quick:
         t16 = syn_t.get(16)
         sec.targets.append(Target(

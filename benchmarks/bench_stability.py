@@ -101,6 +101,17 @@ def ms_radius_section(quick: bool) -> Section:
                 f"(n = {ns}); matrix-free ∝ "
                 f"n^{fit_exponent(big_mf, [mf_t[n] for n in big_mf]):.2f} "
                 f"(n = {big_mf}).", "")
+    both = [n for n in dense_t if n in mf_t]
+    diff = max(abs(vals[(n, "dense")] - vals[(n, "mf")]) / vals[(n, "dense")]
+               for n in both)
+    sec.targets.append(Target(
+        "dense and matrix-free ms_radius agree to 1e-9 (relative) wherever "
+        "both run", diff <= 1e-9, f"largest difference {diff:.1e} "
+        f"(n = {', '.join(map(str, both))})",
+        "two routes, each certified by its own probes"))
+    if quick:
+        sec.full_run_only("matrix-free ms_radius at n = 200, N = 10 under "
+                          "10 s", "n = 200 only in the full run")
     if not quick:
         t200 = mf_t.get(200)
         sec.targets.append(Target(
@@ -191,6 +202,14 @@ def monte_carlo_section(quick: bool, n: int = 4) -> Section:
                 "(heavy tails: a few paths that keep losing messages "
                 "dominate ‖x‖²).", "")
     sec.data.update(exact=exact, first_ok=first_ok, rows=rows)
+    sec.targets.append(Target(
+        "Monte Carlo ρ̂ within 4 standard deviations (over seeds) of its "
+        "infinite-sample value at the largest trial count",
+        abs(float(rows[-1][1]) - limit) <= 4 * max(float(rows[-1][2]),
+                                                  1e-12),
+        f"{rows[-1][1]} ± {rows[-1][2]} against {limit:.4f} "
+        f"({rows[-1][0]} trials)", "the exact second moments give the "
+        "estimator's limit; the seeds' spread its noise"))
     return sec
 
 
@@ -264,4 +283,9 @@ def certified_radius_section(quick: bool) -> Section:
                "lower end", "rel. width", "probes", "Ritz value",
                "outside by"], rows)
     sec.data.update(radius=data)
+    widest = max(d["width"] for d in data.values())
+    sec.targets.append(Target(
+        "every certified bracket at most 1e-10 wide (relative)",
+        widest <= 1e-10, f"widest {widest:.1e}",
+        "the probes' residuals in extended precision up to n = 64"))
     return sec

@@ -23,6 +23,10 @@ class Section:
     series: dict = field(default_factory=dict)   # for the scaling plot
     data: dict = field(default_factory=dict)     # raw numbers
 
+    def full_run_only(self, name: str, why: str) -> None:
+        """A target of the full sizes, listed (not measured) by --quick."""
+        self.targets.append(Target(name, None, "full run only", why))
+
     def add(self, *text: str) -> None:
         self.lines.extend(text)
 

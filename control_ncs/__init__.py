@@ -19,7 +19,8 @@ from . import (automata, budgets, connect, constrained, critical, delays,
                estimation, estimator, exceptions, gain, intersample,
                joint_spectral, jump, loop, lq, meancov, modes,
                network, openloop, passivity, performance, plant, plots,
-               responses, stability, strategies, sweeps, switching, synthesis,
+               responses, stability, stationary, strategies, sweeps, switching,
+               synthesis,
                verify, worstcase, worstcase_synthesis)
 from ._lifting import lift
 from .automata import *  # noqa: F403
@@ -47,6 +48,7 @@ from .plant import *  # noqa: F403
 from .plots import *  # noqa: F403
 from .responses import *  # noqa: F403
 from .stability import *  # noqa: F403
+from .stationary import *  # noqa: F403
 from .strategies import *  # noqa: F403
 from .sweeps import *  # noqa: F403
 from .switching import *  # noqa: F403
@@ -56,7 +58,8 @@ from .worstcase import *  # noqa: F403
 from .worstcase_synthesis import *  # noqa: F403
 
 __all__ = [name for module in (
-    network, delays, modes, jump, openloop, plant, gain, strategies, loop, stability,
+    network, delays, modes, jump, openloop, plant, gain, strategies, loop,
+    stability, stationary,
     meancov, exceptions, verify, passivity, performance, lq, synthesis,
     estimator, responses, plots,
     connect, sweeps, critical, automata, joint_spectral, switching,

@@ -68,8 +68,9 @@ from ._checks import choice, positive_real
 from ._results import Result
 from .jump import JumpStateSpace, as_jump
 from .plant import input_delay_sampling
-from .stability import (ms_radius, output_power, phase_forcing,
-                        second_moment_operator, stationary_covariances)
+from .stability import ms_radius, second_moment_operator
+from .stationary import (output_power, phase_forcing,
+                         stationary_covariances)
 
 __all__ = ["cost", "CostResult"]
 

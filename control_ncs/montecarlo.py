@@ -38,11 +38,15 @@ paths are stored time-major, one ``[ξ; w; s; z]`` × trials slab per step,
 and each product writes ``z_t`` and ``ξ_{t+1}`` in place; the
 ``[signal, trial, time]`` arrays of :class:`SamplePaths` are views of that
 storage, so every value is written once and never transposed or copied.
-Besides its result, a run holds ``O(chunk · T · (1 + q + 2r))`` floats for
-its random numbers (``q`` modes per phase besides the base mode), and an
-ensemble response one chunk's storage.
-:func:`simulate` returns every path (``trials · T · (n + p + m)`` floats,
-plus ``rank`` rows of ``s`` per step); the ensemble responses keep only
+Besides its result, a chunk holds one byte per trial, step and mode
+besides the base mode for its mode draws, ``2r`` floats per trial and step
+for white noise (``r = rank W``, none without noise), and an ensemble
+response one chunk's storage. :func:`simulate` returns every path
+(``trials · T · (n + p + m)`` floats, plus ``rank`` rows of ``s`` per step)
+in place, or, with ``signals=``, only the paths asked for, each step of a
+chunk passing through one working slab (:class:`Kept`: 1.0–1.1× the
+returned arrays, against 1.2× for every path; docs/benchmarks.md); the
+ensemble responses keep only
 ``keep_paths`` full paths and accumulate mean and covariance chunk by chunk,
 so their memory is bounded unless quantiles are asked for (exact quantiles
 need every trial's outputs, ``p · trials · T`` floats; pass
@@ -52,7 +56,6 @@ need every trial's outputs, ``p · trials · T`` floats; pass
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Iterator, NamedTuple
@@ -248,32 +251,40 @@ def _phases(modes: Any) -> list[_Phase]:
     return phases
 
 
+#: Trials whose mode draws are read at once when building a chunk's masks
+#: (the uniforms are transient: ``DRAW_TRIALS · T`` floats).
+DRAW_TRIALS = 256
+
+
 def _mode_masks(run: Run, a: int, c: int) -> np.ndarray:
-    """``mask[t, j]``: 1.0 for the trials in the ``j``-th non-base mode of
-    phase ``t mod N`` at step ``t``, else 0.0; shape (T, q, c)."""
+    """``mask[t, j]``: True for the trials in the ``j``-th non-base mode of
+    phase ``t mod N`` at step ``t``; shape (T, q, c), one byte per entry."""
     phases = run.phases
     q = max(len(ph.parts) for ph in phases)
     T, N = run.time.size, len(phases)
-    if q == 0:
-        return np.empty((T, 0, c))      # one mode per phase: nothing to draw
+    if q == 0:                          # one mode per phase: nothing to draw
+        return np.empty((T, 0, c), dtype=bool)
     if not run.sys.modes.is_iid:
         return _markov_masks(run, a, c, q)
     cdf = np.cumsum(run.sys.modes.probabilities, axis=1)
     cdf /= cdf[:, -1:]
     lower = np.concatenate([np.zeros((N, 1)), cdf[:, :-1]], axis=1)
-    # mode i iff cdf[i-1] <= u < cdf[i] (searchsorted(cdf, u, 'right') == i)
-    draws = run.uniforms(_MODES, a, c, T).T
-    mask = np.empty((T, q, c))
-    for k, ph in enumerate(phases):
-        u = draws[k::N]
-        for j, (i, _) in enumerate(ph.parts):
-            lo, hi, out = lower[k, i], cdf[k, i], mask[k::N, j]
-            if lo <= 0.0:
-                np.less(u, hi, out=out)
-            elif hi >= 1.0:
-                np.greater_equal(u, lo, out=out)
-            else:
-                np.logical_and(u >= lo, u < hi, out=out)
+    mask = np.empty((T, q, c), dtype=bool)
+    for j0 in range(0, c, DRAW_TRIALS):
+        cols = slice(j0, min(j0 + DRAW_TRIALS, c))
+        # mode i iff cdf[i-1] <= u < cdf[i] (searchsorted(cdf, u, 'right')
+        # == i)
+        draws = run.uniforms(_MODES, a + j0, cols.stop - j0, T).T
+        for k, ph in enumerate(phases):
+            u = draws[k::N]
+            for j, (i, _) in enumerate(ph.parts):
+                lo, hi, out = lower[k, i], cdf[k, i], mask[k::N, j, cols]
+                if lo <= 0.0:
+                    np.less(u, hi, out=out)
+                elif hi >= 1.0:
+                    np.greater_equal(u, lo, out=out)
+                else:
+                    np.logical_and(u >= lo, u < hi, out=out)
     return mask
 
 
@@ -293,7 +304,7 @@ def _markov_masks(run: Run, a: int, c: int, q: int) -> np.ndarray:
     start = np.cumsum(modes.start())
     start /= start[-1]
     draws = np.ascontiguousarray(run.uniforms(_MODES, a, c, T).T)  # (T, c)
-    mask = np.empty((T, q, c))
+    mask = np.empty((T, q, c), dtype=bool)
     which = np.arange(q)[:, None]
     sigma = np.minimum(np.searchsorted(start, draws[0], side="right"), M - 1)
     for t in range(T):
@@ -410,6 +421,116 @@ def simulate_chunk(run: Run, a: int, b: int, store: Storage,
             bar.update(1)
 
 
+#: The signals a run can keep, in the order of their rows in a slab.
+SIGNALS = ("states", "inputs", "outputs")
+
+
+def signal_names(signals: Any) -> tuple:
+    """The signals a run keeps, as a tuple of :data:`SIGNALS` names."""
+    names = (signals,) if isinstance(signals, str) else signals
+    try:
+        names = tuple(names)
+    except TypeError:
+        names = ()
+    if not names or not all(isinstance(k, str) and k in SIGNALS
+                            for k in names):
+        raise ValueError(
+            f"signals: expected 'states', 'outputs' or 'inputs', or a "
+            f"sequence of them, got {signals!r}")
+    return tuple(k for k in SIGNALS if k in names)
+
+
+@dataclass
+class Kept:
+    """Some signals of ``trials`` trials, each its own time-major array.
+
+    ``arrays[name]`` is (T, rows, trials) for ``name`` in :data:`SIGNALS`
+    kept; the (signal, trial, time) views of :meth:`views` are what
+    :class:`~control_ncs.responses.SamplePaths` holds. A run that keeps
+    only some signals never stores the others: :func:`simulate_kept`
+    advances each chunk through one step's working slab and copies the
+    kept rows out, so memory is the kept arrays plus one slab per chunk.
+    """
+
+    arrays: dict
+
+    @classmethod
+    def empty(cls, run: Run, trials: int, names: tuple) -> Kept:
+        n, m, zrow = Storage.layout(run)
+        p = Storage.rows(run) - zrow
+        rows = dict(states=n, inputs=m, outputs=p)
+        T = run.time.size
+        size = sum(rows[k] for k in names) * T * trials
+        try:
+            arrays = {k: np.empty((T, rows[k], trials)) for k in names}
+        except (MemoryError, ValueError):
+            raise ValueError(
+                f"trials, timepts: {trials} paths of {T} steps of "
+                f"{', '.join(names)} need {size * 8 / 2**30:.3g} GiB; ask "
+                f"for fewer trials, steps or signals") from None
+        return cls(arrays)
+
+    def views(self) -> dict:
+        return {k: v.transpose(1, 2, 0) for k, v in self.arrays.items()}
+
+
+def simulate_kept(run: Run, a: int, b: int, kept: Kept, bar: Any = None
+                  ) -> None:
+    """:func:`simulate_chunk` for trials ``a .. b-1`` keeping only the
+    signals of ``kept`` (columns ``a .. b-1``): the same draws and products
+    on a one-step slab ``[ξ_t; w_t; s_t]``, the kept rows copied out."""
+    n, m, zrow = Storage.layout(run)
+    c, T = b - a, run.time.size
+    phases = run.phases
+    N = len(phases)
+    R = zrow
+    slab = np.empty((R, c))
+    zx = np.empty((phases[0].G.shape[0], c))
+    p = zx.shape[0] - n
+    white = None
+    if run.noise is not None:
+        r = run.noise.shape[1]
+        white = np.matmul(run.noise, run.normals(_NOISE, a, c, T * r)
+                          .reshape(c, T, r).transpose(1, 2, 0))
+    slab[:n] = run.x0[:, None]
+    if run.spread is not None:
+        r0 = run.spread.shape[1]
+        slab[:n] += columnwise_product(
+            run.spread, run.normals(_INITIAL, a, c, r0).T)
+    mask = _mode_masks(run, a, c)
+    width = max(MIN_COLUMNS, GEMM_SERIAL // max(ph.G.size for ph in phases))
+    blocks = [slice(j, j + width) for j in range(0, c, width)]
+    x_out = kept.arrays.get("states")
+    u_out = kept.arrays.get("inputs")
+    z_out = kept.arrays.get("outputs")
+    for t in range(T):
+        G, V, parts, _ = phases[t % N]
+        slab[n:n + m] = run.w[:, t, None]
+        if white is not None:
+            slab[n:n + m] += white[t]
+        r = V.shape[0]
+        if r:
+            s = slab[n + m:n + m + r]
+            columnwise_product(V, slab[:n + m], out=s)
+            if len(parts) == 1:
+                s *= mask[t, 0]
+            else:
+                for q, (_, rows) in enumerate(parts):
+                    s[rows] *= mask[t, q]
+        into = slab[:n + m + r]
+        for cols in blocks:
+            columnwise_product(G, into[:, cols], out=zx[:, cols])
+        if x_out is not None:
+            x_out[t, :, a:b] = slab[:n]
+        if u_out is not None:
+            u_out[t, :, a:b] = slab[n:n + m]
+        if z_out is not None:
+            z_out[t, :, a:b] = zx[:p]
+        slab[:n] = zx[p:]
+        if bar is not None:
+            bar.update(1)
+
+
 def columnwise_product(A: np.ndarray, X: np.ndarray,
                        out: np.ndarray | None = None) -> np.ndarray:
     """``A @ X``, each column computed alike whatever the width of ``X``.
@@ -432,20 +553,29 @@ def columnwise_product(A: np.ndarray, X: np.ndarray,
     return out
 
 
-def run_chunks(run: Run, store: Storage, workers: int | None = None,
+def run_chunks(run: Run, store: Storage | Kept, workers: int | None = None,
                progress: bool = False) -> None:
     """Simulate every trial of ``run`` into ``store`` (trial ``i`` in column
-    ``i``), chunk by chunk, on ``workers`` threads (default: the CPUs this
-    process may use, at most one per chunk)."""
+    ``i``), chunk by chunk, on ``workers`` threads (default one; at most
+    one per chunk); a :class:`Kept` store keeps
+    only its signals (:func:`simulate_kept`)."""
     chunks = list(run.chunks())
-    if workers is None:
-        workers = available_cpus()
-    workers = min(workers, len(chunks))
+    workers = min(1 if workers is None else workers, len(chunks))
     with progress_bar(progress_check(progress), len(chunks) * run.time.size,
                       "simulate", "step") as bar:
+        if isinstance(store, Kept):
+            kept = store
+
+            def one(ab: tuple[int, int], bar: Any = None) -> None:
+                simulate_kept(run, ab[0], ab[1], kept, bar)
+        else:
+            whole = store
+
+            def one(ab: tuple[int, int], bar: Any = None) -> None:
+                simulate_chunk(run, ab[0], ab[1], whole, ab[0], bar)
         if workers <= 1:
-            for a, b in chunks:
-                simulate_chunk(run, a, b, store, a, bar)
+            for ab in chunks:
+                one(ab, bar)
         else:
             # Chunks write disjoint trial columns of ``store`` and draw from
             # their own random streams, so the order of completion does not
@@ -455,9 +585,7 @@ def run_chunks(run: Run, store: Storage, workers: int | None = None,
             # finished chunk (tqdm's counter is not updated under a lock).
             with ThreadPoolExecutor(workers) as pool:
                 try:
-                    for _ in pool.map(
-                            lambda ab: simulate_chunk(run, ab[0], ab[1],
-                                                      store, ab[0]), chunks):
+                    for _ in pool.map(one, chunks):
                         if bar is not None:
                             bar.update(run.time.size)
                 except BaseException:
@@ -523,13 +651,3 @@ def ensemble_statistics(run: Run, levels: tuple, kept: Storage,
         else np.zeros((0, p, T))
     return Statistics(mean.T.copy(), cov.transpose(1, 2, 0).copy(), qv,
                       (states_sum / count).T.copy())
-
-
-def available_cpus() -> int:
-    """CPUs this process may run on (at least 1)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:         # not on Linux (macOS, Windows)
-        # Python 3.13 counts the CPUs of this process; before, of the machine
-        count = getattr(os, "process_cpu_count", os.cpu_count)()
-        return count or 1

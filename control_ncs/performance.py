@@ -41,7 +41,8 @@ from ._lti import is_jump
 from .jump import as_jump
 from .montecarlo import root_entropy
 from ._gain import RICCATI_MAX_SIZE, gain_bracket, gain_bracket_size
-from .stability import ms_radius, output_power
+from .stability import ms_radius
+from .stationary import output_power
 from ._farkas import supply_dual_check
 from .verify import gain_certificate_check, supply_certificate_check
 

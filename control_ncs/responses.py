@@ -31,8 +31,9 @@ from ._checks import no_extra_kwargs, positive_int
 from ._tasks import progress_check
 from .jump import JumpStateSpace, as_jump
 from .meancov import MomentsResponse, moments, real_values, time_grid
-from .montecarlo import (CHUNK_FLOATS, Run, Storage, ensemble_statistics,
-                         prepare, run_chunks)
+from .montecarlo import (CHUNK_FLOATS, SIGNALS, Kept, Run, Storage,
+                         ensemble_statistics, prepare, run_chunks,
+                         signal_names)
 from .stability import ms_radius
 
 __all__ = ["simulate", "SamplePaths", "EnsembleResponse", "forced_response",
@@ -426,23 +427,41 @@ def _signal_labels(sys: JumpStateSpace) -> dict:
                 input_labels=sys.jump_inputs, sysname=sys.name)
 
 
-def _empty_paths(run: Run, trials: int, title: str
-                 ) -> tuple[SamplePaths, Storage]:
-    """Paths to be filled in place, and the storage they view."""
+def _empty_paths(run: Run, trials: int, title: str,
+                 signals: tuple = SIGNALS
+                 ) -> tuple[SamplePaths, Storage | Kept]:
+    """Paths to be filled in place, and the storage they view: all of
+    each step's rows (:class:`Storage`), or only the ``signals`` kept
+    (:class:`Kept`)."""
     # TimeResponseData copies the arrays it is given (np.array), which for
     # millions of trial-steps costs as much as simulating them: it is built
     # on zero-length placeholders and the views of the storage are attached.
     s = run.sys
-    n, m, p = (len(s.jump_states), len(s.jump_inputs), len(s.jump_outputs))
-    store = Storage.empty(run, trials)     # first: it may not fit
+    store: Storage | Kept
+    if set(signals) == set(SIGNALS):
+        store = Storage.empty(run, trials)     # first: it may not fit
+        x, y, u = store.views()
+    else:
+        store = Kept.empty(run, trials, signals)
+        views = store.views()
+        none = np.empty((0, trials, run.time.size))   # not kept: no rows
+        x, y, u = (views.get(k, none)
+                   for k in ("states", "outputs", "inputs"))
+    labels = _signal_labels(s)
+    keep = dict(states="state_labels", inputs="input_labels",
+                outputs="output_labels")
+    for name, key in keep.items():
+        if name not in signals:
+            labels[key] = None
     paths = SamplePaths(
-        run.time[:0], np.empty((p, trials, 0)), np.empty((n, trials, 0)),
-        np.empty((m, trials, 0)), issiso=False, squeeze=False,
+        run.time[:0], np.empty((y.shape[0], trials, 0)),
+        np.empty((x.shape[0], trials, 0)), np.empty((u.shape[0], trials, 0)),
+        issiso=False, squeeze=False,
         multi_trace=True, trace_labels=[f"trial {i}" for i in range(trials)],
         trace_types=["forced"] * trials, plot_inputs=False, title=title,
-        **_signal_labels(s))
+        **labels)
     paths.t = run.time
-    paths.x, paths.y, paths.u = store.views()
+    paths.x, paths.y, paths.u = x, y, u
     return paths, store
 
 
@@ -451,7 +470,8 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
              initial_state: Any = None, *, trials: int = 100, seed: Any = None,
              noise_covariance: Any = None, initial_covariance: Any = None,
              chunk: int | None = None, workers: int | None = None,
-             progress: bool = False, **kwargs: Any) -> SamplePaths:
+             progress: bool = False, signals: Any = SIGNALS,
+             **kwargs: Any) -> SamplePaths:
     """Monte Carlo sample paths of a jump system.
 
     Simulates ``ξ[t+1] = A[k,i] ξ[t] + B[k,i] w[t]``,
@@ -495,14 +515,20 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
         any BLAS; see :mod:`control_ncs.montecarlo`).
     workers : int, optional
         Threads simulating chunks side by side (numpy's matrix products
-        release the GIL; each chunk writes its own trials). Default: the
-        CPUs this process may use (``os.sched_getaffinity``; where it does
-        not exist ``os.process_cpu_count``, Python >= 3.13, else
-        ``os.cpu_count``), at most one per chunk. Does not change the
-        result.
+        release the GIL; each chunk writes its own trials), at most one per
+        chunk. Default 1: a step is a few small products, and threads that
+        hand the GIL back and forth between them gain little on idle cores
+        (1.3× with 2 threads, n = 32) and lose much on busy ones (2–5×
+        slower with 2 threads on a loaded 2-core machine, n = 10;
+        docs/benchmarks.md). Does not change the result.
     progress : bool or None, optional
         Show a progress bar (needs the optional package ``tqdm``); None:
         only where a person watches (a terminal or a notebook).
+    signals : str or sequence of str, optional
+        The paths to keep: ``'states'``, ``'outputs'``, ``'inputs'`` or a
+        sequence of them (default all three). A run that keeps fewer never
+        stores the others (memory: the kept arrays and one step per
+        chunk); the paths kept are the same, bit for bit with OpenBLAS.
     **kwargs
         Reserved: any keyword raises ``TypeError`` (unknown keyword).
 
@@ -512,6 +538,7 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
         A :class:`control.TimeResponseData` with ``outputs`` ``[p, trial,
         time]``, ``states`` ``[n, trial, time]`` and ``inputs`` ``[m, trial,
         time]``, the realised ``w`` (deterministic part plus sampled noise).
+        A signal not kept has no rows (shape ``(0, trials, T)``).
 
     Raises
     ------
@@ -519,9 +546,9 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
         Unknown keyword.
     ValueError
         Bad ``timepts`` (see :func:`control_ncs.moments`), ``trials``,
-        ``chunk``, ``workers``, complex or non-finite ``inputs`` or
-        ``initial_state``, or a covariance that is not symmetric positive
-        semidefinite.
+        ``chunk``, ``workers``, ``signals``, complex or non-finite
+        ``inputs`` or ``initial_state``, or a covariance that is not
+        symmetric positive semidefinite.
     ControlDimension
         Arrays of the wrong shape.
     ControlArgument
@@ -547,6 +574,13 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
     (1, 3, 4)
     >>> bool(np.all(np.isin(paths.outputs, [0, 1, 2, 4, 8])))
     True
+
+    Keeping only the outputs of a large run:
+
+    >>> z = ncs.simulate(sys, 4, initial_state=[1.0], trials=3, seed=0,
+    ...                  signals="outputs")
+    >>> z.states.shape, bool(np.array_equal(z.outputs, paths.outputs))
+    ((0, 3, 4), True)
     """
     no_extra_kwargs("simulate", kwargs)
     sys = as_jump(sys)
@@ -556,8 +590,9 @@ def simulate(sys: Any, timepts: Any, inputs: Any = None,
                   initial_covariance=initial_covariance, chunk=chunk)
     workers = positive_int(workers, "workers", allow_none=True)
     progress_check(progress)
+    names = signal_names(signals)
     title = f"Sample paths of {run.sys.name} ({run.trials} trials)"
-    paths, store = _empty_paths(run, run.trials, title)
+    paths, store = _empty_paths(run, run.trials, title, names)
     run_chunks(run, store, workers, progress)
     return paths
 
@@ -607,6 +642,7 @@ def _ensemble(sys: Any, timepts: Any, inputs: Any, initial_state: Any, *,
         per_trial = (T + 1) * Storage.rows(run)
         run.chunk = min(run.chunk, max(1, CHUNK_FLOATS // per_trial))
     paths, kept = _empty_paths(run, keep, title)
+    assert isinstance(kept, Storage)     # every signal: all rows kept
     stats = ensemble_statistics(run, levels, kept, progress, kind)
     exact = moments(s, run.time, run.w, run.x0,
                     noise_covariance=None if run.noise is None

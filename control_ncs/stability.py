@@ -35,19 +35,19 @@ from dataclasses import dataclass
 from typing import Any, Callable, ClassVar, Literal, overload
 
 import numpy as np
-from scipy.linalg import (LinAlgWarning, lu_factor, lu_solve, matrix_balance,
-                          solve_discrete_lyapunov)
+from scipy.linalg import LinAlgWarning, lu_factor, lu_solve, matrix_balance
 from scipy.sparse.linalg import (ArpackError, ArpackNoConvergence,
                                   LinearOperator, eigs, gmres)
 
+from ._blas import serial_blas
 from ._checks import choice, no_extra_kwargs, positive_real
 from ._perron import certify, power_estimate
 from ._results import Result
+from ._stein import Stein
 from .exceptions import CERTIFIED, NOT_MSS, NOT_VERIFIED, CertificationError
 from .jump import JumpStateSpace, as_jump
 
-__all__ = ["ms_radius", "is_mss", "RadiusBracket", "second_moment_operator",
-           "stationary_covariances"]
+__all__ = ["ms_radius", "is_mss", "RadiusBracket", "second_moment_operator"]
 
 _EPS = float(np.finfo(float).eps)
 
@@ -69,14 +69,27 @@ def phase_map(A: np.ndarray, weights: np.ndarray, Q: np.ndarray,
     the refinement's gradient (:mod:`control_ncs.refine`) apply it.
     """
     if markov:
-        Y = A @ Q @ A.transpose(0, 2, 1)                 # (M, n, n)
+        Y = _sandwich(A, Q)                              # (M, n, n)
         return np.tensordot(weights.T, Y, axes=1)        # Σ_i T[i, j] Y_i
     live = weights > 0
-    Al = A[live]
-    # batched products (BLAS); einsum's path search cost more than the
-    # products themselves below n ≈ 40
-    return np.tensordot(weights[live], Al @ Q @ Al.transpose(0, 2, 1),
-                        axes=1)
+    Al = A if live.all() else A[live]
+    Y = _sandwich(Al, Q)
+    # Σ_i w_i Y_i as one product (tensordot's reshaping costs as much at
+    # n ≈ 60)
+    return np.dot(weights[live], Y.reshape(len(Y), -1)).reshape(Y.shape[1:])
+
+
+def _sandwich(A: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """``A_i Q_i A_iᵀ`` for a stack of ``A_i`` (and of ``Q_i``, or one
+    ``Q``)."""
+    if A.dtype == np.float64 or A.dtype == np.complex128:
+        # batched products (BLAS); einsum's path search cost more than the
+        # products themselves below n ≈ 40
+        return A @ Q @ A.transpose(0, 2, 1)
+    # extended precision has no BLAS: numpy's dot loops faster than its
+    # batched matmul (1.7× at n = 60)
+    Qs = Q if Q.ndim == 3 else [Q] * len(A)
+    return np.array([np.dot(np.dot(a, q), a.T) for a, q in zip(A, Qs)])
 
 
 def phase_adjoint(A: np.ndarray, weights: np.ndarray, V: np.ndarray,
@@ -188,7 +201,7 @@ def _markov_operator(sys: JumpStateSpace, phases: Any, dtype: Any
                           dtype=dtype)
 
 
-def _dense_monodromy(sys: JumpStateSpace) -> np.ndarray:
+def dense_monodromy(sys: JumpStateSpace) -> np.ndarray:
     """The monodromy ``𝒯`` as a dense matrix (row-major ``vec``)."""
     markov = not sys.modes.is_iid
     A = sys.modes.A
@@ -395,6 +408,34 @@ class _TupleMap:
         """``𝒯(X)``."""
         return self._run(X, 0)
 
+    def _local(self, k: int, Q: np.ndarray) -> float:
+        """The rounding of phase ``k`` on ``Q`` per unit of ``γ``, carried
+        to the end of the period: ``‖tail_k‖ Σ_i w_i ‖A_i‖_F² ‖Q_i‖_F``
+        (per next mode for Markov modes)."""
+        size = np.sqrt(np.sum(np.asarray(Q, float) ** 2,
+                              axis=(-2, -1)))              # ‖Q_k,i‖_F
+        if self.markov:     # per next mode j: Σ_i T[i, j] ‖A_i‖² ‖Q_i‖
+            local = self.W[k].T @ (self.fro[k] * size)
+        else:
+            local = (self.W[k] @ self.fro[k]) * size
+        return self.tails[k] * float(local.max())
+
+    def predicted_error(self, X: np.ndarray, wide: bool = False) -> float:
+        """The rounding bound of ``𝒯(X)`` that :meth:`residual` would
+        carry, from the map applied in double precision: a prediction (for
+        placing probes), not a proof."""
+        unit = float(np.finfo(self.dtype if wide else np.float64).eps)
+        gamma = self.gamma / self.unit * unit
+        err, Q = 0.0, X
+        for k in range(self.N):
+            err += gamma * self._local(k, Q)
+            Q = self._phase(k, Q)
+        # the subtraction's rounding and the final rounding to double, as
+        # in residual at μ = 0 (the second dominates in extended precision)
+        scale = float(np.sqrt(np.sum(Q ** 2, axis=(-2, -1))).max())
+        return err + 2 * unit * scale + \
+            _EPS * float(np.abs(Q).sum(axis=-1).max())
+
     def residual(self, X: np.ndarray, mu: float, wide: bool = False
                  ) -> tuple[np.ndarray, float]:
         """``F = μX - 𝒯(X)`` (double) and a bound on the spectral norm of
@@ -409,13 +450,7 @@ class _TupleMap:
         err = 0.0
         Q = X.astype(dtype)
         for k in range(self.N):
-            size = np.sqrt(np.sum(np.asarray(Q, float) ** 2,
-                                  axis=(-2, -1)))          # ‖Q_k,i‖_F
-            if self.markov:     # per next mode j: Σ_i T[i, j] ‖A_i‖² ‖Q_i‖
-                local = self.W[k].T @ (self.fro[k] * size)
-            else:
-                local = (self.W[k] @ self.fro[k]) * size
-            err += self.tails[k] * gamma * float(local.max())
+            err += gamma * self._local(k, Q)
             Q = self._phase(k, Q, A[k], W[k])
         exact = dtype(mu) * X.astype(dtype) - Q
         scale = mu * float(np.sqrt(np.sum(X ** 2, axis=(-2, -1))).max()) + \
@@ -424,16 +459,6 @@ class _TupleMap:
         F = np.asarray(exact, float)
         err += 2 * unit * scale + _EPS * float(np.abs(F).sum(axis=-1).max())
         return F, err
-
-
-def _stein(Phi: np.ndarray, mu: float, F: np.ndarray) -> np.ndarray:
-    """``X`` with ``μX - ΦXΦᵀ = F`` (Bartels–Stewart; nan if singular)."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", LinAlgWarning)
-            return solve_discrete_lyapunov(Phi / math.sqrt(mu), F / mu)
-    except (np.linalg.LinAlgError, ValueError):
-        return np.full_like(F, np.nan)
 
 
 def _splitting(sys: JumpStateSpace) -> list[np.ndarray]:
@@ -481,10 +506,11 @@ def _gmres_solver(sys: JumpStateSpace, apply: Callable[[np.ndarray],
     shape, size = E.shape, E.size
     split = _splitting(sys)
     stretch = max(float(np.linalg.norm(P, 2)) ** 2 for P in split)
+    steins = [Stein(P) for P in split]
 
     def solve(mu: float) -> np.ndarray:
         def S_inv(F: np.ndarray) -> np.ndarray:
-            return np.array([_stein(P, mu, Fj) for P, Fj in zip(split, F)])
+            return np.array([stein(mu, Fj) for stein, Fj in zip(steins, F)])
 
         def matvec(v: np.ndarray) -> np.ndarray:
             X = v.reshape(shape)
@@ -505,7 +531,7 @@ def _dense_solver(sys: JumpStateSpace) -> tuple[
     """``(μ, F) ↦ (μ - 𝒯)⁻¹ F`` by LU of the Kronecker monodromy (one
     factorisation per ``μ``), and the largest modulus of its eigenvalues
     (the estimate)."""
-    T = _dense_monodromy(sys)
+    T = dense_monodromy(sys)
     est = float(np.max(np.abs(np.linalg.eigvals(T))))
     factors: dict[float, Any] = {}
 
@@ -636,10 +662,10 @@ def _bracket_once(sys: JumpStateSpace, method: str, tol: float
     if phi is not None:
         route = "deterministic"
         est = float(np.max(np.abs(np.linalg.eigvals(phi)))) ** 2
-        monodromy = phi
+        solver = Stein(phi)
 
         def stein(mu: float, F: np.ndarray) -> np.ndarray:
-            return _stein(monodromy, mu, F[0])[None]
+            return solver(mu, F[0])[None]
         direct = stein
     elif method == "dense" or (method == "auto" and
                                size <= DENSE_MAX_STATES ** 2) or size <= 4:
@@ -657,7 +683,7 @@ def _bracket_once(sys: JumpStateSpace, method: str, tol: float
             return direct(mu, E)
     # the rounding bound per unit of X, at X = I: a probe at μ = ρ(1 ± s)
     # has ‖X‖ ≈ ‖I‖/(sρ), so it decides once s ≳ 2·err(I)/ρ
-    _, err = apply.residual(E, 0.0, True)
+    err = apply.predicted_error(E, True)
     b = certify(apply.residual, solve, est, refine=refine,
                 atol=RADIUS_ATOL * apply.norm,
                 first_step=min(2 * err / max(est, 1e-300), 1e-3))
@@ -771,8 +797,20 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-8,
     tol = positive_real(tol, "tol")
     if not isinstance(bracket, (bool, np.bool_)):
         raise ValueError(f"bracket: expected True or False, got {bracket!r}")
-    res = _bracket(sys, method, tol)
+    with serial_blas(kernel_side(sys, method)):
+        res = _bracket(sys, method, tol)
     return res if bracket else res.radius
+
+
+def kernel_side(sys: JumpStateSpace, method: str) -> int:
+    """The side of the largest matrix the kernel factors or multiplies:
+    the Kronecker operator's (``M·n²``) on the dense route, else ``n``
+    (what :func:`control_ncs._blas.serial_blas` decides by)."""
+    n = sys.modes.A.shape[-1]
+    size = n * n * (1 if sys.modes.is_iid else sys.nmodes)
+    dense = method == "dense" or (method == "auto" and
+                                  size <= DENSE_MAX_STATES ** 2)
+    return size if dense and sys.deterministic() is None else n
 
 
 def is_mss(sys: Any, **kwargs: Any) -> bool:
@@ -825,140 +863,3 @@ def is_mss(sys: Any, **kwargs: Any) -> bool:
             f"is_mss: undecided, {res.message}", NOT_VERIFIED,
             dict(lower=res.lower, upper=res.upper, radius=res.radius))
     return res.stable
-
-
-# -- the forced second moment: the H2 norm ------------------------------------
-def phase_forcing(B: np.ndarray, p: np.ndarray,
-                  T: np.ndarray | None) -> np.ndarray:
-    """What white unit noise adds to the second moment in one phase, on
-    per-mode arrays ``B`` (M, n, m): ``Σ_i p_i B_i B_iᵀ`` (i.i.d.), or per
-    next mode ``j`` ``Σ_i T[i, j] π_i B_i B_iᵀ`` (Markov, ``p = π`` the
-    stationary marginals, ``T`` the phase's transitions)."""
-    BB = B @ B.transpose(0, 2, 1)                      # (M, n, n)
-    if T is None:
-        return np.tensordot(p, BB, axes=1)
-    return np.tensordot(T.T, p[:, None, None] * BB, axes=1)
-
-
-def _forcing(sys: JumpStateSpace, k: int) -> np.ndarray:
-    """:func:`phase_forcing` of phase ``k`` of ``sys``."""
-    T = None if sys.modes.is_iid else sys.modes.transitions()[k]
-    return phase_forcing(sys.modes.B[k], sys.modes.probabilities[k], T)
-
-
-def stationary_covariances(sys: Any, *, method: str = "auto",
-                           tol: float = 1e-12) -> np.ndarray:
-    """The periodic stationary second moments under unit white noise.
-
-    ``Q_k = E ξ_k ξ_kᵀ`` (i.i.d. modes) or ``Q_{k,i} = E[ξ_k ξ_kᵀ 1{σ_k = i}]``
-    (Markov modes) of ``ξ⁺ = A ξ + B w`` with ``E w wᵀ = I``, in the
-    periodic steady state: the linear fixed point
-    ``Q_{k+1} = 𝒯_k(Q_k) + Σ p B Bᵀ`` (:ref:`theory-performance`), solved
-    over one period, ``(I - 𝒯) Q_0 = F``, by a dense solve of the Kronecker
-    monodromy or matrix-free by GMRES on :func:`second_moment_operator`.
-
-    Parameters
-    ----------
-    sys : JumpStateSpace or discrete-time control.StateSpace
-        Mean-square stable.
-    method : {'auto', 'dense', 'matrix-free'}
-        As for :func:`ms_radius` (by the operator's size).
-    tol : float
-        Relative residual asked of GMRES (matrix-free route).
-
-    Returns
-    -------
-    ndarray, shape (N, n, n) or (N, M, n, n)
-        Per phase (and per mode for Markov modes).
-
-    Raises
-    ------
-    ValueError
-        If ``sys`` is not proven mean-square stable (no steady state, or
-        the radius' certified bracket contains 1), or GMRES does not reach
-        ``tol``.
-
-    Examples
-    --------
-    ``x⁺ = a x + w`` with ``a = 0.5`` or ``0.9`` (probabilities 0.3, 0.7):
-    ``E x² = 1/(1 - E a²) = 1/(1 - 0.642)``.
-
-    >>> import control_ncs as ncs
-    >>> sys = ncs.jss([[[0.5]], [[0.9]]], [[1.0]], [[1.0]], [[0.0]], [0.3, 0.7])
-    >>> round(float(ncs.stationary_covariances(sys)[0, 0, 0]), 10)
-    2.7932960894
-    """
-    sys = as_jump(sys)
-    choice(method, "method", ("auto", "dense", "matrix-free"))
-    tol = positive_real(tol, "tol")
-    radius = ms_radius(sys, bracket=True)
-    if radius.stable is not True:
-        raise ValueError(f"sys: not proven mean-square stable "
-                         f"({radius.message}): the noise-driven second "
-                         "moment has no steady state")
-    return _stationary(sys, method, tol)
-
-
-def _stationary(sys: JumpStateSpace, method: str, tol: float) -> np.ndarray:
-    """:func:`stationary_covariances` of a mean-square stable system."""
-    n, N = sys.modes.A.shape[-1], sys.period
-    mats = sys.deterministic() if N == 1 and sys.modes.is_iid else None
-    if mats is not None:
-        # one live mode: the Stein equation Q = A Q Aᵀ + B Bᵀ (Bartels-
-        # Stewart, O(n³)) instead of the n² × n² Kronecker system
-        A, B = mats[0][0], mats[1][0]
-        Q = solve_discrete_lyapunov(A, B @ B.T)
-        return 0.5 * (Q + Q.T)[None]
-    markov = not sys.modes.is_iid
-    shape = (sys.nmodes, n, n) if markov else (n, n)
-    size = int(np.prod(shape))
-    # forcing accumulated over one period from Q_0 = 0
-    F = np.zeros(shape)
-    for k in range(N):
-        F = second_moment_operator(sys, k).matvec(F.ravel()).reshape(shape) \
-            + _forcing(sys, k)
-    if method == "auto":
-        method = "dense" if size <= DENSE_MAX_STATES ** 2 else "matrix-free"
-    if method == "dense":
-        q = np.linalg.solve(np.eye(size) - _dense_monodromy(sys), F.ravel())
-    else:
-        op = second_moment_operator(sys)
-        lhs = LinearOperator((size, size), dtype=float,
-                             matvec=lambda v: v - op.matvec(v))
-        q, info = gmres(lhs, F.ravel(), rtol=tol, atol=0.0, restart=50,
-                        maxiter=200)
-        if info != 0:
-            raise ValueError(f"sys: GMRES did not reach tol={tol:g} on the "
-                             f"stationary second moment ({size} unknowns)")
-    out = [q.reshape(shape)]
-    for k in range(N - 1):
-        out.append(second_moment_operator(sys, k).matvec(
-            out[-1].ravel()).reshape(shape) + _forcing(sys, k))
-    Q = np.array(out)
-    return 0.5 * (Q + np.swapaxes(Q, -1, -2))
-
-
-def output_power(sys: Any, *, method: str = "auto",
-                 tol: float = 1e-12) -> float:
-    """``‖G‖₂²``: the stationary mean output power under unit white noise.
-
-    Averaged over the period: ``(1/N) Σ_k Σ_i [tr(C_ki Q_ki C_kiᵀ) +
-    p_ki tr(D_ki D_kiᵀ)]`` with the covariances of
-    :func:`stationary_covariances` (:ref:`theory-performance`); ``inf``
-    when ``sys`` is not proven mean-square stable.
-    """
-    sys = as_jump(sys)
-    choice(method, "method", ("auto", "dense", "matrix-free"))
-    tol = positive_real(tol, "tol")
-    if ms_radius(sys, bracket=True).stable is not True:
-        return float("inf")
-    Q = _stationary(sys, method, tol)
-    m = sys.modes
-    total = 0.0
-    for k in range(sys.period):
-        p = m.probabilities[k]
-        Qk = Q[k] if not m.is_iid else p[:, None, None] * Q[k][None]
-        CQC = np.einsum("mab,mbc,mac->m", m.C[k], Qk, m.C[k])
-        DD = np.einsum("mab,mab->m", m.D[k], m.D[k])
-        total += float(CQC.sum() + p @ DD)
-    return total / sys.period

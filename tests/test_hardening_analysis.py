@@ -294,7 +294,8 @@ def test_public_names_live_in_the_module_of_their_job(module, names):
         assert name in mod.__all__
 
 
-ANALYSIS_MODULES = {"montecarlo", "responses", "plots", "meancov", "stability"}
+ANALYSIS_MODULES = {"montecarlo", "responses", "plots", "meancov", "stability",
+                    "stationary"}
 
 
 def test_analysis_modules_share_no_private_names():

@@ -39,8 +39,9 @@ from scipy.sparse.linalg import LinearOperator, gmres
 
 from ..exceptions import NOT_FOUND, TIME_LIMIT, SynthesisError
 from ._local import Loop, bfgs
-from ..stability import (DENSE_MAX_STATES, phase_adjoint, phase_forcing,
-                        phase_map, phase_matrix)
+from ..stability import (DENSE_MAX_STATES, phase_adjoint, phase_map,
+                         phase_matrix)
+from ..stationary import phase_forcing
 
 __all__: list[str] = []
 

@@ -362,7 +362,7 @@ def projected(plant: JumpPlant, loop: Loop, G: np.ndarray
     None when ``G``'s loop is not mean-square stable.
     """
     from ..jump import JumpStateSpace
-    from ..stability import stationary_covariances
+    from ..stationary import stationary_covariances
     N, M, n = loop.N, loop.M, loop.n
     A = plant.A + plant.Bu @ G[:, None]
     eye = np.broadcast_to(np.eye(n), (N, M, n, n))
