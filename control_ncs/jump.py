@@ -37,6 +37,24 @@ _FROZEN = frozenset({"A", "B", "C", "D", "dt", "modes", "dt_step",
                      "nominal_mode"})
 
 
+#: The most memory the exact mean of Markov modes may take (its ``A`` is a
+#: dense ``(M n) × (M n)`` matrix per phase): beyond it the face is refused
+#: before it is allocated.
+MAX_MEAN_BYTES = 2 * 2 ** 30
+
+
+def _check_mean_bytes(N: int, M: int, n: int) -> None:
+    size = 8.0 * N * (M * n) ** 2
+    if size > MAX_MEAN_BYTES:
+        raise ValueError(
+            f"transition: the exact mean of {M} Markov modes of {n} states "
+            f"(python-control's face of the system, a dense matrix of order "
+            f"{M * n} per phase, {N} phase(s)) would take "
+            f"{size / 2 ** 30:.3g} GiB, more than MAX_MEAN_BYTES = "
+            f"{MAX_MEAN_BYTES / 2 ** 30:.3g} GiB; use fewer modes (shorter "
+            f"buffers) or fewer states")
+
+
 def _phase_mode_array(value: Any, name: str, N: int, M: int, shape: tuple
                       ) -> np.ndarray:
     """Broadcast a matrix, a per-mode stack or a per-phase-per-mode stack."""
@@ -233,6 +251,7 @@ class JumpStateSpace(ModewiseAlgebra):
             Abar, Bbar, Cbar, Dbar = self.modes.mean()
         else:
             check_lifted_size(M * n, m, q, N, "transition")
+            _check_mean_bytes(N, M, n)
             Abar, Bbar, Cbar, Dbar = markov_mean(self.modes)
         if N == 1:
             mats = (Abar[0], Bbar[0], Cbar[0], Dbar[0])

@@ -24,7 +24,7 @@ from .gain import PeriodicGain
 from .jump import JumpStateSpace
 from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
-from .strategies import CONTROLLERS, build, loop_closes
+from .strategies import CONTROLLERS, build, loop_closes, measurement_ages
 
 __all__ = ["feedback"]
 
@@ -207,7 +207,7 @@ def _per_age(P: NetworkedStateSpace, gains: np.ndarray, controller: str
     block per age of the measurement, ``[age 0 | age 1 | …]``. A gain of
     width ``nmeas`` acts at every age; a stack ``(Ds + 1, m2, nmeas)`` is
     one gain per age (when it cannot be read as one per phase)."""
-    Ds = 0 if P.sensor_delay is None else P.sensor_delay.buffer
+    Ds = measurement_ages(P) - 1
     p2 = P.C2.shape[0]
     if controller != "static" or not Ds or gains.shape[-1] != p2:
         return gains

@@ -39,6 +39,11 @@ __all__ = ["build", "loop_closes", "require_state_measured"]
 MAX_LOOP_STATES = 4000
 #: Largest number of network modes per phase.
 MAX_MODES = 20000
+#: The most memory the builder gives the loop's per-mode matrices (before
+#: their Markov modes are lumped): an estimator over two delayed links of
+#: buffers 10 and 5 on a 60-state plant asks 1008 modes of 1325 states,
+#: 15 GiB.
+MAX_MODE_BYTES = 2 * 2 ** 30
 
 
 # -- the network: the links' product -----------------------------------------------
@@ -123,6 +128,14 @@ class Network:
         for k in range(em.shape[0]):
             _, out[k] = np.unique(em[k], axis=0, return_inverse=True)
         return out
+
+
+def measurement_ages(P: NetworkedStateSpace) -> int:
+    """How many ages of the measurement the sensor link can deliver (its
+    chain's buffer + 1; 1 for an undelayed link): a static gain reads one
+    block of columns per age."""
+    sent = P.sensor_schedule.pattern.any(axis=1)
+    return link_chain(P.sensor_link, P.sensor_delay, sent, "sensor").buffer + 1
 
 
 def network(P: NetworkedStateSpace, controller: str, N: int) -> Network:
@@ -606,6 +619,9 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
             if key not in cache:
                 cache[key] = _assemble(mode(ctx, k, a, b, c, a_prev), layout,
                                        r, ctx.previous_input())
+                if len(cache) == 1:
+                    _check_mode_bytes(N, M, sum(
+                        v.size for v in cache[key].values()), layout.size)
             for f, value in cache[key].items():
                 fields[f].append(value)
     arr = {f: np.array(v).reshape((N, M) + v[0].shape)
@@ -639,6 +655,19 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
         observed=observed, constraint=net.constraint,
         estimator_gain=options.get("L"), Ew=Ew, Gw=Gw,
         description=description, sampling=sampling)
+
+
+def _check_mode_bytes(N: int, M: int, per_mode: int, states: int) -> None:
+    """Refuse, before it is allocated, a loop whose per-mode matrices would
+    take more than :data:`MAX_MODE_BYTES` (the modes are distinct chain
+    states even where their matrices repeat)."""
+    size = 8.0 * N * M * per_mode
+    if size > MAX_MODE_BYTES:
+        raise ValueError(
+            f"P: the loop's matrices would take {size / 2 ** 30:.3g} GiB "
+            f"({N} phase(s) x {M} modes x {states} states), more than "
+            f"MAX_MODE_BYTES = {MAX_MODE_BYTES / 2 ** 30:.3g} GiB; use "
+            f"shorter buffers or a smaller plant")
 
 
 def _lumped(arr: dict, p: np.ndarray, T: np.ndarray, nominal: np.ndarray,

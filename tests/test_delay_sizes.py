@@ -124,3 +124,36 @@ def test_bools_and_zero_one_flags_give_the_same_chain(sent):
     link = ncs.random_delay([0.5, 0.3])
     assert np.array_equal(link.age_transition(sent),
                           link.age_transition([True, False]))
+
+
+def test_a_loop_whose_mode_matrices_exceed_memory_is_refused_before_allocation(
+        monkeypatch):
+    # an estimator over two delayed links on a 60-state plant: 1008 modes
+    # of 1325 states, 15 GiB of mode matrices (the process was killed
+    # before the builder refused it)
+    import control_ncs.strategies as strategies
+    n = 60
+    P = ncs.nss(0.5 * np.eye(n), np.ones((n, 2)), np.ones((2, n)),
+               np.zeros((2, 2)), nmeas=1, ncon=1,
+               sensor_delay=ncs.random_delay([0.1] * 9 + [0.05], buffer=10),
+               actuator_delay=ncs.random_delay([0.5, 0.3], buffer=5))
+    built = []
+    original = strategies._assemble
+    monkeypatch.setattr(strategies, "_assemble",
+                        lambda *a: built.append(1) or original(*a))
+    with pytest.raises(ValueError, match="MAX_MODE_BYTES") as info:
+        ncs.feedback(P, [[-0.1]], controller="estimator",
+                    estimator_gain=0.01 * np.ones((n, 1)))
+    assert "1008 modes x 1325 states" in str(info.value)
+    assert len(built) == 1                  # one mode's matrices, no more
+
+
+def test_a_markov_mean_beyond_memory_is_refused_naming_its_order():
+    import control_ncs.jump as jump
+    M, n = 300, 60                            # order 18000: 2.4 GiB
+    A = np.zeros((M, n, n))
+    T = np.roll(np.eye(M), 1, axis=1)         # a cycle: Markov, not i.i.d.
+    with pytest.raises(ValueError, match="order 18000") as info:
+        ncs.jss(A, np.zeros((n, 1)), np.zeros((1, n)), [[0.0]],
+               transition=T)
+    assert f"{jump.MAX_MEAN_BYTES / 2 ** 30:.3g} GiB" in str(info.value)
