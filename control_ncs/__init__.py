@@ -8,12 +8,17 @@ designs verified passive controllers (:func:`passivesyn`). See the README and
 the theory pages in ``docs/``.
 
 The public names are those of the modules below, each owning one idea; the
-package's ``__all__`` is the union of theirs. Engine modules (``lmi``,
-``riccati``, ``kyp``, ``driver``, ``montecarlo``) and the independent
-reference simulator (``protocol``) export nothing here.
+package's ``__all__`` is the union of theirs less the exact checks and
+kernels that a design or an analysis runs for the user (``verify``'s
+certificate checks, the second-moment operator, the network's mode chain,
+a graph's lift): those are documented and imported from their module,
+``control_ncs.verify.check_certificate`` for instance. Engine modules
+(``lmi``, ``riccati``, ``kyp``, ``driver``, ``montecarlo``) and the
+independent reference simulator (``protocol``) export nothing here.
 """
 
 from importlib.metadata import PackageNotFoundError, version as _version
+from typing import Any as _Any
 
 from . import (automata, budgets, connect, constrained, critical, delays,
                estimation, estimator, exceptions, gain, intersample,
@@ -57,6 +62,16 @@ from .verify import *  # noqa: F403
 from .worstcase import *  # noqa: F403
 from .worstcase_synthesis import *  # noqa: F403
 
+#: Public in their module, not at the top level: the exact checks and
+#: kernels the analyses and designs run for the user.
+_IN_SUBMODULE = {name: module.__name__ for module, names in (
+    (verify, verify.__all__),
+    (stability, ["second_moment_operator"]),
+    (strategies, ["require_state_measured"]),
+    (network, ["mode_transition"]),
+    (switching, ["GraphLift"]),
+) for name in names}
+
 __all__ = [name for module in (
     network, delays, modes, jump, openloop, plant, gain, strategies, loop,
     stability, stationary,
@@ -65,7 +80,28 @@ __all__ = [name for module in (
     connect, sweeps, critical, automata, joint_spectral, switching,
     worstcase, worstcase_synthesis, intersample, estimation, constrained,
     budgets)
-    for name in module.__all__] + ["lift"]
+    for name in module.__all__ if name not in _IN_SUBMODULE] + ["lift"]
+
+for _name in _IN_SUBMODULE:
+    del globals()[_name]
+
+
+def __getattr__(name: str) -> _Any:
+    """Resolve a name that lives in its submodule (earlier code's spelling).
+
+    ``control_ncs.check_certificate`` keeps working as
+    ``control_ncs.verify.check_certificate``; it is not listed in
+    ``__all__`` or ``dir(control_ncs)``.
+    """
+    if name in _IN_SUBMODULE:
+        import importlib
+        return getattr(importlib.import_module(_IN_SUBMODULE[name]), name)
+    raise AttributeError(f"module 'control_ncs' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) - set(_IN_SUBMODULE))
+
 
 try:
     __version__ = _version("control_ncs")

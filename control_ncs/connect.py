@@ -101,7 +101,8 @@ def jump_feedback(sys: Any, other: Any = 1, sign: float = -1, *,
     the result stays a jump system: each mode ``i`` of each phase ``k`` of the
     result is :func:`control.feedback` of mode ``(k, i)`` of ``sys`` with
     ``other``, with the same probabilities. ``other`` is time-invariant, so
-    any period ``N`` works. The state is ``[ξ; x_other]``.
+    any period ``N`` works. The state is ``[ξ; x_other]``. Negative
+    feedback by default, as :func:`control.feedback` (see :ref:`guide-sign`).
 
     ``control.feedback(sys, other, sign)`` returns the same jump system
     (python-control dispatches to :meth:`JumpStateSpace.feedback`). Its

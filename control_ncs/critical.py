@@ -40,7 +40,8 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
                   **kwargs: Any) -> float:
     """The loss probability at which a gain stops stabilising the loop.
 
-    The loop ``feedback(P, K)`` with the loss of one Bernoulli ``link``
+    The loop ``feedback(P, K)`` (``u = K y``, :ref:`guide-sign`) with the
+    loss of one Bernoulli ``link``
     varied: the loss ``α*`` at which ``ms_radius`` reaches 1, found by
     bisection on ``[0, 1)`` and checked at both ends of the final bracket
     (the loop is mean-square stable at the returned ``α*`` minus ``tol``

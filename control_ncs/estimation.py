@@ -786,7 +786,8 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
     Returns
     -------
     K : PeriodicGain
-        ``controller='estimator'``, ``u = K x̂`` (the package's sign), with
+        ``controller='estimator'``, ``u = K x̂`` (the package's sign,
+        :ref:`guide-sign`), with
         its ``estimator_gain`` ``L_f`` (the filter form) and ``K.result`` an
         :class:`LQGResult`. ``feedback(P', K)`` closes the TCP-like loop
         (the estimator's builder adds the command that arrived); the

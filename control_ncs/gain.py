@@ -64,7 +64,8 @@ class PeriodicGain:
 
     The gain is applied as is: ``u = K_k ŷ`` (positive feedback, no minus
     sign). :func:`control.dlqr` and :func:`control.lqr` return ``K`` for
-    ``u = -K x``: negate such a gain (``PeriodicGain(-K)``).
+    ``u = -K x``: negate such a gain (``PeriodicGain(-K)``). See
+    :ref:`guide-sign`.
 
     Parameters
     ----------

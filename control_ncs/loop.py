@@ -42,7 +42,8 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
     or the output of the LTI system ``K`` driven by the received
     measurements ``ŷ``. A gain designed for ``u = -K x``, as
     :func:`control.dlqr` returns, must be negated (see the Examples); so
-    must a controller designed for negative feedback.
+    must a controller designed for negative feedback. See
+    :ref:`guide-sign`.
 
     Parameters
     ----------

@@ -130,7 +130,8 @@ def dlqr(*args: Any, arrival: float | None = None,
     ``dlqr(sys, Q, R)`` or ``dlqr(A, B, Q, R)`` as :func:`control.dlqr`,
     for ``x⁺ = A x + θ B u``, ``θ = 1`` with probability ``arrival``
     (TCP-like: the controller knows past arrivals), minimising
-    ``E Σ (xᵀQx + θ uᵀRu)``. The gain is for ``u = -K x``. The modified
+    ``E Σ (xᵀQx + θ uᵀRu)``. The gain is for ``u = -K x`` (see
+    :ref:`guide-sign`). The modified
     Riccati equation is solved as an equation (policy iteration from a
     stabilising gain, each step an exact solve; :ref:`theory-estimation`),
     and its answer is checked: the residual, and the mean-square stability

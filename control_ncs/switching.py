@@ -245,11 +245,6 @@ class GraphLift:
     origin: np.ndarray
     memory: int
 
-    @property
-    def node_of(self) -> np.ndarray:
-        """The original node of each lifted node."""
-        return np.array([u for u, _ in self.walks], dtype=int)
-
 
 def _history(graph: SwitchingGraph, node: int, memory: int
              ) -> tuple[int, ...] | None:

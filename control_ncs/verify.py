@@ -70,7 +70,7 @@ def supply_blocks(probabilities: np.ndarray, A: np.ndarray, B: np.ndarray,
     quadratic one takes every mode's own. Passivity with dissipation
     ``η`` and output-feedback level ``ρ`` is ``Q = -2ρI, S = I,
     R = -2ηI`` (:func:`dissipation_blocks`); the ℓ2 gain ``γ`` is
-    ``Q = -I, S = 0, R = γ²I`` (:func:`gain_blocks`). Internal callers
+    ``Q = -I, S = 0, R = γ²I``. Internal callers
     only (no argument checked).
 
     Parameters
@@ -177,47 +177,6 @@ def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
     """
     return supply_blocks(probabilities, A, B, C, D, P, P_next,
                          -2.0 * ofp_index, 1.0, -2.0 * eta, decay=decay)
-
-
-def gain_blocks(probabilities: np.ndarray, A: np.ndarray, B: np.ndarray,
-                C: np.ndarray, D: np.ndarray, P: np.ndarray,
-                P_next: np.ndarray, gamma2: float) -> np.ndarray:
-    """``Θ_k`` of the bounded real lemma: the supply ``γ² wᵀw - zᵀz``.
-
-    (:ref:`theory-performance`.) ``E V(ξ⁺) - V(ξ) < γ² wᵀw - E zᵀz`` for
-    ``V = ξᵀPξ`` reads ``[ξ; w]ᵀ Θ [ξ; w] < 0`` with::
-
-        Θ = Σ_i p_i ([A_i B_i]ᵀ P⁺ [A_i B_i] + [C_i D_i]ᵀ [C_i D_i])
-            - diag(P, γ² I)
-
-    the quadratic supply with ``Q = -I, S = 0, R = γ² I``: ``zᵀz`` is
-    quadratic, so every mode's own output matrices enter. Internal callers
-    only (no argument checked).
-
-    Parameters
-    ----------
-    probabilities : ndarray, shape (M,)
-    A, B, C, D : ndarray
-        Per-mode matrices of the phase.
-    P, P_next : ndarray, shape (n, n)
-    gamma2 : float
-        ``γ²``.
-
-    Returns
-    -------
-    ndarray, shape (n + m, n + m)
-
-    Examples
-    --------
-    ``x⁺ = 0.5x + w``, ``z = x``, ``P = 2``, ``γ² = 5``:
-
-    >>> from control_ncs.verify import gain_blocks
-    >>> A, B, C, D = (np.array([[[x]]]) for x in (0.5, 1.0, 1.0, 0.0))
-    >>> gain_blocks([1.0], A, B, C, D, 2 * np.eye(1), 2 * np.eye(1), 5.0).tolist()
-    [[-0.5, 1.0], [1.0, -3.0]]
-    """
-    return supply_blocks(probabilities, A, B, C, D, P, P_next, -1.0, 0.0,
-                         gamma2)
 
 
 def supply_certificate_check(sys: Any, P: Any, Q: Any, S: Any, R: Any, *,

@@ -25,11 +25,19 @@ THEORY = DOCS / "theory.md"
 REF = re.compile(r"(?::ref:|\{ref\})`(?:[^`<]*<)?([a-z0-9-]+)>?`")
 # a Markdown link to a section of the theory page
 THEORY_LINK = re.compile(r"\]\((?:\.\./)?(?:docs/)?theory\.md#([a-z0-9-]+)\)")
+# a Markdown link from the README to a page (and section) of the guide
+GUIDE_LINK = re.compile(r"\]\(docs/guide/(\w+\.md)(?:#([a-z0-9-]+))?\)")
+
+
+def _pages() -> list[Path]:
+    """The site's hand-written pages: top level and the user guide."""
+    return (sorted(DOCS.glob("*.md")) + sorted(DOCS.glob("*.rst"))
+            + sorted((DOCS / "guide").glob("*.md")))
 
 
 def _labels() -> set[str]:
     labels = set()
-    for page in list(DOCS.glob("*.md")) + list(DOCS.glob("*.rst")):
+    for page in _pages():
         text = page.read_text(encoding="utf-8")
         labels |= set(re.findall(r"^\(([a-z0-9-]+)\)=\s*$", text, re.M))
         labels |= set(re.findall(r"^\.\. _([a-z0-9-]+):\s*$", text, re.M))
@@ -41,9 +49,13 @@ def _slug(title: str) -> str:
     return re.sub(r"[^\w\- ]", "", title.strip().lower()).replace(" ", "-")
 
 
-def _theory_slugs() -> set[str]:
-    text = THEORY.read_text(encoding="utf-8")
+def _heading_slugs(page: Path) -> set[str]:
+    text = page.read_text(encoding="utf-8")
     return {_slug(t) for t in re.findall(r"^#{1,3} (.+)$", text, re.M)}
+
+
+def _theory_slugs() -> set[str]:
+    return _heading_slugs(THEORY)
 
 
 def _notebook_markdown() -> dict[str, str]:
@@ -61,18 +73,24 @@ def _sources() -> dict[str, str]:
              for p in sorted((ROOT / "control_ncs").glob("*.py"))}
     texts.update({f"notebooks/{k}": v for k, v in _notebook_markdown().items()})
     texts["README.md"] = (ROOT / "README.md").read_text(encoding="utf-8")
-    for page in sorted(DOCS.glob("*.md")) + sorted(DOCS.glob("*.rst")):
+    for page in _pages():
         texts[page.relative_to(ROOT).as_posix()] = page.read_text(
             encoding="utf-8")
     return texts
 
 
-def _api_names() -> set[str]:
+def _api_names(module: str = "control_ncs") -> set[str]:
+    """The names the API reference lists under ``currentmodule`` module."""
     text = (DOCS / "api.rst").read_text(encoding="utf-8")
     names = set()
-    for block in re.findall(r"\.\. autosummary::\n((?:\n|   .*\n)+)", text):
-        names |= {line.strip() for line in block.splitlines()
-                  if line.strip() and not line.strip().startswith(":")}
+    for part in re.split(r"^\.\. currentmodule:: ", text, flags=re.M)[1:]:
+        current, _, body = part.partition("\n")
+        if current.strip() != module:
+            continue
+        for block in re.findall(r"\.\. autosummary::\n((?:\n|   .*\n)+)",
+                                body):
+            names |= {line.strip() for line in block.splitlines()
+                      if line.strip() and not line.strip().startswith(":")}
     return names
 
 
@@ -105,6 +123,20 @@ def test_api_reference_lists_exactly_the_public_names():
         sorted(set(control_ncs.__all__) - listed)
     assert listed <= set(control_ncs.__all__), \
         sorted(listed - set(control_ncs.__all__))
+
+
+def test_api_reference_lists_the_checks_in_their_modules():
+    """Names public in their submodule only are documented there, and
+    the old top-level spelling still resolves to the same object."""
+    by_module: dict[str, set[str]] = {}
+    for name, module in control_ncs._IN_SUBMODULE.items():
+        by_module.setdefault(module, set()).add(name)
+        assert name not in control_ncs.__all__
+        assert name not in dir(control_ncs)
+        assert getattr(control_ncs, name) is getattr(
+            __import__(module, fromlist=[name]), name)
+    for module, names in by_module.items():
+        assert _api_names(module) == names, module
 
 
 def _named_tests() -> set[tuple[str, str]]:
@@ -160,3 +192,52 @@ def test_the_site_ships_its_math_renderer():
     assert '"sphinx-mathjax-offline"' in conf
     pyproject = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
     assert "sphinx-mathjax-offline" in pyproject
+
+
+README = ROOT / "README.md"
+TEST_COMMAND = 'python -m pip install -e ".[test]" && python -m pytest'
+DEMO_COMMAND = "python -m pip install -e . && python -m control_ncs demo"
+
+
+def test_readme_is_a_front_door():
+    """Short, with the two commands that work on a fresh machine; the
+    test command is the one CI runs."""
+    text = README.read_text(encoding="utf-8")
+    assert len(text.splitlines()) < 150
+    assert TEST_COMMAND in text and DEMO_COMMAND in text
+    assert TEST_COMMAND in (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+
+
+def test_readme_figure_exists():
+    images = re.findall(r"!\[[^\]]*\]\(([^)]+)\)",
+                        README.read_text(encoding="utf-8"))
+    assert images
+    assert all((ROOT / image).is_file() for image in images)
+
+
+def test_readme_tasks_link_to_guide_sections_that_exist():
+    links = GUIDE_LINK.findall(README.read_text(encoding="utf-8"))
+    assert len({page for page, _ in links}) >= 8
+    broken = [f"{page}#{slug}" for page, slug in links
+              if not (DOCS / "guide" / page).is_file()
+              or (slug and slug not in _heading_slugs(DOCS / "guide" / page))]
+    assert not broken
+
+
+def test_every_guide_page_is_in_the_guide_toctree():
+    index = (DOCS / "guide" / "index.md").read_text(encoding="utf-8")
+    toctree = re.search(r"```\{toctree\}\n(.*?)```", index, re.S).group(1)
+    listed = {line.strip() for line in toctree.splitlines()
+              if line.strip() and not line.startswith(":")}
+    pages = {page.stem for page in (DOCS / "guide").glob("*.md")} - {"index"}
+    assert listed == pages
+    assert "guide/index" in (DOCS / "index.md").read_text(encoding="utf-8")
+
+
+def test_the_sign_convention_is_stated_once_and_linked():
+    defined = [name for name, text in _sources().items()
+               if re.search(r"^\(guide-sign\)=$", text, re.M)]
+    assert defined == ["docs/guide/model.md"]
+    readme = README.read_text(encoding="utf-8")
+    assert "docs/guide/model.md#sign-convention" in readme
+    assert "sign-convention" in _heading_slugs(DOCS / "guide" / "model.md")

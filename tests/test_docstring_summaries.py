@@ -15,7 +15,7 @@ LIMIT = 64
 
 def _documented():
     out = {}
-    for name in ncs.__all__:
+    for name in [*ncs.__all__, *ncs._IN_SUBMODULE]:
         obj = getattr(ncs, name)
         out[name] = obj
         if inspect.isclass(obj):

@@ -25,7 +25,8 @@ ENFORCED = ("GL08", "SS01", "PR01", "PR02", "RT01", "EX01")
 
 
 def _public_names() -> list[str]:
-    return sorted(control_ncs.__all__)
+    # the top-level names and those public in their submodule only
+    return sorted([*control_ncs.__all__, *control_ncs._IN_SUBMODULE])
 
 
 def _is_class(name: str) -> bool:

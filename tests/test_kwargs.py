@@ -146,7 +146,7 @@ PLOTS = {"SamplePaths.plot", "EnsembleResponse.plot"}
 
 def _public_kwargs_callables():
     names = set()
-    for name in ncs.__all__:
+    for name in [*ncs.__all__, *ncs._IN_SUBMODULE]:
         obj = getattr(ncs, name)
         members = [(name, obj)]
         if inspect.isclass(obj):

@@ -487,8 +487,7 @@ def test_critical_loss_of_a_passivity_level_is_the_scalar_lemmas():
 
 # -- any quadratic supply -----------------------------------------------------------
 def test_the_supply_kernel_gives_passivity_and_the_gain_as_cases():
-    from control_ncs.verify import (dissipation_blocks, gain_blocks,
-                                    supply_blocks)
+    from control_ncs.verify import dissipation_blocks, supply_blocks
     rng = np.random.default_rng(9)
     A, B = rng.standard_normal((3, 2, 2)), rng.standard_normal((3, 2, 1))
     C, D = rng.standard_normal((3, 1, 2)), rng.standard_normal((3, 1, 1))
@@ -498,10 +497,14 @@ def test_the_supply_kernel_gives_passivity_and_the_gain_as_cases():
         dissipation_blocks(p, A, B, C, D, P, Pn, 0.3, ofp_index=0.1,
                            decay=0.9),
         supply_blocks(p, A, B, C, D, P, Pn, -0.2, 1.0, -0.6, decay=0.9))
+    # the bounded real lemma's Θ, written out: Σ p_i ([A B]ᵀP⁺[A B]
+    # + [C D]ᵀ[C D]) - diag(P, γ² I), γ² = 4
+    AB, CD = np.concatenate([A, B], 2), np.concatenate([C, D], 2)
+    theta = sum(p[i] * (AB[i].T @ Pn @ AB[i] + CD[i].T @ CD[i])
+                for i in range(3)) - np.diag([2.0, 2.0, 4.0])
     np.testing.assert_allclose(
-        gain_blocks(p, A, B, C, D, P, Pn, 4.0),
         supply_blocks(p, A, B, C, D, P, Pn, -np.eye(1), np.zeros((1, 1)),
-                      4.0 * np.eye(1)))
+                      4.0 * np.eye(1)), theta, atol=1e-12)
 
 
 def test_dissipativity_certifies_passivity_up_to_the_index_and_the_gain():

@@ -30,7 +30,7 @@ SCHEDULE = [[1, 1, 0, 0], [0, 0, 1, 1]]
 
 def batch_reactor(loss, **network):
     """The batch reactor: dt = 0.1, full state, w entering like u, z = C x + 0.5 w
-    (the plant of tests/test_hardening_synthesis.py)."""
+    (the plant of tests/test_synthesis_robustness.py)."""
     d = ct.sample_system(ct.ss(BATCH_A, BATCH_B, BATCH_C, 0), 0.1, "zoh")
     D = np.zeros((6, 4))
     D[:2, :2] = 0.5 * np.eye(2)

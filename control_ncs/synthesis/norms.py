@@ -153,7 +153,8 @@ def h2syn(P: NetworkedStateSpace, *, decay: float | None = None,
     Like :func:`control.h2syn` with python-control's generalized-plant
     layout (inputs ``[w; u]``, outputs ``[z; y]``), for the periodic jump
     loop of the plant and its network: the periodic static gains
-    ``u = K_k x`` minimising ``‖G‖₂`` (unit white ``w``; see
+    ``u = K_k x`` (positive feedback, :ref:`guide-sign`) minimising
+    ``‖G‖₂`` (unit white ``w``; see
     :func:`control_ncs.norm`), by the convex program of Costa, do Val and
     Geromel. Exact (the global optimum over periodic static gains) when the
     controller sees the whole state, ``y = x`` at every phase; over a
@@ -512,7 +513,8 @@ def hinfsyn(P: NetworkedStateSpace, *, decay: float | None = None,
 
     Like :func:`control.hinfsyn` (python-control's generalized-plant
     layout), for the periodic jump loop of the plant and its network: the
-    periodic static gains ``u = K_k x`` minimising the loop's ℓ2 gain from
+    periodic static gains ``u = K_k x`` (positive feedback,
+    :ref:`guide-sign`) minimising the loop's ℓ2 gain from
     ``w`` to ``z`` for inputs adapted to the past, by the bounded real
     lemma in ``X_k = P_k⁻¹``, ``Y_k = K_k X_k`` (convex, and exact for
     ``y = x`` at every phase; over bursty links with gains ``K_{k,ℓ}`` on

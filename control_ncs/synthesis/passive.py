@@ -126,7 +126,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     The gain is applied as is, ``u = K_k x`` (positive feedback: no minus
     sign, unlike :func:`control.dlqr` / :func:`control.lqr`, whose ``K``
     is for ``u = -K x``; negate such a gain before using it here, see the
-    Examples).
+    Examples and :ref:`guide-sign`).
 
     Designs the gain with the synthesis LMI of :ref:`theory-synthesis`
     (exact with full information, sufficient for structured gains, where
