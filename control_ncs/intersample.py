@@ -675,6 +675,10 @@ def cost_open_loop(plant: Any) -> Any:
         raise ValueError("plant: a noise enters both the continuous plant "
                          "(B1) and the sampled measurement (D21); give each "
                          "noise one meaning")
+    if np.any(np.asarray(s.get("s", 0.0)) > 0):
+        raise ValueError("plant: a design for the cost with late samples "
+                         "(sampling jitter) is not available; compute the "
+                         "cost of a given loop with cost()")
     R1d, c = sampled_noise(A, B1, C1, h)
     discrete = ~np.any(B1 != 0, axis=0)
     N, M = s["tau"].shape

@@ -25,18 +25,29 @@ __all__ = ["NetworkedStateSpace", "nss", "InputDelay"]
 
 @dataclass(frozen=True, eq=False)
 class InputDelay:
-    """Sub-sample input delays of a sampled continuous plant.
+    """Sub-sample timing of a sampled continuous plant.
 
-    The input computed at sample ``k`` is applied ``τ`` after it, ``τ``
-    drawn i.i.d. from ``taus`` with ``probabilities``; then
-    ``x[k+1] = Φ x[k] + B1 w[k] + Γ0(τ) u[k] + Γ1(τ) u[k-1]``
-    (:ref:`theory-delays`; :func:`input_delay_sampling`). Made by
-    :func:`nss` with ``input_delay=(taus, probabilities)``.
+    The measurement of period ``k`` is sampled ``s`` after ``kh`` and the
+    command computed from it is applied ``τ`` after ``kh`` (``0 ≤ s ≤ τ <
+    h``), the pair ``(s, τ)`` drawn i.i.d. from a joint pmf; then
+    ``x[k+1] = Φ x[k] + B1 w[k] + Γ0(τ) u[k] + Γ1(τ) u[k-1]`` and
+    ``y[k] = C2 x(kh + s)`` with ``x(kh + s) = e^{As} x[k] + Γs u[k-1] +
+    Γws w[k]`` (the noise held over the period; in continuous time the
+    noise gathered until the sample, :ref:`theory-delays`,
+    :ref:`theory-sampling-jitter`; :func:`input_delay_sampling`). Made by
+    :func:`nss` with ``input_delay=(taus, probabilities)`` (``s = 0``) or
+    ``timing=(pairs, probabilities)``.
 
     Attributes
     ----------
     taus, probabilities : ndarray, shape (M,)
     gamma0, gamma1 : ndarray, shape (M, n, ncon)
+    samples : ndarray, shape (M,)
+        The sampling delays ``s`` (zeros without sampling jitter).
+    sample_state, sample_input, sample_noise : ndarray
+        Shapes (M, n, n), (M, n, ncon), (M, n, nw): ``e^{As}``, ``Γs =
+        ∫_0^s e^{Ar} dr B2`` and ``Γws = ∫_0^s e^{Ar} dr B1``, the state at
+        the sample from the state, the held input and the held noise.
 
     Examples
     --------
@@ -48,19 +59,39 @@ class InputDelay:
     ...             input_delay=([0.0, 0.25], [0.5, 0.5]))
     >>> P.input_delay.gamma1[:, 0, 0].round(4).tolist()
     [0.0, 0.1723]
+    >>> Q = ncs.nss(G, nmeas=1, ncon=1, dt=0.5,
+    ...             timing=([(0.0, 0.0), (0.1, 0.25)], [0.5, 0.5]))
+    >>> Q.input_delay.samples.tolist(), Q.input_delay.late
+    ([0.0, 0.1], True)
     """
 
     taus: np.ndarray
     probabilities: np.ndarray
     gamma0: np.ndarray
     gamma1: np.ndarray
+    samples: np.ndarray | None = None
+    sample_state: np.ndarray | None = None
+    sample_input: np.ndarray | None = None
+    sample_noise: np.ndarray | None = None
+
+    @property
+    def late(self) -> bool:
+        """True when some sample is taken after the period's start."""
+        return self.samples is not None and bool(np.any(self.samples > 0))
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, InputDelay) and all(
-            np.array_equal(getattr(self, f), getattr(other, f))
-            for f in ("taus", "probabilities", "gamma0", "gamma1"))
+            _same(getattr(self, f), getattr(other, f))
+            for f in ("taus", "probabilities", "gamma0", "gamma1", "samples",
+                      "sample_state", "sample_input", "sample_noise"))
 
     __hash__ = None  # type: ignore[assignment]
+
+
+def _same(a: Any, b: Any) -> bool:
+    if a is None or b is None:
+        return a is b
+    return bool(np.array_equal(a, b))
 
 
 class NetworkedStateSpace(ct.StateSpace):
@@ -132,9 +163,10 @@ class NetworkedStateSpace(ct.StateSpace):
         and the controllers composes into one loop
         (:func:`control_ncs.feedback`).
     input_delay : InputDelay, optional
-        Sub-sample delays of the control input; give
-        ``input_delay=(taus, probabilities)`` to :func:`nss` with a
-        continuous-time plant, which computes this object.
+        Sub-sample delays of the control input (and of the sample); give
+        ``input_delay=(taus, probabilities)`` or ``timing=(pairs,
+        probabilities)`` to :func:`nss` with a continuous-time plant,
+        which computes this object.
     continuous : control.StateSpace or (A, B, C, D), optional
         The continuous-time generalized plant these matrices sample with a
         zero-order hold at ``dt`` (:func:`nss` sets it), for the cost
@@ -165,7 +197,8 @@ class NetworkedStateSpace(ct.StateSpace):
     sensor_delay, actuator_delay : RandomDelay, BurstyDelay or None
         The delay models as given (None: no delay).
     input_delay : InputDelay or None
-        Sub-sample delays of the control input (made by :func:`nss`).
+        Sub-sample delays of the control input and of the sample (made by
+        :func:`nss`).
     continuous : control.StateSpace or None
         The continuous-time plant that was sampled (None: a discrete plant).
     period : int
@@ -559,6 +592,9 @@ class NetworkedStateSpace(ct.StateSpace):
             taus = self.input_delay.taus
             out += (f", input delays {taus.min():.4g}..{taus.max():.4g} s "
                     f"({taus.size} values)")
+            if self.input_delay.late:
+                s = self.input_delay.samples
+                out += f", sample delays {s.min():.4g}..{s.max():.4g} s"
         return out
 
     def _delay_lines(self) -> list[str]:
@@ -591,6 +627,10 @@ class NetworkedStateSpace(ct.StateSpace):
             lines.append(f"  input delay: τ = {_numbers(self.input_delay.taus)}"
                          f" s with probabilities "
                          f"{_numbers(self.input_delay.probabilities)}")
+            if self.input_delay.late:
+                lines.append(f"  sampled at s = "
+                             f"{_numbers(self.input_delay.samples)} s "
+                             f"(paired with the τ above)")
         return lines
 
     def _bursts(self) -> str:
@@ -724,7 +764,15 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         samples), and ``input_delay=(taus, probabilities)`` adds sub-sample
         delays of the control input: applied ``τ`` after the sample, ``τ``
         i.i.d. from ``taus`` in ``[0, h)`` (:class:`InputDelay`,
-        :ref:`theory-delays`). Anything else raises ``TypeError``.
+        :ref:`theory-delays`). ``timing=(pairs, probabilities)`` adds
+        sampling jitter too: Jitterbug's timing of a period as a joint pmf
+        over pairs ``(s, τ)``, ``0 ≤ s ≤ τ < h``, both measured from the
+        period's start ``kh``: the measurement is sampled at ``kh + s``,
+        the command applied at ``kh + τ``, the pair i.i.d. over the periods
+        (independent sampling and computation delays are the product of
+        their pmfs; a pair ``(0, τ)`` is ``input_delay``'s ``τ``;
+        :ref:`theory-sampling-jitter`). Give one of the two. Anything else
+        raises ``TypeError``.
 
     Returns
     -------
@@ -785,12 +833,20 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
                 raise ControlArgument(f"sys: expected a control.StateSpace, got "
                                       f"{type(sys).__name__}")
         delays = kwargs.pop("input_delay", None)
+        timing = kwargs.pop("timing", None)
+        if delays is not None and timing is not None:
+            raise ValueError("input_delay, timing: give one (timing's pairs "
+                             "(0, τ) are input_delay's delays τ)")
         continuous = sys.isctime(strict=True)
         cont = sys
         sys = _sampled(sys, kwargs.pop("dt", None))
         if delays is not None:
             kwargs["input_delay"] = _input_delay(cont, continuous, sys.dt,
                                                  delays, kwargs.get("ncon"))
+        if timing is not None:
+            kwargs["input_delay"] = _input_delay(cont, continuous, sys.dt,
+                                                 timing, kwargs.get("ncon"),
+                                                 "timing")
         if continuous:
             kwargs.setdefault("continuous", cont)
         kwargs.setdefault("inputs", list(sys.input_labels))
@@ -805,33 +861,66 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
 
 
 def _input_delay(sys: ct.StateSpace, continuous: bool, h: Any, value: Any,
-                 ncon: Any) -> InputDelay:
-    """``input_delay=(taus, probabilities)`` of ``nss`` as an InputDelay."""
+                 ncon: Any, name: str = "input_delay") -> InputDelay:
+    """``input_delay=(taus, probabilities)`` or ``timing=(pairs,
+    probabilities)`` of ``nss`` as an InputDelay."""
+    what = "taus" if name == "input_delay" else "pairs"
     if not continuous:
-        raise ValueError("input_delay: sub-sample delays need the "
-                         "continuous-time plant and dt=h (nss samples it)")
+        raise ValueError(f"{name}: sub-sample timing needs the "
+                         f"continuous-time plant and dt=h (nss samples it)")
     if not isinstance(value, (tuple, list)) or len(value) != 2:
-        raise ValueError(f"input_delay: expected (taus, probabilities), got "
+        raise ValueError(f"{name}: expected ({what}, probabilities), got "
                          f"{value!r}")
-    taus = real_array(value[0], "input_delay taus", ndim=(0, 1)).ravel()
-    probs = real_array(value[1], "input_delay probabilities",
+    if name == "input_delay":
+        taus = real_array(value[0], "input_delay taus", ndim=(0, 1)).ravel()
+        samples = np.zeros_like(taus)
+    else:
+        pairs = real_array(value[0], "timing pairs", ndim=(1, 2))
+        if pairs.ndim == 1 and pairs.size == 2:
+            pairs = pairs[None]
+        if pairs.ndim != 2 or pairs.shape[1] != 2:
+            raise ControlDimension(f"timing: expected pairs (s, tau) of shape "
+                                   f"(M, 2), got {pairs.shape}")
+        samples, taus = pairs[:, 0].copy(), pairs[:, 1].copy()
+        if np.any(samples < 0) or np.any(samples > taus):
+            raise ValueError(f"timing: each pair (s, tau) needs 0 <= s <= "
+                             f"tau (the sample before the actuation), got "
+                             f"{pairs.tolist()}")
+    probs = real_array(value[1], f"{name} probabilities",
                        ndim=(0, 1)).ravel()
     if taus.size != probs.size or taus.size == 0:
-        raise ControlDimension(f"input_delay: {taus.size} delays and "
+        raise ControlDimension(f"{name}: {taus.size} {what} and "
                                f"{probs.size} probabilities")
     if np.any(probs < 0) or abs(probs.sum() - 1.0) > 1e-9:
-        raise ValueError(f"input_delay: the probabilities must be >= 0 and "
+        raise ValueError(f"{name}: the probabilities must be >= 0 and "
                          f"sum to 1, got {probs.tolist()}")
     if not isinstance(ncon, (int, np.integer)) or isinstance(ncon, bool) \
             or not 0 < ncon <= sys.ninputs:
-        raise ControlArgument("ncon: input_delay needs the number of "
-                              "controls ncon")
-    B2 = np.asarray(sys.B, float)[:, sys.ninputs - ncon:]
+        raise ControlArgument(f"ncon: {name} needs the number of "
+                              f"controls ncon")
+    A, B = np.asarray(sys.A, float), np.asarray(sys.B, float)
+    m1 = sys.ninputs - ncon
     try:
-        _, G0, G1 = input_delay_sampling(sys.A, B2, float(h), taus)
+        _, G0, G1 = input_delay_sampling(A, B[:, m1:], float(h), taus)
     except ValueError as err:
-        raise ValueError(f"input_delay: {err}") from None
-    return InputDelay(taus, probs, G0, G1)
+        raise ValueError(f"{name}: {err}") from None
+    # the state at the sample: e^{As} x + ∫_0^s e^{Ar} dr [B1 B2] [w; u_prev]
+    flows = [_zoh(A, B, float(t)) for t in samples]
+    Es = np.array([E for E, _ in flows])
+    Gs = np.array([G for _, G in flows])
+    return InputDelay(taus, probs, G0, G1, samples, Es, Gs[:, :, m1:],
+                      Gs[:, :, :m1])
+
+
+def _zoh(A: np.ndarray, B: np.ndarray, t: float
+         ) -> tuple[np.ndarray, np.ndarray]:
+    """``(e^{At}, ∫_0^t e^{As} ds B)`` from one exponential of ``[[A, B],
+    [0, 0]] t``."""
+    n, m = B.shape
+    M = np.zeros((n + m, n + m))
+    M[:n, :n], M[:n, n:] = A, B
+    E = scipy.linalg.expm(M * t)
+    return E[:n, :n], E[:n, n:]
 
 
 def _sampled(sys: ct.StateSpace, dt: Any) -> ct.StateSpace:

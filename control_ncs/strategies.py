@@ -53,10 +53,15 @@ class Network:
         step ahead for controllers with memory, in pairs for the
         estimator over a buffered link).
     timing : LinkChain or None
-        Sub-sample input delays.
+        Sub-sample timing: the pairs ``(s, τ)`` of the sample's and the
+        input's delays.
     transition : ndarray, shape (N, M, M)
-    emissions : ndarray of int, shape (N, M, 3)
-        Per mode: sensor age, actuator age, delay index (0 without one).
+    emissions : ndarray of int, shape (N, M, 4)
+        Per mode: sensor age, actuator age, the index of the timing pair
+        whose ``τ`` delays the input (0 without one) and of the pair whose
+        ``s`` delays the sample the mode reads (the same pair for the
+        static gain, the next period's for the controllers with memory,
+        which read the measurement at the end of the step).
     previous : ndarray of int, shape (N, M), or None
         The sensor age the step before (pairs only).
     constraint : Constraint or None
@@ -142,7 +147,7 @@ def network(P: NetworkedStateSpace, controller: str, N: int) -> Network:
     chains = [sensor, actuator]
     timing = None
     if P.input_delay is not None:
-        timing = timing_chain(P.input_delay.probabilities, N)
+        timing = _timing_chain(P.input_delay, N, controller != "static")
         chains.append(timing)
     size = int(np.prod([c.size for c in chains]))
     if size > MAX_MODES:
@@ -155,9 +160,38 @@ def network(P: NetworkedStateSpace, controller: str, N: int) -> Network:
     if previous is not None:        # per mode of the product
         previous = previous[:, np.arange(T.shape[1]) % sensor.size]
     if timing is None:
-        em = np.concatenate([em, np.zeros(em.shape[:2] + (1,), int)], axis=2)
+        em = np.concatenate([em, np.zeros(em.shape[:2] + (2,), int)], axis=2)
+    else:           # the pair code c·M + d as the two pair indices
+        M = P.input_delay.taus.size
+        em = np.concatenate([em[:, :, :2], em[:, :, 2:] // M,
+                             em[:, :, 2:] % M], axis=2)
     return Network(sensor, actuator, timing, T, em, previous,
                    constraint(chains))
+
+
+def _timing_chain(delay: Any, N: int, ahead: bool) -> LinkChain:
+    """The sub-sample timing as a chain over the pairs ``(s, τ)``, i.i.d.
+    with their joint pmf, emitting ``c·M + d``: ``c`` the pair of the
+    period (its ``τ`` delays the input), ``d`` the pair whose ``s`` delays
+    the sample the mode reads. The static gain reads this period's sample
+    (``d = c``). A controller with memory reads, at the end of step ``k``,
+    the sample of period ``k + 1``: when the sampling delays differ, the
+    chain runs on consecutive pairs ``(c, d)`` (Markov: ``(c, d) → (d,
+    e)`` with probability ``p_e``), so that a joint pmf keeps its
+    dependence between ``s`` and ``τ`` of one period."""
+    p = np.asarray(delay.probabilities, float)
+    M = p.size
+    if not ahead or np.unique(delay.samples).size == 1:
+        return LinkChain(np.tile(p, (N, M, 1)),
+                         np.tile(np.arange(M) * (M + 1), (N, 1)),
+                         M * M - 1, tuple(f"timing {i}" for i in range(M)))
+    T = np.zeros((M * M, M * M))
+    for c in range(M):
+        for d in range(M):
+            T[c * M + d, d * M:(d + 1) * M] = p
+    return LinkChain(np.tile(T, (N, 1, 1)), np.tile(np.arange(M * M), (N, 1)),
+                     M * M - 1, tuple(f"timing {c},{d}" for c in range(M)
+                                      for d in range(M)))
 
 
 # -- the loop state ---------------------------------------------------------------
@@ -178,11 +212,13 @@ class Layout:
 
 
 class Rows:
-    """Linear expressions in ``[ξ_k; w_k; v_k; w_{k+1}; ω_k]``: a matrix
-    per quantity, columns in that order (``v`` the controller's output,
-    ``w_{k+1}`` the noise a measurement of the next step carries, ``ω_k``
-    a disturbance added to the plant's next state: where the noise of a
-    continuous plant's period goes, :ref:`theory-intersample-cost`)."""
+    """Linear expressions in ``[ξ_k; w_k; v_k; w_{k+1}; ω_k; n_s]``: a
+    matrix per quantity, columns in that order (``v`` the controller's
+    output, ``w_{k+1}`` the noise a measurement of the next step carries,
+    ``ω_k`` a disturbance added to the plant's next state: where the noise
+    of a continuous plant's period goes, :ref:`theory-intersample-cost`;
+    ``n_s`` the continuous noise gathered from a period's start to its
+    late sample, :ref:`theory-sampling-jitter`)."""
 
     def __init__(self, layout: Layout, nw: int, nv: int, n: int):
         self.layout, self.nw, self.nv = layout, nw, nv
@@ -190,7 +226,8 @@ class Rows:
         self.iv = slice(self.iw.stop, self.iw.stop + nv)
         self.inext = slice(self.iv.stop, self.iv.stop + nw)
         self.iomega = slice(self.inext.stop, self.inext.stop + n)
-        self.width = self.iomega.stop
+        self.isample = slice(self.iomega.stop, self.iomega.stop + n)
+        self.width = self.isample.stop
 
     def omega(self) -> np.ndarray:
         out = self.zeros(self.iomega.stop - self.iomega.start)
@@ -275,6 +312,25 @@ class Context:
         return step + delay.gamma0[c] @ u + \
             delay.gamma1[c] @ self.previous_input()
 
+    def at_sample(self, x: np.ndarray, held: np.ndarray, noise: np.ndarray,
+                  d: int) -> np.ndarray:
+        """The plant state at a late sample as rows, ``x`` the state at
+        the period's start: ``e^{As} x + Γs held + Γws noise + n_s``
+        (the input ``held`` and, in the sampled model, the noise held
+        until then; the continuous noise gathered, ``n_s``, in its own
+        columns, :ref:`theory-sampling-jitter`). ``x`` itself when the
+        sample ``d`` is not late."""
+        delay = self.P.input_delay
+        if delay is None or not delay.samples[d] > 0:
+            return x
+        assert delay.sample_state is not None
+        assert delay.sample_input is not None
+        assert delay.sample_noise is not None
+        out = delay.sample_state[d] @ x + delay.sample_input[d] @ held \
+            + delay.sample_noise[d] @ noise
+        out[:, self.rows.isample] += np.eye(x.shape[0])
+        return out
+
     def output(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         P = self.P
         return P.C1 @ x + P.D11 @ self.rows.noise() + P.D12 @ u
@@ -316,32 +372,36 @@ class Mode:
     Ew: np.ndarray
     x: np.ndarray
     u: np.ndarray
+    En: np.ndarray | None = None   # the reading's rows on n_s (static)
 
 
 # -- one function per controller kind ---------------------------------------------
-def _static_mode(ctx: Context, k: int, a: int, b: int, c: int,
+def _static_mode(ctx: Context, k: int, a: int, b: int, c: int, d: int,
                  a_prev: int | None) -> Mode:
     """Memoryless gain (:ref:`theory-static-loop`): ``v_k = K_{k,a} ŷ``,
     the gain of the measurement's age ``a`` (a block of the gain per age),
-    nothing when the sensor link is stale."""
+    nothing when the sensor link is stale. A late sample reads the state
+    at ``kh + s`` (buffered as it was sampled)."""
     r, P = ctx.rows, ctx.P
     p2 = P.C2.shape[0]
     x = r.state("x")
     u = ctx.applied(k, b)
+    xs = ctx.at_sample(x, ctx.previous_input(), r.noise(), d)
     nxt = {"x": ctx.plant(x, u, c)}
     for j in range(1, ctx.Ds + 1):
-        nxt[f"x{j}"] = x if j == 1 else r.state(f"x{j - 1}")
+        nxt[f"x{j}"] = xs if j == 1 else r.state(f"x{j - 1}")
     ctx.shift(nxt, u)
     read = np.zeros(((ctx.Ds + 1) * p2, r.width))
     if a <= ctx.Ds:
         S1 = np.diag(ctx.S1[(k - a) % ctx.N].astype(float))
-        xa = x if a == 0 else r.state(f"x{a}")
+        xa = xs if a == 0 else r.state(f"x{a}")
         read[a * p2:(a + 1) * p2] = S1 @ ctx.measurement(xa, a)
     L = r.layout.size
-    return Mode(nxt, ctx.output(x, u), read[:, :L], read[:, r.iw], x, u)
+    return Mode(nxt, ctx.output(x, u), read[:, :L], read[:, r.iw], x, u,
+                read[:, r.isample])
 
 
-def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int,
+def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int, d: int,
               a_prev: int | None) -> Mode:
     """An LTI controller (:ref:`theory-output-feedback`): its input ``ŷ``,
     what arrived at the end of the step (age ``a`` at ``k + 1``), is loop
@@ -363,7 +423,8 @@ def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int,
     held = Hs.T @ r.state("y_rcv") if ctx.sensor_hold else r.zeros(p2)
     if a <= ctx.Ds:
         S1 = np.diag(ctx.S1[(k + 1 - a) % ctx.N].astype(float))
-        xs = xn if a == 0 else (x if a == 1 else r.state(f"x{a - 1}"))
+        xs = ctx.at_sample(xn, u, r.next_noise(), d) if a == 0 else (
+            x if a == 1 else r.state(f"x{a - 1}"))
         y = S1 @ ctx.measurement(xs, a - 1) + (np.eye(p2) - S1) @ held
     else:
         y = held
@@ -374,7 +435,7 @@ def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int,
                 np.zeros((p2 + nc, P.B1.shape[1])), x, u)
 
 
-def _model_mode(ctx: Context, k: int, a: int, b: int, c: int,
+def _model_mode(ctx: Context, k: int, a: int, b: int, c: int, d: int,
                 a_prev: int | None) -> Mode:
     """The model-based controller (:ref:`theory-predictor`,
     :ref:`theory-output-feedback`): estimates ``x̂`` of the last ``Ds + 1``
@@ -394,11 +455,15 @@ def _model_mode(ctx: Context, k: int, a: int, b: int, c: int,
     # index j holds step k + 1 - j
     est = [P.A @ xh[0] + P.B2 @ u] + xh[:Ds]
     true = [xn] + [xh[j] + er[j] for j in range(Ds)]
+    # a late sample of step k + 1: the estimator corrects with it as if it
+    # were taken at the instant (it knows the timing no more than τ)
+    sampled = [ctx.at_sample(xn, u, r.next_noise(), d)] + true[1:]
     new = a <= Ds and (a_prev is None or a <= a_prev)
     if new:
         S1 = np.diag(ctx.S1[(k + 1 - a) % ctx.N].astype(float))
         Lk = L[(k + 1 - a) % L.shape[0]]
-        innovation = S1 @ (ctx.measurement(true[a], a - 1) - P.C2 @ est[a])
+        innovation = S1 @ (ctx.measurement(sampled[a], a - 1)
+                            - P.C2 @ est[a])
         for j in range(a + 1):
             est[j] = est[j] + np.linalg.matrix_power(P.A, a - j) @ Lk \
                 @ innovation
@@ -542,6 +607,13 @@ def _plan(P: Any, controller: Any, actuator: Any, period: Any, sensor: Any,
     check_lifted_size(P.nstates, len(P.disturbance_labels),
                       len(P.performance_labels), N, "P")
     require_state_measured(P, controller, allow_static=True)
+    if controller != "static" and P.sensor_delay is not None and \
+            P.input_delay is not None and P.input_delay.late:
+        raise ControlArgument(
+            f"P: a late sample over a delayed sensor link has no model for "
+            f"controller={controller!r} (its buffer holds the plant states "
+            f"at the instants); use the static gain, or timing without "
+            f"sampling delays")
     net = network(P, controller, N)
     Ds, Da = _buffer(P.sensor_delay), _buffer(P.actuator_delay)
     n, m1, m2 = P.nstates, P.B1.shape[1], P.ncon
@@ -595,22 +667,23 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
     M = net.count
     fields: dict[str, list] = {f: [] for f in (
         "A", "Bu", "Bw", "Cz", "Du", "Dw", "E", "Ew", "Gnext", "x", "u",
-        "u_w", "u_v", "u_prev", "omega")}
+        "u_w", "u_v", "u_prev", "omega", "e_n", "n_in")}
     cache: dict = {}
     for k in range(N):
         for i in range(M):
-            a, b, c = (int(e) for e in net.emissions[k, i])
+            a, b, c, d = (int(e) for e in net.emissions[k, i])
             a_prev = None if net.previous is None else \
                 int(net.previous[k, i])
-            key = _phase_key(ctx, controller, k, (a, b, c, a_prev))
+            key = _phase_key(ctx, controller, k, (a, b, c, d, a_prev))
             if key not in cache:
-                cache[key] = _assemble(mode(ctx, k, a, b, c, a_prev), layout,
-                                       r, ctx.previous_input())
+                cache[key] = _assemble(mode(ctx, k, a, b, c, d, a_prev),
+                                       layout, r, ctx.previous_input())
             for f, value in cache[key].items():
                 fields[f].append(value)
     arr = {f: np.array(v).reshape((N, M) + v[0].shape)
            for f, v in fields.items()}
     arr["tau"] = net.emissions[:, :, 2]
+    arr["s"] = net.emissions[:, :, 2]          # the period's own pair
     p, T = net.law()
     nominal = net.nominal()
     observed = None if T is None and net.constraint is None \
@@ -620,14 +693,17 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
     E, Ew, Bu, Du = _per_phase_reading(arr["E"], arr["Ew"], arr["Bu"],
                                        arr["Du"])
     Gw = None
-    if np.any(arr["Gnext"]):
+    late = P.input_delay is not None and P.input_delay.late
+    if np.any(arr["Gnext"]) or (late and controller != "static"):
         # the noise of a measurement of the next step reaches the state with
         # that step's input: step k + 1 acts on ξ + Gw[k + 1, ℓ] w, ℓ = the
-        # mode at k (theory: measurement noise)
+        # mode at k (theory: measurement noise); so does a late sample's
+        # continuous noise, read at the end of the step (the record's n_in)
         Gw = np.roll(arr["Gnext"], 1, axis=0)
     if not np.any(Ew):
         Ew = None
-    sampling = None if P.continuous is None else _sampling(P, arr)
+    sampling = None if P.continuous is None else _sampling(P, arr,
+                                                           controller)
     description = _description(P, net)
     if controller == "lti":
         description["sensor"] = "hold" if ctx.sensor_hold else "zero"
@@ -666,19 +742,26 @@ def _lumped(arr: dict, p: np.ndarray, T: np.ndarray, nominal: np.ndarray,
     return dict(zip(names, mats)), pL, TL, nominal, observed
 
 
-def _sampling(P: NetworkedStateSpace, arr: dict) -> dict:
+def _sampling(P: NetworkedStateSpace, arr: dict, controller: str) -> dict:
     """What the cost between the samples needs of the open loop
     (:mod:`control_ncs.intersample`'s record, before the gain): per phase
     and mode the rows of ``x_k``, of ``u_k`` on the state, the noise and
-    the command, of ``u_{k-1}``, where ``ω_k`` enters, and the delay."""
+    the command, of ``u_{k-1}``, where ``ω_k`` enters, and the delay; with
+    sampling jitter the period's sampling delay ``s``, the reading's rows
+    on ``n_s`` (``e_n``) and where the sample's noise enters ``ξ_{k+1}``
+    (``n_in``: this period's for the static gain, the next period's for a
+    controller with memory, ``sample_next``)."""
     sys: Any = P.continuous
-    taus = (np.zeros(1) if P.input_delay is None
-            else np.asarray(P.input_delay.taus, float))
+    delay = P.input_delay
+    taus = np.zeros(1) if delay is None else np.asarray(delay.taus, float)
+    samples = (np.zeros(1) if delay is None or delay.samples is None
+               else np.asarray(delay.samples, float))
     return dict(h=float(P.dt), plant=tuple(np.array(X, float) for X in (
         sys.A, sys.B, sys.C, sys.D)), nmeas=P.nmeas, ncon=P.ncon,
         x=arr["x"], u=arr["u"], u_w=arr["u_w"], u_v=arr["u_v"],
         u_prev=arr["u_prev"], omega=arr["omega"],
-        tau=taus[arr["tau"]])
+        tau=taus[arr["tau"]], s=samples[arr["s"]], e_n=arr["e_n"],
+        n_in=arr["n_in"], sample_next=controller != "static")
 
 
 def _phase_key(ctx: Context, controller: str, k: int, emissions: tuple
@@ -686,7 +769,7 @@ def _phase_key(ctx: Context, controller: str, k: int, emissions: tuple
     """A mode's matrices depend on the phase only through the schedules'
     rows the ages point to and the estimator gain: modes of equal keys are
     built once (long periods repeat them)."""
-    a, b, c, a_prev = emissions
+    a, b, c, d, a_prev = emissions
     shift = 0 if controller == "static" else 1
     rows = [ctx.S1[(k + shift - j) % ctx.N].tobytes()
             for j in range(ctx.Ds + 1)]
@@ -694,7 +777,7 @@ def _phase_key(ctx: Context, controller: str, k: int, emissions: tuple
     if ctx.L is not None and ctx.L.shape[0] > 1:
         rows += [ctx.L[(k + shift - j) % ctx.L.shape[0]].tobytes()
                  for j in range(ctx.Ds + 1)]
-    return (a, b, c, a_prev, *rows)
+    return (a, b, c, d, a_prev, *rows)
 
 
 def _assemble(m: Mode, layout: Layout, r: Rows, u_prev: np.ndarray
@@ -706,11 +789,14 @@ def _assemble(m: Mode, layout: Layout, r: Rows, u_prev: np.ndarray
     nxt = np.zeros((nX, r.width))
     for name, rows in m.nxt.items():
         nxt[layout.slices[name]] = rows
+    n = r.isample.stop - r.isample.start
     return dict(A=nxt[:, :nX], Bw=nxt[:, r.iw], Bu=nxt[:, r.iv],
                 Gnext=nxt[:, r.inext], Cz=m.z[:, :nX], Dw=m.z[:, r.iw],
                 Du=m.z[:, r.iv], E=m.E, Ew=m.Ew, x=m.x[:, :nX],
                 u=m.u[:, :nX], u_w=m.u[:, r.iw], u_v=m.u[:, r.iv],
-                u_prev=u_prev[:, :nX], omega=nxt[:, r.iomega])
+                u_prev=u_prev[:, :nX], omega=nxt[:, r.iomega],
+                e_n=(np.zeros((m.E.shape[0], n)) if m.En is None else m.En),
+                n_in=nxt[:, r.isample])
 
 
 def _per_phase_reading(E: np.ndarray, Ew: np.ndarray, Bu: np.ndarray,
