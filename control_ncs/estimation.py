@@ -27,7 +27,7 @@ import control as ct
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from . import _lqg_loops, _mare
+from . import _lqg_loops, _lqg_sampled, _mare
 from ._checks import flag, matrix, no_extra_kwargs
 from ._mare import MareError, RiccatiSolution
 from ._results import CertifiedResult
@@ -714,7 +714,10 @@ def _lqg_plant(P: Any) -> tuple[float, float]:
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
-    _sensor_plant(P, "lqg")
+    # a sampled plant's input delay is the continuous design's (checked
+    # there); the links are checked here
+    _sensor_plant(P if P.input_delay is None or P.continuous is None
+                  else P.with_network(input_delay=None), "lqg")
     bursty = [name for name, link in (("sensor", P.sensor_link),
                                       ("actuator", P.actuator_link))
               if isinstance(link, GilbertElliott) and not link.is_bernoulli]
@@ -837,6 +840,8 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
     no_extra_kwargs("lqg", kwargs)
     tcp = flag(acknowledgements, "acknowledgements")
     lam, nu = _lqg_plant(P)
+    if P.continuous is not None:
+        return _lqg_continuous(P, Q, R, QN, RN, tcp, lam, nu)
     A, B = np.asarray(P.A, float), np.asarray(P.B2, float)
     G, C = np.asarray(P.B1, float), np.asarray(P.C2, float)
     n, m = B.shape
@@ -889,6 +894,57 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
     gain = PeriodicGain(K, controller="estimator", estimator_gain=Lfin,
                         result=result)
     return gain, CL, J
+
+
+def _lqg_continuous(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any,
+                    RN: Any, tcp: bool, lam: float, nu: float) -> tuple:
+    """LQG with continuous weights on a sampled plant
+    (:ref:`theory-lqg-continuous`): van Loan's sampled loss and noise, the
+    (modified) Kalman filter, the LQ gain with its cross term, the loop's
+    continuous cost (:func:`control_ncs.cost`) checked against the closed
+    form."""
+    from .intersample import cost
+    delay = P.input_delay
+    n, m = P.nstates, P.ncon
+    if nu < 1.0 or (delay is not None and (
+            delay.taus.size != 1 or delay.late or lam < 1.0)):
+        raise ControlArgument(
+            "P: lqg with continuous weights covers a loss-free actuator "
+            "link, a lossy sensor link without input delay, and a constant "
+            "input delay (input_delay=([tau], [1.0])) on loss-free links "
+            "(Jitterbug's lqgdesign); design other timings with h2syn")
+    Q = matrix(Q, "Q", (n, n))
+    R = matrix(R, "R", (m, m))
+    G1 = np.asarray(P.continuous.B, float)[:, :P.B1.shape[1]]
+    QN, RN = _covariances(G1, np.asarray(P.C2, float), QN, RN)
+    s = _lqg_sampled.sample(P, Q, R, QN, None if delay is None
+                            else float(delay.taus[0]))
+    C = s.C2
+    _, S, _, est = dlqe(s.Phi, np.eye(n), C, s.R1d, RN, arrival=lam,
+                        full_output=True)
+    Lf = S @ C.T @ np.linalg.inv(C @ S @ C.T + RN)
+    L, Sc, ctrl = _lqg_sampled.control(s, dlqr)
+    closed = _lqg_sampled.closed_form(s, L, Sc, S - lam * Lf @ C @ S)
+    plant = _lqg_sampled.cost_plant(P, s, Q, R, QN, RN)
+    K: Any = (_lqg_sampled.delay_controller(s, L, Lf) if delay is not None
+              else PeriodicGain(L, controller="estimator", estimator_gain=Lf))
+    CL = feedback(plant, K)
+    J = cost(CL).cost
+    if not abs(J - closed) <= 1e-8 * max(1.0, closed):
+        raise SynthesisError(
+            f"lqg: the loop's continuous cost {J:.10g} and the closed form "
+            f"{closed:.10g} disagree", NOT_VERIFIED,
+            dict(cost=J, closed_form=closed))
+    result = LQGResult(cost=J, lower_bound=closed, gap=J - closed,
+                       closed_form=closed, acknowledgements=tcp,
+                       estimation=est, control=ctrl,
+                       ms_radius=ms_radius(CL), search={})
+    if delay is None:
+        K = PeriodicGain(L, controller="estimator", estimator_gain=Lf,
+                         result=result)
+    else:
+        K.result = result
+    return K, CL, J
 
 
 def _udp_loop(P: NetworkedStateSpace, data: _lqg_loops.LoopData,
