@@ -770,17 +770,33 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
     a local search (BFGS, analytic gradient) on the exact cost from the
     TCP-like pair; the TCP-like optimum is a proven lower bound.
 
+    On a plant sampled from a continuous one (``nss(sys_c, ..., dt=h)``)
+    the weights are continuous, as Jitterbug's ``lqgdesign`` takes them:
+    ``J = lim (1/T) E ∫ (xᵀQx + uᵀRu) dt`` with the input held (and the
+    state between the samples counted), ``QN`` the intensity of the
+    continuous process noise on ``B1`` and ``RN`` the covariance of the
+    sampled measurement's noise. The design is the sampled LQG of van
+    Loan's sampled loss (with its cross term) and noise
+    (:ref:`theory-lqg-continuous`), and ``J`` the continuous cost of the
+    loop (:func:`control_ncs.cost`), checked against the closed form. It
+    covers a lossy sensor link (the filter of :func:`dlqe`) and a constant
+    input delay ``input_delay=([τ], [1.0])`` on loss-free links (the state
+    augmented by ``u_{k-1}``).
+
     Parameters
     ----------
     P : NetworkedStateSpace
         The plant (its ``A``, ``B1``, ``B2``, ``C2``, ``D21 = 0``) and its
-        Bernoulli links; no schedules or delays. Its performance outputs are
-        not used: the cost is ``Q``, ``R``.
+        Bernoulli links; no schedules or delays (but a constant sub-sample
+        input delay on a sampled continuous plant). Its performance outputs
+        are not used: the cost is ``Q``, ``R``.
     Q, R : array_like
-        State and input weights, ``Q ⪰ 0``, ``R ≻ 0``.
+        State and input weights, ``Q ⪰ 0``, ``R ≻ 0`` (continuous ones for
+        a sampled continuous plant).
     QN, RN : array_like
         Process (``w``, entering through ``B1``) and measurement noise
-        covariances, ``QN ⪰ 0``, ``RN ≻ 0``.
+        covariances, ``QN ⪰ 0``, ``RN ≻ 0`` (for a sampled continuous
+        plant ``QN`` is the continuous noise's intensity).
     acknowledgements : bool, optional
         TCP-like (default) or UDP-like.
     **kwargs
@@ -788,20 +804,24 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
 
     Returns
     -------
-    K : PeriodicGain
+    K : PeriodicGain or control.StateSpace
         ``controller='estimator'``, ``u = K x̂`` (the package's sign), with
         its ``estimator_gain`` ``L_f`` (the filter form) and ``K.result`` an
         :class:`LQGResult`. ``feedback(P', K)`` closes the TCP-like loop
         (the estimator's builder adds the command that arrived); the
-        UDP-like loop is ``CL``.
+        UDP-like loop is ``CL``. With a constant input delay: the
+        controller as a discrete LTI system on ``[x̂⁻; u_{k-1}]`` (its
+        ``result`` attribute the :class:`LQGResult`).
     CL : JumpStateSpace
         The exact loop, ``w = [process; measurement]`` noise of unit
         covariance (scaled inside) and ``z = [Q^½ x; R^½ u]``:
-        ``ncs.norm(CL, 2)**2 == J``. TCP-like: ``feedback`` of ``P`` with
-        that noise and cost; UDP-like: the jump system on ``[x; x̂]`` with
-        modes ``(γ, ν)``.
+        ``ncs.norm(CL, 2)**2 == J`` (``ncs.cost(CL).cost == J`` for a
+        sampled continuous plant, whose process noise is continuous).
+        TCP-like: ``feedback`` of ``P`` with that noise and cost; UDP-like:
+        the jump system on ``[x; x̂]`` with modes ``(γ, ν)``.
     J : float
-        The exact stationary cost.
+        The exact stationary cost (per time unit for a sampled continuous
+        plant).
 
     Raises
     ------
@@ -813,7 +833,8 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
         figure fails its cross-check.
     ControlArgument
         A plant lqg does not cover (bursty links, schedules, delays,
-        ``D21 ≠ 0``).
+        ``D21 ≠ 0``; with continuous weights, a lossy actuator link, or
+        an input delay that is not constant or beside a lossy sensor).
 
     References
     ----------
@@ -836,6 +857,16 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
     ...                    acknowledgements=False)
     >>> bool(J >= K.result.lower_bound)
     True
+
+    Continuous weights on the integrator ``ẋ = u + w`` sampled at ``h =
+    0.5``, measured with noise of variance 0.01:
+
+    >>> G = ct.ss([[0.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0],
+    ...           [0.0, 0.0]])
+    >>> P = ncs.nss(G, nmeas=1, ncon=1, dt=0.5)
+    >>> K, CL, J = ncs.lqg(P, [[1.0]], [[0.1]], [[1.0]], [[0.01]])
+    >>> round(J, 6), bool(abs(ncs.cost(CL).cost - J) < 1e-9)
+    (0.607419, True)
     """
     no_extra_kwargs("lqg", kwargs)
     tcp = flag(acknowledgements, "acknowledgements")
@@ -915,7 +946,8 @@ def _lqg_continuous(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any,
             "(Jitterbug's lqgdesign); design other timings with h2syn")
     Q = matrix(Q, "Q", (n, n))
     R = matrix(R, "R", (m, m))
-    G1 = np.asarray(P.continuous.B, float)[:, :P.B1.shape[1]]
+    sys_c: Any = P.continuous
+    G1 = np.asarray(sys_c.B, dtype=float)[:, :P.B1.shape[1]]
     QN, RN = _covariances(G1, np.asarray(P.C2, float), QN, RN)
     s = _lqg_sampled.sample(P, Q, R, QN, None if delay is None
                             else float(delay.taus[0]))

@@ -46,13 +46,16 @@ the loop's input (``nw``), ``N`` phases, ``M`` modes per phase, as in
     Where a disturbance added to ``x_{k+1}`` (the plant noise of the
     period, ``ω_k``) enters ``X_{k+1}``; absent: at ``x`` only.
 
-Sampling jitter (the sample taken ``s`` after ``kh``, ``0 ≤ s ≤ τ``) adds,
-optionally: ``s`` (N, M); ``u_n`` (N, M, ncon, n), the rows of ``u_k`` on
-``n_s``, the noise the plant gathered from ``kh`` to the sample (it
-reaches ``u_k`` through ``y_k = C2 x(kh + s)``); ``n_noise`` (N, M, nX, n),
-where ``n_s`` enters ``X_{k+1}`` through the loop (what the controller read,
-and ``Γ0(τ) u_k``); its share of the period's own noise ``ω_k = n(h)`` is
-``omega``'s.
+Sampling jitter (the sample taken ``s`` after ``kh``, ``0 ≤ s ≤ τ``;
+``nss(..., timing=...)``, :ref:`theory-sampling-jitter`) adds (optional
+in a record written by hand, always written by the builders): ``s`` (N,
+M); ``u_n`` (N, M, ncon, n), the rows of ``u_k`` on ``n_s``, the noise the
+plant gathered from ``kh`` to the sample (it reaches ``u_k`` through ``y_k
+= C2 x(kh + s)``); ``n_noise`` (N, M, nX, n), where ``n_s`` enters
+``X_{k+1}`` through the loop (what the controller read, and ``Γ0(τ)
+u_k``); its share of the period's own noise ``ω_k = n(h)`` is ``omega``'s.
+A controller with memory reads the sample at the end of the previous
+step: its loop runs on pairs of modes and these rows are per pair.
 """
 
 from __future__ import annotations
@@ -67,7 +70,7 @@ import scipy.linalg
 from ._checks import choice, positive_real
 from ._results import Result
 from .jump import JumpStateSpace, as_jump
-from .plant import input_delay_sampling
+from ._timing import input_delay_sampling
 from .stability import ms_radius, second_moment_operator
 from .stationary import (output_power, phase_forcing,
                          stationary_covariances)

@@ -27,10 +27,11 @@ from ._lifting import check_lifted_size
 from .gain import ACTUATORS, CONTROLLERS
 from .automata import LossAutomaton
 from .constrained import Constraint
-from .links import LinkChain, constraint, link_chain, product, timing_chain
+from .links import LinkChain, constraint, link_chain, product
 from .modes import join_labels, lump_markov, markov_classes, periodic_stationary
 from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
+from ._timing import timing_chain
 
 __all__ = ["build", "loop_closes", "require_state_measured"]
 
@@ -147,7 +148,7 @@ def network(P: NetworkedStateSpace, controller: str, N: int) -> Network:
     chains = [sensor, actuator]
     timing = None
     if P.input_delay is not None:
-        timing = _timing_chain(P.input_delay, N, controller != "static")
+        timing = timing_chain(P.input_delay, N, controller != "static")
         chains.append(timing)
     size = int(np.prod([c.size for c in chains]))
     if size > MAX_MODES:
@@ -162,36 +163,12 @@ def network(P: NetworkedStateSpace, controller: str, N: int) -> Network:
     if timing is None:
         em = np.concatenate([em, np.zeros(em.shape[:2] + (2,), int)], axis=2)
     else:           # the pair code c·M + d as the two pair indices
+        assert P.input_delay is not None
         M = P.input_delay.taus.size
         em = np.concatenate([em[:, :, :2], em[:, :, 2:] // M,
                              em[:, :, 2:] % M], axis=2)
     return Network(sensor, actuator, timing, T, em, previous,
                    constraint(chains))
-
-
-def _timing_chain(delay: Any, N: int, ahead: bool) -> LinkChain:
-    """The sub-sample timing as a chain over the pairs ``(s, τ)``, i.i.d.
-    with their joint pmf, emitting ``c·M + d``: ``c`` the pair of the
-    period (its ``τ`` delays the input), ``d`` the pair whose ``s`` delays
-    the sample the mode reads. The static gain reads this period's sample
-    (``d = c``). A controller with memory reads, at the end of step ``k``,
-    the sample of period ``k + 1``: when the sampling delays differ, the
-    chain runs on consecutive pairs ``(c, d)`` (Markov: ``(c, d) → (d,
-    e)`` with probability ``p_e``), so that a joint pmf keeps its
-    dependence between ``s`` and ``τ`` of one period."""
-    p = np.asarray(delay.probabilities, float)
-    M = p.size
-    if not ahead or np.unique(delay.samples).size == 1:
-        return LinkChain(np.tile(p, (N, M, 1)),
-                         np.tile(np.arange(M) * (M + 1), (N, 1)),
-                         M * M - 1, tuple(f"timing {i}" for i in range(M)))
-    T = np.zeros((M * M, M * M))
-    for c in range(M):
-        for d in range(M):
-            T[c * M + d, d * M:(d + 1) * M] = p
-    return LinkChain(np.tile(T, (N, 1, 1)), np.tile(np.arange(M * M), (N, 1)),
-                     M * M - 1, tuple(f"timing {c},{d}" for c in range(M)
-                                      for d in range(M)))
 
 
 # -- the loop state ---------------------------------------------------------------
@@ -321,7 +298,8 @@ class Context:
         columns, :ref:`theory-sampling-jitter`). ``x`` itself when the
         sample ``d`` is not late."""
         delay = self.P.input_delay
-        if delay is None or not delay.samples[d] > 0:
+        if delay is None or delay.samples is None or \
+                not delay.samples[d] > 0:
             return x
         assert delay.sample_state is not None
         assert delay.sample_input is not None
