@@ -72,7 +72,7 @@ from ._results import Result
 from .jump import JumpStateSpace, as_jump
 from ._timing import input_delay_sampling
 from .stability import ms_radius, second_moment_operator
-from .stationary import (output_power, phase_forcing,
+from .stationary import (_stationary, output_power, phase_forcing,
                          stationary_covariances)
 
 __all__ = ["cost", "CostResult"]
@@ -462,7 +462,8 @@ def cost(sys: Any, *, method: str = "auto", tol: float = 1e-12) -> CostResult:
     choice(method, "method", ("auto", "dense", "matrix-free"))
     tol = positive_real(tol, "tol")
     record = sys.info.get("sampling") if isinstance(sys.info, dict) else None
-    radius = float(ms_radius(sys))
+    bracket = ms_radius(sys, bracket=True)
+    radius = float(bracket.radius)
     if record is None:
         if not radius < 1.0:
             return CostResult(math.inf, radius, sys.dt_step, 0.0, math.nan,
@@ -474,7 +475,8 @@ def cost(sys: Any, *, method: str = "auto", tol: float = 1e-12) -> CostResult:
     if not radius < 1.0:
         return CostResult(math.inf, radius, plan.h, plan.c / plan.h,
                           math.nan, True)
-    Q, residual = _solve(plan.noisy, method, tol)
+    # the noisy loop has the loop's modes: its radius is the one certified
+    Q, residual = _solve(plan.noisy, method, tol, bracket)
     return CostResult(_evaluate(plan, Q), radius, plan.h, plan.c / plan.h,
                       residual, True)
 
@@ -597,11 +599,19 @@ def _root(cov: np.ndarray) -> np.ndarray:
     return vecs * np.sqrt(np.clip(vals, 0.0, None))
 
 
-def _solve(sys: JumpStateSpace, method: str, tol: float
-           ) -> tuple[np.ndarray, float]:
+def _solve(sys: JumpStateSpace, method: str, tol: float,
+           bracket: Any = None) -> tuple[np.ndarray, float]:
     """The stationary second moment and its residual over one period
-    (ValueError if the radius' certified bracket contains 1)."""
-    Q = stationary_covariances(sys, method=method, tol=tol)
+    (ValueError if the radius' certified bracket contains 1); ``bracket``
+    the certified radius of ``sys``'s modes, when already known."""
+    if bracket is None:
+        Q = stationary_covariances(sys, method=method, tol=tol)
+    elif bracket.stable is not True:
+        raise ValueError(f"sys: not proven mean-square stable "
+                         f"({bracket.message}): the noise-driven second "
+                         "moment has no steady state")
+    else:
+        Q = _stationary(sys, method, tol)
     modes = sys.modes
     N = sys.period
     shape = Q.shape[1:]

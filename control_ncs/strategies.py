@@ -836,6 +836,8 @@ def _description(P: NetworkedStateSpace, net: Network) -> dict:
             out[f"{side}_delay"] = getattr(P, f"{side}_delay")
     if P.input_delay is not None:
         out["input_delay"] = P.input_delay.taus
+        if P.input_delay.late:
+            out["sample_delay"] = P.input_delay.samples
     return out
 
 
