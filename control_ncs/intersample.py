@@ -67,6 +67,7 @@ from typing import Any, ClassVar
 import numpy as np
 import scipy.linalg
 
+from ._blas import serial_blas
 from ._checks import choice, positive_real
 from ._results import Result
 from .jump import JumpStateSpace, as_jump
@@ -471,7 +472,10 @@ def cost(sys: Any, *, method: str = "auto", tol: float = 1e-12) -> CostResult:
         J = output_power(sys, method=method, tol=tol)
         _, residual = _solve(sys, method, tol)
         return CostResult(J, radius, sys.dt_step, 0.0, residual, False)
-    plan = _plan(sys, record)
+    with serial_blas():
+        # small exponentials, one per timing: LAPACK on several threads of
+        # a busy machine waits longer than it computes (40x at n = 10)
+        plan = _plan(sys, record)
     if not radius < 1.0:
         return CostResult(math.inf, radius, plan.h, plan.c / plan.h,
                           math.nan, True)
@@ -692,14 +696,15 @@ def cost_open_loop(plant: Any) -> Any:
         raise ValueError("plant: a design for the cost with late samples "
                          "(sampling jitter) is not available; compute the "
                          "cost of a given loop with cost()")
-    R1d, c = sampled_noise(A, B1, C1, h)
     discrete = ~np.any(B1 != 0, axis=0)
     N, M = s["tau"].shape
     roots = {}
-    for tau in np.unique(s["tau"]):
-        # z = R^T psi with R R^T = W: z^T z = psi^T W psi
-        roots[float(tau)] = _root(intersample_weight(
-            A, B2, C1, D12, h, float(tau))).T / math.sqrt(h)
+    with serial_blas():          # small exponentials (see cost)
+        R1d, c = sampled_noise(A, B1, C1, h)
+        for tau in np.unique(s["tau"]):
+            # z = R^T psi with R R^T = W: z^T z = psi^T W psi
+            roots[float(tau)] = _root(intersample_weight(
+                A, B2, C1, D12, h, float(tau))).T / math.sqrt(h)
     rows = np.concatenate([s["x"], s["u_prev"], s["u"]], axis=2)
     Wr = np.array([[roots[float(s["tau"][k, i])] for i in range(M)]
                    for k in range(N)])                       # (N, M, r, d)

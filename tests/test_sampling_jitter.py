@@ -16,6 +16,7 @@ import control as ct
 import numpy as np
 import pytest
 from control.exception import ControlArgument, ControlDimension
+from hypothesis import given, settings, strategies as st
 
 import control_ncs as ncs
 from test_intersample_cost import (_estimator, _flow, _fourth_moment_radius,
@@ -87,6 +88,31 @@ def test_static_gain_loop_equals_the_hand_built_late_sample_loop():
     CL, ref = ncs.feedback(P, K), _late_sample_loop(G, H, K, timings)
     assert ncs.cost(CL).cost == pytest.approx(ncs.cost(ref).cost, rel=1e-10)
     assert ncs.ms_radius(CL) == pytest.approx(ncs.ms_radius(ref), rel=1e-10)
+
+
+@settings(max_examples=5, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_static_gain_on_random_plants_and_timings_is_the_hand_built_loop(seed):
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((2, 2))
+    A -= (np.linalg.eigvals(A).real.max() + 0.5) * np.eye(2)   # Hurwitz
+    B = rng.standard_normal((2, 1)) / 4
+    G = _plant(A, B, B, rng.standard_normal((1, 2)), [[0.2]],
+               rng.standard_normal((1, 2)))
+    K = np.array([[-0.3]])
+    h = 0.4
+    taus = np.sort(rng.uniform(0.0, h, 3))
+    pairs = [(rng.uniform(0.0, t), t) for t in taus]
+    probs = rng.dirichlet(np.ones(3))
+    timings = list(zip(pairs, probs))
+    CL = ncs.feedback(ncs.nss(G, nmeas=1, ncon=1, dt=h,
+                              timing=(pairs, probs)), K)
+    ref = _late_sample_loop(G, h, K, timings)
+    assert ncs.ms_radius(CL) == pytest.approx(ncs.ms_radius(ref), rel=1e-9)
+    J, J_ref = ncs.cost(CL).cost, ncs.cost(ref).cost
+    assert math.isfinite(J_ref) and J == pytest.approx(J_ref, rel=1e-9)
+    assert ncs.norm(CL, 2) == pytest.approx(
+        ncs.norm(_held_noise_loop(G, h, K, timings), 2), rel=1e-9)
 
 
 def test_the_sampled_model_holds_the_noise_until_the_late_sample():
