@@ -194,7 +194,8 @@ _TOL = 1e-9
 #: exact mean that every closed loop carries (python-control's face of a
 #: jump system) is a dense matrix of order modes × states: quadratic in
 #: ``D``, so its memory grows as ``D⁴``, long before the builder's own
-#: limits (``strategies.MAX_LOOP_STATES``, ``MAX_MODES``) are reached.
+#: limits (``strategies.MAX_LOOP_STATES``, ``modechain.MAX_MODES``) are
+#: reached.
 #: Measured on the smallest loop (a one-state plant, a static gain, the
 #: actuator link's two states: ``2 (D + 2)`` modes), closing it with
 #: :func:`control_ncs.feedback`: ``D = 64`` takes 4.5 s and a 1.3 GB peak

@@ -27,7 +27,7 @@ import control as ct
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
-from . import _lqg_loops, _mare
+from . import _lqg_loops, _lqg_sampled, _mare
 from ._checks import flag, matrix, no_extra_kwargs
 from ._mare import MareError, RiccatiSolution
 from ._results import CertifiedResult
@@ -714,7 +714,10 @@ def _lqg_plant(P: Any) -> tuple[float, float]:
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
-    _sensor_plant(P, "lqg")
+    # a sampled plant's input delay is the continuous design's (checked
+    # there); the links are checked here
+    _sensor_plant(P if P.input_delay is None or P.continuous is None
+                  else P.with_network(input_delay=None), "lqg")
     bursty = [name for name, link in (("sensor", P.sensor_link),
                                       ("actuator", P.actuator_link))
               if isinstance(link, GilbertElliott) and not link.is_bernoulli]
@@ -767,17 +770,33 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
     a local search (BFGS, analytic gradient) on the exact cost from the
     TCP-like pair; the TCP-like optimum is a proven lower bound.
 
+    On a plant sampled from a continuous one (``nss(sys_c, ..., dt=h)``)
+    the weights are continuous, as Jitterbug's ``lqgdesign`` takes them:
+    ``J = lim (1/T) E ∫ (xᵀQx + uᵀRu) dt`` with the input held (and the
+    state between the samples counted), ``QN`` the intensity of the
+    continuous process noise on ``B1`` and ``RN`` the covariance of the
+    sampled measurement's noise. The design is the sampled LQG of van
+    Loan's sampled loss (with its cross term) and noise
+    (:ref:`theory-lqg-continuous`), and ``J`` the continuous cost of the
+    loop (:func:`control_ncs.cost`), checked against the closed form. It
+    covers a lossy sensor link (the filter of :func:`dlqe`) and a constant
+    input delay ``input_delay=([τ], [1.0])`` on loss-free links (the state
+    augmented by ``u_{k-1}``).
+
     Parameters
     ----------
     P : NetworkedStateSpace
         The plant (its ``A``, ``B1``, ``B2``, ``C2``, ``D21 = 0``) and its
-        Bernoulli links; no schedules or delays. Its performance outputs are
-        not used: the cost is ``Q``, ``R``.
+        Bernoulli links; no schedules or delays (but a constant sub-sample
+        input delay on a sampled continuous plant). Its performance outputs
+        are not used: the cost is ``Q``, ``R``.
     Q, R : array_like
-        State and input weights, ``Q ⪰ 0``, ``R ≻ 0``.
+        State and input weights, ``Q ⪰ 0``, ``R ≻ 0`` (continuous ones for
+        a sampled continuous plant).
     QN, RN : array_like
         Process (``w``, entering through ``B1``) and measurement noise
-        covariances, ``QN ⪰ 0``, ``RN ≻ 0``.
+        covariances, ``QN ⪰ 0``, ``RN ≻ 0`` (for a sampled continuous
+        plant ``QN`` is the continuous noise's intensity).
     acknowledgements : bool, optional
         TCP-like (default) or UDP-like.
     **kwargs
@@ -785,21 +804,25 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
 
     Returns
     -------
-    K : PeriodicGain
+    K : PeriodicGain or control.StateSpace
         ``controller='estimator'``, ``u = K x̂`` (the package's sign,
         :ref:`guide-sign`), with
         its ``estimator_gain`` ``L_f`` (the filter form) and ``K.result`` an
         :class:`LQGResult`. ``feedback(P', K)`` closes the TCP-like loop
         (the estimator's builder adds the command that arrived); the
-        UDP-like loop is ``CL``.
+        UDP-like loop is ``CL``. With a constant input delay: the
+        controller as a discrete LTI system on ``[x̂⁻; u_{k-1}]`` (its
+        ``result`` attribute the :class:`LQGResult`).
     CL : JumpStateSpace
         The exact loop, ``w = [process; measurement]`` noise of unit
         covariance (scaled inside) and ``z = [Q^½ x; R^½ u]``:
-        ``ncs.norm(CL, 2)**2 == J``. TCP-like: ``feedback`` of ``P`` with
-        that noise and cost; UDP-like: the jump system on ``[x; x̂]`` with
-        modes ``(γ, ν)``.
+        ``ncs.norm(CL, 2)**2 == J`` (``ncs.cost(CL).cost == J`` for a
+        sampled continuous plant, whose process noise is continuous).
+        TCP-like: ``feedback`` of ``P`` with that noise and cost; UDP-like:
+        the jump system on ``[x; x̂]`` with modes ``(γ, ν)``.
     J : float
-        The exact stationary cost.
+        The exact stationary cost (per time unit for a sampled continuous
+        plant).
 
     Raises
     ------
@@ -811,7 +834,8 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
         figure fails its cross-check.
     ControlArgument
         A plant lqg does not cover (bursty links, schedules, delays,
-        ``D21 ≠ 0``).
+        ``D21 ≠ 0``; with continuous weights, a lossy actuator link, or
+        an input delay that is not constant or beside a lossy sensor).
 
     References
     ----------
@@ -834,10 +858,22 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
     ...                    acknowledgements=False)
     >>> bool(J >= K.result.lower_bound)
     True
+
+    Continuous weights on the integrator ``ẋ = u + w`` sampled at ``h =
+    0.5``, measured with noise of variance 0.01:
+
+    >>> G = ct.ss([[0.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0],
+    ...           [0.0, 0.0]])
+    >>> P = ncs.nss(G, nmeas=1, ncon=1, dt=0.5)
+    >>> K, CL, J = ncs.lqg(P, [[1.0]], [[0.1]], [[1.0]], [[0.01]])
+    >>> round(J, 6), bool(abs(ncs.cost(CL).cost - J) < 1e-9)
+    (0.607419, True)
     """
     no_extra_kwargs("lqg", kwargs)
     tcp = flag(acknowledgements, "acknowledgements")
     lam, nu = _lqg_plant(P)
+    if P.continuous is not None:
+        return _lqg_continuous(P, Q, R, QN, RN, tcp, lam, nu)
     A, B = np.asarray(P.A, float), np.asarray(P.B2, float)
     G, C = np.asarray(P.B1, float), np.asarray(P.C2, float)
     n, m = B.shape
@@ -890,6 +926,58 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
     gain = PeriodicGain(K, controller="estimator", estimator_gain=Lfin,
                         result=result)
     return gain, CL, J
+
+
+def _lqg_continuous(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any,
+                    RN: Any, tcp: bool, lam: float, nu: float) -> tuple:
+    """LQG with continuous weights on a sampled plant
+    (:ref:`theory-lqg-continuous`): van Loan's sampled loss and noise, the
+    (modified) Kalman filter, the LQ gain with its cross term, the loop's
+    continuous cost (:func:`control_ncs.cost`) checked against the closed
+    form."""
+    from .intersample import cost
+    delay = P.input_delay
+    n, m = P.nstates, P.ncon
+    if nu < 1.0 or (delay is not None and (
+            delay.taus.size != 1 or delay.late or lam < 1.0)):
+        raise ControlArgument(
+            "P: lqg with continuous weights covers a loss-free actuator "
+            "link, a lossy sensor link without input delay, and a constant "
+            "input delay (input_delay=([tau], [1.0])) on loss-free links "
+            "(Jitterbug's lqgdesign); design other timings with h2syn")
+    Q = matrix(Q, "Q", (n, n))
+    R = matrix(R, "R", (m, m))
+    sys_c: Any = P.continuous
+    G1 = np.asarray(sys_c.B, dtype=float)[:, :P.B1.shape[1]]
+    QN, RN = _covariances(G1, np.asarray(P.C2, float), QN, RN)
+    s = _lqg_sampled.sample(P, Q, R, QN, None if delay is None
+                            else float(delay.taus[0]))
+    C = s.C2
+    _, S, _, est = dlqe(s.Phi, np.eye(n), C, s.R1d, RN, arrival=lam,
+                        full_output=True)
+    Lf = S @ C.T @ np.linalg.inv(C @ S @ C.T + RN)
+    L, Sc, ctrl = _lqg_sampled.control(s, dlqr)
+    closed = _lqg_sampled.closed_form(s, L, Sc, S - lam * Lf @ C @ S)
+    plant = _lqg_sampled.cost_plant(P, s, Q, R, QN, RN)
+    K: Any = (_lqg_sampled.delay_controller(s, L, Lf) if delay is not None
+              else PeriodicGain(L, controller="estimator", estimator_gain=Lf))
+    CL = feedback(plant, K)
+    J = cost(CL).cost
+    if not abs(J - closed) <= 1e-8 * max(1.0, closed):
+        raise SynthesisError(
+            f"lqg: the loop's continuous cost {J:.10g} and the closed form "
+            f"{closed:.10g} disagree", NOT_VERIFIED,
+            dict(cost=J, closed_form=closed))
+    result = LQGResult(cost=J, lower_bound=closed, gap=J - closed,
+                       closed_form=closed, acknowledgements=tcp,
+                       estimation=est, control=ctrl,
+                       ms_radius=ms_radius(CL), search={})
+    if delay is None:
+        K = PeriodicGain(L, controller="estimator", estimator_gain=Lf,
+                         result=result)
+    else:
+        K.result = result
+    return K, CL, J
 
 
 def _udp_loop(P: NetworkedStateSpace, data: _lqg_loops.LoopData,

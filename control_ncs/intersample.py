@@ -46,13 +46,16 @@ the loop's input (``nw``), ``N`` phases, ``M`` modes per phase, as in
     Where a disturbance added to ``x_{k+1}`` (the plant noise of the
     period, ``ω_k``) enters ``X_{k+1}``; absent: at ``x`` only.
 
-Sampling jitter (the sample taken ``s`` after ``kh``, ``0 ≤ s ≤ τ``) adds,
-optionally: ``s`` (N, M); ``u_n`` (N, M, ncon, n), the rows of ``u_k`` on
-``n_s``, the noise the plant gathered from ``kh`` to the sample (it
-reaches ``u_k`` through ``y_k = C2 x(kh + s)``); ``n_noise`` (N, M, nX, n),
-where ``n_s`` enters ``X_{k+1}`` through the loop (what the controller read,
-and ``Γ0(τ) u_k``); its share of the period's own noise ``ω_k = n(h)`` is
-``omega``'s.
+Sampling jitter (the sample taken ``s`` after ``kh``, ``0 ≤ s ≤ τ``;
+``nss(..., timing=...)``, :ref:`theory-sampling-jitter`) adds (optional
+in a record written by hand, always written by the builders): ``s`` (N,
+M); ``u_n`` (N, M, ncon, n), the rows of ``u_k`` on ``n_s``, the noise the
+plant gathered from ``kh`` to the sample (it reaches ``u_k`` through ``y_k
+= C2 x(kh + s)``); ``n_noise`` (N, M, nX, n), where ``n_s`` enters
+``X_{k+1}`` through the loop (what the controller read, and ``Γ0(τ)
+u_k``); its share of the period's own noise ``ω_k = n(h)`` is ``omega``'s.
+A controller with memory reads the sample at the end of the previous
+step: its loop runs on pairs of modes and these rows are per pair.
 """
 
 from __future__ import annotations
@@ -64,12 +67,13 @@ from typing import Any, ClassVar
 import numpy as np
 import scipy.linalg
 
+from ._blas import serial_blas
 from ._checks import choice, positive_real
 from ._results import Result
 from .jump import JumpStateSpace, as_jump
-from .plant import input_delay_sampling
+from ._timing import input_delay_sampling
 from .stability import ms_radius, second_moment_operator
-from .stationary import (output_power, phase_forcing,
+from .stationary import (_stationary, output_power, phase_forcing,
                          stationary_covariances)
 
 __all__ = ["cost", "CostResult"]
@@ -459,7 +463,8 @@ def cost(sys: Any, *, method: str = "auto", tol: float = 1e-12) -> CostResult:
     choice(method, "method", ("auto", "dense", "matrix-free"))
     tol = positive_real(tol, "tol")
     record = sys.info.get("sampling") if isinstance(sys.info, dict) else None
-    radius = float(ms_radius(sys))
+    bracket = ms_radius(sys, bracket=True)
+    radius = float(bracket.radius)
     if record is None:
         if not radius < 1.0:
             return CostResult(math.inf, radius, sys.dt_step, 0.0, math.nan,
@@ -467,11 +472,15 @@ def cost(sys: Any, *, method: str = "auto", tol: float = 1e-12) -> CostResult:
         J = output_power(sys, method=method, tol=tol)
         _, residual = _solve(sys, method, tol)
         return CostResult(J, radius, sys.dt_step, 0.0, residual, False)
-    plan = _plan(sys, record)
+    with serial_blas():
+        # small exponentials, one per timing: LAPACK on several threads of
+        # a busy machine waits longer than it computes (40x at n = 10)
+        plan = _plan(sys, record)
     if not radius < 1.0:
         return CostResult(math.inf, radius, plan.h, plan.c / plan.h,
                           math.nan, True)
-    Q, residual = _solve(plan.noisy, method, tol)
+    # the noisy loop has the loop's modes: its radius is the one certified
+    Q, residual = _solve(plan.noisy, method, tol, bracket)
     return CostResult(_evaluate(plan, Q), radius, plan.h, plan.c / plan.h,
                       residual, True)
 
@@ -594,11 +603,19 @@ def _root(cov: np.ndarray) -> np.ndarray:
     return vecs * np.sqrt(np.clip(vals, 0.0, None))
 
 
-def _solve(sys: JumpStateSpace, method: str, tol: float
-           ) -> tuple[np.ndarray, float]:
+def _solve(sys: JumpStateSpace, method: str, tol: float,
+           bracket: Any = None) -> tuple[np.ndarray, float]:
     """The stationary second moment and its residual over one period
-    (ValueError if the radius' certified bracket contains 1)."""
-    Q = stationary_covariances(sys, method=method, tol=tol)
+    (ValueError if the radius' certified bracket contains 1); ``bracket``
+    the certified radius of ``sys``'s modes, when already known."""
+    if bracket is None:
+        Q = stationary_covariances(sys, method=method, tol=tol)
+    elif bracket.stable is not True:
+        raise ValueError(f"sys: not proven mean-square stable "
+                         f"({bracket.message}): the noise-driven second "
+                         "moment has no steady state")
+    else:
+        Q = _stationary(sys, method, tol)
     modes = sys.modes
     N = sys.period
     shape = Q.shape[1:]
@@ -675,14 +692,19 @@ def cost_open_loop(plant: Any) -> Any:
         raise ValueError("plant: a noise enters both the continuous plant "
                          "(B1) and the sampled measurement (D21); give each "
                          "noise one meaning")
-    R1d, c = sampled_noise(A, B1, C1, h)
+    if np.any(np.asarray(s.get("s", 0.0)) > 0):
+        raise ValueError("plant: a design for the cost with late samples "
+                         "(sampling jitter) is not available; compute the "
+                         "cost of a given loop with cost()")
     discrete = ~np.any(B1 != 0, axis=0)
     N, M = s["tau"].shape
     roots = {}
-    for tau in np.unique(s["tau"]):
-        # z = R^T psi with R R^T = W: z^T z = psi^T W psi
-        roots[float(tau)] = _root(intersample_weight(
-            A, B2, C1, D12, h, float(tau))).T / math.sqrt(h)
+    with serial_blas():          # small exponentials (see cost)
+        R1d, c = sampled_noise(A, B1, C1, h)
+        for tau in np.unique(s["tau"]):
+            # z = R^T psi with R R^T = W: z^T z = psi^T W psi
+            roots[float(tau)] = _root(intersample_weight(
+                A, B2, C1, D12, h, float(tau))).T / math.sqrt(h)
     rows = np.concatenate([s["x"], s["u_prev"], s["u"]], axis=2)
     Wr = np.array([[roots[float(s["tau"][k, i])] for i in range(M)]
                    for k in range(N)])                       # (N, M, r, d)

@@ -24,7 +24,8 @@ from .gain import PeriodicGain
 from .jump import JumpStateSpace
 from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
-from .strategies import CONTROLLERS, build, loop_closes, measurement_ages
+from .modechain import measurement_ages
+from .strategies import CONTROLLERS, build, loop_closes
 
 __all__ = ["feedback"]
 
@@ -275,7 +276,7 @@ def _warn_unused_gains(P: NetworkedStateSpace, plant: JumpPlant,
 def _require_observed(gains: np.ndarray, observed: np.ndarray) -> None:
     """Refuse gains ``K_{k,ℓ}`` that use something of ``ℓ`` the controller
     never sees (a link idle the step before, a channel state behind a
-    delay, :meth:`control_ncs.strategies.Network.observed`)."""
+    delay, :meth:`control_ncs.modechain.Network.observed`)."""
     for k, labels in enumerate(observed):
         for o in np.unique(labels):
             same = np.flatnonzero(labels == o)

@@ -21,9 +21,11 @@ from .modes import apply_groups, merge_groups
 
 __all__ = ["JumpPlant"]
 
-#: The per-mode entries of a sampling record (tau as (N, M, 1, 1) while
-#: modes are merged).
-_MODE_RECORD = ("x", "u", "u_w", "u_prev", "omega", "tau")
+#: The per-mode entries of a sampling record (tau and s as (N, M, 1, 1)
+#: while modes are merged).
+_MODE_RECORD = ("x", "u", "u_w", "u_prev", "omega", "tau", "s", "u_n",
+                "n_noise")
+_SCALARS = ("tau", "s")
 
 
 @dataclass(frozen=True, eq=False)
@@ -332,7 +334,7 @@ class JumpPlant:
             B = B + self.Bu @ Fw
             D = D + self.Du @ Fw
         loop = (A, B, C, D)
-        record = self._record(F, None if Ew is None else Fw)
+        record = self._record(F, None if Ew is None else Fw, K=K)
         if self.transition is not None:
             # Markov modes are not merged (their futures differ, theory: Markov
             # losses)
@@ -345,7 +347,7 @@ class JumpPlant:
         # merge before building: the lifted face is then built once; modes
         # whose sampling rows differ move the continuous plant differently
         extra = [] if record is None else [
-            record[f] if f != "tau" else record[f][..., None, None]
+            record[f] if f not in _SCALARS else record[f][..., None, None]
             for f in _MODE_RECORD]
         groups, nominal = merge_groups(list(loop) + extra,
                                        self.probabilities, self.nominal)
@@ -353,7 +355,8 @@ class JumpPlant:
                                  groups)
         if record is not None:
             record = dict(record, **dict(zip(_MODE_RECORD, merged[4:])))
-            record["tau"] = record["tau"][:, :, 0, 0]
+            for f in _SCALARS:
+                record[f] = record[f][:, :, 0, 0]
         A, B, C, D = merged[:4]
         return JumpStateSpace(A, B, C, D, p, self.dt, nominal=nominal,
                               inputs=self.inputs, outputs=self.outputs,
@@ -412,11 +415,15 @@ class JumpPlant:
         return out
 
     def _record(self, F: np.ndarray, Fw: np.ndarray | None,
-                Gw: np.ndarray | None = None) -> dict | None:
+                Gw: np.ndarray | None = None, K: np.ndarray | None = None
+                ) -> dict | None:
         """The closed loop's sampling record (:mod:`control_ncs.intersample`)
         with the feedback rows ``F = K E`` (and ``Fw = K Ew``; ``Gw`` the
         noise the state carries from the last message), per phase and mode
-        (or previous and current mode, when ``F`` has that axis)."""
+        (or previous and current mode, when ``F`` has that axis); with
+        sampling jitter, the rows of ``u_k`` on the late sample's noise
+        ``n_s`` and where it enters the next state (the gain ``K`` reads
+        it)."""
         s = self.sampling
         if s is None:
             return None
@@ -435,11 +442,56 @@ class JumpPlant:
             u_w = u_w + u @ Gw[:, :, None]
         shape = u.shape[:-2]
         out = dict(s, u=u, u_w=u_w)
-        out.pop("u_v")
+        for f in ("u_v", "e_n", "n_in", "sample_next"):
+            out.pop(f, None)
         for f in ("x", "u_prev", "omega"):
             out[f] = np.broadcast_to(lift(s[f]), shape + s[f].shape[-2:])
         out["tau"] = np.broadcast_to(lift(s["tau"]), shape)
+        out["s"] = np.broadcast_to(lift(s.get("s", np.zeros_like(
+            s["tau"], float))), shape)
+        out["u_n"], out["n_noise"] = self._late_sample(F, u, K, lift, shape)
         return out
+
+    def _late_sample(self, F: np.ndarray, u: np.ndarray, K: Any,
+                     lift: Any, shape: tuple) -> tuple:
+        """``(u_n, n_noise)`` of the closed record: the rows of ``u_k`` on
+        a late sample's noise ``n_s`` and where ``n_s`` enters ``ξ_{k+1}``
+        (:ref:`theory-sampling-jitter`). The static gain reads it in the
+        same step (``K e_n``); a controller with memory read it at the end
+        of the previous step, into the state this step acts on (like the
+        next measurement's noise, ``Gw``): its rows there move with the
+        closed loop's ``A`` and reach ``u_k``."""
+        s = self.sampling
+        assert s is not None
+        nX = self.A.shape[-1]
+        n = s["omega"].shape[-1]
+        m2 = s["u"].shape[-2]
+        if "e_n" not in s or K is None:
+            return (np.zeros(shape + (m2, n)), np.zeros(shape + (nX, n)))
+        pairs = F.ndim == 5
+        Fn = np.einsum("kluj,kmjx->klmux" if pairs else "kuj,kmjx->kmux",
+                       K, s["e_n"])
+        u_n = lift(s["u_v"]) @ Fn
+        n_noise = lift(self.Bu) @ Fn
+        if not s["sample_next"]:
+            return (np.broadcast_to(u_n, shape + (m2, n)),
+                    np.broadcast_to(n_noise + lift(s["n_in"]),
+                                    shape + (nX, n)))
+        g = np.roll(s["n_in"], 1, axis=0)
+        if not pairs:
+            if np.any(g):
+                raise ValueError("a late sample's noise reaches the state "
+                                 "through the previous mode: the loop "
+                                 "needs modes on pairs")
+            return (np.broadcast_to(u_n, shape + (m2, n)),
+                    np.broadcast_to(n_noise, shape + (nX, n)))
+        g = g[:, :, None]                        # [k, ℓ]: written at k - 1
+        if np.any(s["x"][:, None] @ g) or np.any(s["u_prev"][:, None] @ g):
+            raise ValueError("a late sample's noise reaches the plant state "
+                             "or the held input: the sampling record cannot "
+                             "describe this loop")
+        A = lift(self.A) + lift(self.Bu) @ F
+        return u_n + u @ g, n_noise + A @ g
 
     def transitions(self) -> np.ndarray:
         """``T[k, i, j] = P(σ_{k+1} = j | σ_k = i)``, shape (N, M, M).
@@ -547,7 +599,7 @@ class JumpPlant:
         if self.Gw is not None:
             B = B + np.einsum("klmxy,klyw->klmxw", A, self.Gw)
             D = D + np.einsum("klmzy,klyw->klmzw", C, self.Gw)
-        record = self._record(F, None if Ew is None else Fw, self.Gw)
+        record = self._record(F, None if Ew is None else Fw, self.Gw, K)
         extra = () if record is None else tuple(
             record[f] for f in _MODE_RECORD)
         # lumped mode of the pair (ℓ, i) at each phase; first member kept

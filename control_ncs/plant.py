@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -12,55 +11,18 @@ import scipy.linalg
 import control as ct
 from control.exception import ControlArgument, ControlDimension
 
-from ._checks import discrete_dt, flag, matrix, no_extra_kwargs, real_array
+from ._checks import discrete_dt, flag, matrix, no_extra_kwargs
 from .exceptions import ScheduleWarning
 from .automata import LossAutomaton
 from .delays import BurstyDelay, delay_model
 from .network import (GilbertElliott, budget_loss, common_period, link_model,
                       mode_probabilities, mode_transition, schedule,
                       warn_silent_nodes)
+# the sampled delayed hold is importable from the plant module too
+from ._timing import InputDelay, parse_timing
+from ._timing import input_delay_sampling as input_delay_sampling
 
 __all__ = ["NetworkedStateSpace", "nss", "InputDelay"]
-
-
-@dataclass(frozen=True, eq=False)
-class InputDelay:
-    """Sub-sample input delays of a sampled continuous plant.
-
-    The input computed at sample ``k`` is applied ``τ`` after it, ``τ``
-    drawn i.i.d. from ``taus`` with ``probabilities``; then
-    ``x[k+1] = Φ x[k] + B1 w[k] + Γ0(τ) u[k] + Γ1(τ) u[k-1]``
-    (:ref:`theory-delays`; :func:`input_delay_sampling`). Made by
-    :func:`nss` with ``input_delay=(taus, probabilities)``.
-
-    Attributes
-    ----------
-    taus, probabilities : ndarray, shape (M,)
-    gamma0, gamma1 : ndarray, shape (M, n, ncon)
-
-    Examples
-    --------
-    >>> import control as ct
-    >>> import control_ncs as ncs
-    >>> G = ct.ss([[-1.0]], [[0.0, 1.0]], [[1.0], [1.0]], [[0.0, 0.0],
-    ...           [0.0, 0.0]])
-    >>> P = ncs.nss(G, nmeas=1, ncon=1, dt=0.5,
-    ...             input_delay=([0.0, 0.25], [0.5, 0.5]))
-    >>> P.input_delay.gamma1[:, 0, 0].round(4).tolist()
-    [0.0, 0.1723]
-    """
-
-    taus: np.ndarray
-    probabilities: np.ndarray
-    gamma0: np.ndarray
-    gamma1: np.ndarray
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, InputDelay) and all(
-            np.array_equal(getattr(self, f), getattr(other, f))
-            for f in ("taus", "probabilities", "gamma0", "gamma1"))
-
-    __hash__ = None  # type: ignore[assignment]
 
 
 class NetworkedStateSpace(ct.StateSpace):
@@ -132,9 +94,10 @@ class NetworkedStateSpace(ct.StateSpace):
         and the controllers composes into one loop
         (:func:`control_ncs.feedback`).
     input_delay : InputDelay, optional
-        Sub-sample delays of the control input; give
-        ``input_delay=(taus, probabilities)`` to :func:`nss` with a
-        continuous-time plant, which computes this object.
+        Sub-sample delays of the control input (and of the sample); give
+        ``input_delay=(taus, probabilities)`` or ``timing=(pairs,
+        probabilities)`` to :func:`nss` with a continuous-time plant,
+        which computes this object.
     continuous : control.StateSpace or (A, B, C, D), optional
         The continuous-time generalized plant these matrices sample with a
         zero-order hold at ``dt`` (:func:`nss` sets it), for the cost
@@ -165,7 +128,8 @@ class NetworkedStateSpace(ct.StateSpace):
     sensor_delay, actuator_delay : RandomDelay, BurstyDelay or None
         The delay models as given (None: no delay).
     input_delay : InputDelay or None
-        Sub-sample delays of the control input (made by :func:`nss`).
+        Sub-sample delays of the control input and of the sample (made by
+        :func:`nss`).
     continuous : control.StateSpace or None
         The continuous-time plant that was sampled (None: a discrete plant).
     period : int
@@ -559,6 +523,9 @@ class NetworkedStateSpace(ct.StateSpace):
             taus = self.input_delay.taus
             out += (f", input delays {taus.min():.4g}..{taus.max():.4g} s "
                     f"({taus.size} values)")
+            if self.input_delay.late:
+                s = np.asarray(self.input_delay.samples)
+                out += f", sample delays {s.min():.4g}..{s.max():.4g} s"
         return out
 
     def _delay_lines(self) -> list[str]:
@@ -591,6 +558,10 @@ class NetworkedStateSpace(ct.StateSpace):
             lines.append(f"  input delay: τ = {_numbers(self.input_delay.taus)}"
                          f" s with probabilities "
                          f"{_numbers(self.input_delay.probabilities)}")
+            if self.input_delay.late:
+                lines.append(f"  sampled at s = "
+                             f"{_numbers(self.input_delay.samples)} s "
+                             f"(paired with the τ above)")
         return lines
 
     def _bursts(self) -> str:
@@ -724,7 +695,15 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         samples), and ``input_delay=(taus, probabilities)`` adds sub-sample
         delays of the control input: applied ``τ`` after the sample, ``τ``
         i.i.d. from ``taus`` in ``[0, h)`` (:class:`InputDelay`,
-        :ref:`theory-delays`). Anything else raises ``TypeError``.
+        :ref:`theory-delays`). ``timing=(pairs, probabilities)`` adds
+        sampling jitter too: Jitterbug's timing of a period as a joint pmf
+        over pairs ``(s, τ)``, ``0 ≤ s ≤ τ < h``, both measured from the
+        period's start ``kh``: the measurement is sampled at ``kh + s``,
+        the command applied at ``kh + τ``, the pair i.i.d. over the periods
+        (independent sampling and computation delays are the product of
+        their pmfs; a pair ``(0, τ)`` is ``input_delay``'s ``τ``;
+        :ref:`theory-sampling-jitter`). Give one of the two. Anything else
+        raises ``TypeError``.
 
     Returns
     -------
@@ -785,12 +764,20 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
                 raise ControlArgument(f"sys: expected a control.StateSpace, got "
                                       f"{type(sys).__name__}")
         delays = kwargs.pop("input_delay", None)
+        timing = kwargs.pop("timing", None)
+        if delays is not None and timing is not None:
+            raise ValueError("input_delay, timing: give one (timing's pairs "
+                             "(0, τ) are input_delay's delays τ)")
         continuous = sys.isctime(strict=True)
         cont = sys
         sys = _sampled(sys, kwargs.pop("dt", None))
         if delays is not None:
-            kwargs["input_delay"] = _input_delay(cont, continuous, sys.dt,
+            kwargs["input_delay"] = parse_timing(cont, continuous, sys.dt,
                                                  delays, kwargs.get("ncon"))
+        if timing is not None:
+            kwargs["input_delay"] = parse_timing(cont, continuous, sys.dt,
+                                                 timing, kwargs.get("ncon"),
+                                                 "timing")
         if continuous:
             kwargs.setdefault("continuous", cont)
         kwargs.setdefault("inputs", list(sys.input_labels))
@@ -802,36 +789,6 @@ def nss(*args: Any, **kwargs: Any) -> NetworkedStateSpace:
         return NetworkedStateSpace(*args, **kwargs)
     raise ControlArgument(f"nss: expected (sys) or (A, B, C, D[, dt]), got "
                           f"{len(args)} positional arguments")
-
-
-def _input_delay(sys: ct.StateSpace, continuous: bool, h: Any, value: Any,
-                 ncon: Any) -> InputDelay:
-    """``input_delay=(taus, probabilities)`` of ``nss`` as an InputDelay."""
-    if not continuous:
-        raise ValueError("input_delay: sub-sample delays need the "
-                         "continuous-time plant and dt=h (nss samples it)")
-    if not isinstance(value, (tuple, list)) or len(value) != 2:
-        raise ValueError(f"input_delay: expected (taus, probabilities), got "
-                         f"{value!r}")
-    taus = real_array(value[0], "input_delay taus", ndim=(0, 1)).ravel()
-    probs = real_array(value[1], "input_delay probabilities",
-                       ndim=(0, 1)).ravel()
-    if taus.size != probs.size or taus.size == 0:
-        raise ControlDimension(f"input_delay: {taus.size} delays and "
-                               f"{probs.size} probabilities")
-    if np.any(probs < 0) or abs(probs.sum() - 1.0) > 1e-9:
-        raise ValueError(f"input_delay: the probabilities must be >= 0 and "
-                         f"sum to 1, got {probs.tolist()}")
-    if not isinstance(ncon, (int, np.integer)) or isinstance(ncon, bool) \
-            or not 0 < ncon <= sys.ninputs:
-        raise ControlArgument("ncon: input_delay needs the number of "
-                              "controls ncon")
-    B2 = np.asarray(sys.B, float)[:, sys.ninputs - ncon:]
-    try:
-        _, G0, G1 = input_delay_sampling(sys.A, B2, float(h), taus)
-    except ValueError as err:
-        raise ValueError(f"input_delay: {err}") from None
-    return InputDelay(taus, probs, G0, G1)
 
 
 def _sampled(sys: ct.StateSpace, dt: Any) -> ct.StateSpace:
@@ -856,55 +813,3 @@ def _sampled(sys: ct.StateSpace, dt: Any) -> ct.StateSpace:
                          f"{sys.dt!r}; dt={dt!r} would resample it (sample "
                          f"a continuous-time plant instead)")
     return sys
-
-
-def input_delay_sampling(A: Any, B: Any, h: float, taus: Any
-                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Sampled ``ẋ = A x + B u`` whose input is applied ``τ`` late.
-
-    The input computed at sample ``k`` is applied ``τ ∈ [0, h)`` after it,
-    so over one period the previous input acts first
-    (:ref:`theory-delays`, sub-sample delays)::
-
-        x[k+1] = Φ x[k] + Γ0(τ) u[k] + Γ1(τ) u[k-1]
-        Φ = e^{A h},  Γ0(τ) = ∫_0^{h-τ} e^{A s} ds B,
-        Γ1(τ) = e^{A (h-τ)} ∫_0^τ e^{A s} ds B
-
-    from one matrix exponential of ``[[A, B], [0, 0]]`` per interval.
-
-    Parameters
-    ----------
-    A, B : array_like
-        The continuous-time dynamics and input matrices.
-    h : float
-        The sampling period.
-    taus : array_like, shape (M,)
-        The delays, each in ``[0, h)``.
-
-    Returns
-    -------
-    Phi : ndarray, shape (n, n)
-    Gamma0, Gamma1 : ndarray, shape (M, n, m)
-    """
-    A = np.asarray(A, float)
-    B = np.asarray(B, float)
-    n, m = B.shape
-    taus = np.atleast_1d(np.asarray(taus, float))
-    if not np.all((taus >= 0) & (taus < h)):
-        raise ValueError(f"taus: expected delays in [0, h) with h = {h}, "
-                         f"got {taus.tolist()}")
-
-    def flow(t: float) -> tuple[np.ndarray, np.ndarray]:
-        # expm([[A, B], [0, 0]] t) = [[e^{At}, ∫_0^t e^{As} ds B], [0, I]]
-        M = np.zeros((n + m, n + m))
-        M[:n, :n], M[:n, n:] = A, B
-        E = scipy.linalg.expm(M * t)
-        return E[:n, :n], E[:n, n:]
-
-    Phi, _ = flow(h)
-    Gamma0 = np.empty((taus.size, n, m))
-    Gamma1 = np.empty((taus.size, n, m))
-    for i, tau in enumerate(taus):
-        Erest, Gamma0[i] = flow(h - tau)
-        Gamma1[i] = Erest @ flow(tau)[1]
-    return Phi, Gamma0, Gamma1

@@ -26,151 +26,21 @@ from ._checks import choice, positive_int, real_array
 from ._lifting import check_lifted_size
 from .gain import ACTUATORS, CONTROLLERS
 from .automata import LossAutomaton
-from .constrained import Constraint
-from .links import LinkChain, constraint, link_chain, product, timing_chain
-from .modes import join_labels, lump_markov, markov_classes, periodic_stationary
+from .modes import join_labels, lump_markov, markov_classes
 from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
+from .modechain import Network, network
 
 __all__ = ["build", "loop_closes", "require_state_measured"]
 
 #: Largest number of loop states the builder writes (the matrices of a
 #: mode are dense): a buffer or a period beyond this is refused up front.
 MAX_LOOP_STATES = 4000
-#: Largest number of network modes per phase.
-MAX_MODES = 20000
 #: The most memory the builder gives the loop's per-mode matrices (before
 #: their Markov modes are lumped): an estimator over two delayed links of
 #: buffers 10 and 5 on a 60-state plant asks 1008 modes of 1325 states,
 #: 15 GiB.
 MAX_MODE_BYTES = 2 * 2 ** 30
-
-
-# -- the network: the links' product -----------------------------------------------
-@dataclass(frozen=True)
-class Network:
-    """The mode chain of a loop: the product of its links' chains.
-
-    Attributes
-    ----------
-    sensor, actuator : LinkChain
-        The links as the controller kind reads them (the sensor chain one
-        step ahead for controllers with memory, in pairs for the
-        estimator over a buffered link).
-    timing : LinkChain or None
-        Sub-sample input delays.
-    transition : ndarray, shape (N, M, M)
-    emissions : ndarray of int, shape (N, M, 3)
-        Per mode: sensor age, actuator age, delay index (0 without one).
-    previous : ndarray of int, shape (N, M), or None
-        The sensor age the step before (pairs only).
-    constraint : Constraint or None
-        With a loss budget among the links: the budget state and the
-        stochastic state of each mode, the moves the budgets allow and the
-        law of the rest (:ref:`theory-worst-case`); ``transition`` then
-        mixes 0/1 moves with probabilities and is not a law.
-    """
-
-    sensor: LinkChain
-    actuator: LinkChain
-    timing: LinkChain | None
-    transition: np.ndarray
-    emissions: np.ndarray
-    previous: np.ndarray | None
-    constraint: Constraint | None = None
-
-    @property
-    def count(self) -> int:
-        """Number of modes per phase."""
-        return self.transition.shape[1]
-
-    def law(self) -> tuple[np.ndarray, np.ndarray | None]:
-        """``(probabilities, transition)``: i.i.d. modes when every row of
-        every phase is the same (transition None), else the periodic
-        stationary marginals and the chain. Over a loss budget: the
-        probability of each mode's stochastic state given its budget state
-        (rows sum to 1 over the modes of one budget state), and no
-        transition (:attr:`constraint` holds the rest)."""
-        if self.constraint is not None:
-            c = self.constraint
-            return np.array([c.weights(k) for k in range(c.period)]), None
-        T = self.transition
-        if np.all(T == T[:, :1, :]):
-            return np.roll(T[:, 0, :], 1, axis=0), None
-        return periodic_stationary(T), T
-
-    def nominal(self) -> np.ndarray:
-        """The loss-free mode of each phase: every chain in its best state
-        (delivered, age 0, the first delay)."""
-        chains = [self.sensor, self.actuator] + (
-            [] if self.timing is None else [self.timing])
-        i, scale = 0, 1
-        for c in chains:
-            i += scale * c.nominal
-            scale *= c.size
-        return np.full(self.transition.shape[0], i)
-
-    def observed(self) -> np.ndarray:
-        """What the controller knows of the previous mode, per phase: equal
-        labels for modes whose emissions (ages the controller reads or is
-        told through acknowledgements) are equal; the sub-sample delay is
-        never seen. A budget's state is known when its automaton is
-        deterministic (the controller follows it from the outcomes)."""
-        em = self.emissions[:, :, :2]
-        c = self.constraint
-        if c is not None and c.known:
-            em = np.concatenate([em, np.broadcast_to(
-                c.state[None, :, None], em.shape[:2] + (1,))], axis=2)
-        if self.previous is not None:
-            em = np.concatenate([em, self.previous[:, :, None]], axis=2)
-        em = np.roll(em, 1, axis=0)                 # [k] = the mode at k - 1
-        out = np.zeros(em.shape[:2], int)
-        for k in range(em.shape[0]):
-            _, out[k] = np.unique(em[k], axis=0, return_inverse=True)
-        return out
-
-
-def measurement_ages(P: NetworkedStateSpace) -> int:
-    """How many ages of the measurement the sensor link can deliver (its
-    chain's buffer + 1; 1 for an undelayed link): a static gain reads one
-    block of columns per age."""
-    sent = P.sensor_schedule.pattern.any(axis=1)
-    return link_chain(P.sensor_link, P.sensor_delay, sent, "sensor").buffer + 1
-
-
-def network(P: NetworkedStateSpace, controller: str, N: int) -> Network:
-    """The mode chain of ``P``'s loop with a controller of this kind."""
-    sent = [P.sensor_schedule.repeat(N).pattern.any(axis=1),
-            P.actuator_schedule.repeat(N).pattern.any(axis=1)]
-    sensor = link_chain(P.sensor_link, P.sensor_delay, sent[0], "sensor")
-    actuator = link_chain(P.actuator_link, P.actuator_delay, sent[1],
-                          "actuator")
-    previous = None
-    if controller in ("predictor", "estimator") and sensor.buffer:
-        # the estimator corrects only on a new packet: consecutive ages
-        previous = sensor.previous()
-        sensor = sensor.pairs()
-    elif controller != "static":
-        sensor = sensor.shifted()
-    chains = [sensor, actuator]
-    timing = None
-    if P.input_delay is not None:
-        timing = timing_chain(P.input_delay.probabilities, N)
-        chains.append(timing)
-    size = int(np.prod([c.size for c in chains]))
-    if size > MAX_MODES:
-        raise ValueError(
-            f"P: the network has {size} modes per phase (sensor link "
-            f"{sensor.size} states x actuator link {actuator.size}"
-            f"{'' if timing is None else f' x {timing.size} delays'}), more "
-            f"than MAX_MODES = {MAX_MODES}; use shorter buffers")
-    T, em = product(chains)
-    if previous is not None:        # per mode of the product
-        previous = previous[:, np.arange(T.shape[1]) % sensor.size]
-    if timing is None:
-        em = np.concatenate([em, np.zeros(em.shape[:2] + (1,), int)], axis=2)
-    return Network(sensor, actuator, timing, T, em, previous,
-                   constraint(chains))
 
 
 # -- the loop state ---------------------------------------------------------------
@@ -191,11 +61,13 @@ class Layout:
 
 
 class Rows:
-    """Linear expressions in ``[ξ_k; w_k; v_k; w_{k+1}; ω_k]``: a matrix
-    per quantity, columns in that order (``v`` the controller's output,
-    ``w_{k+1}`` the noise a measurement of the next step carries, ``ω_k``
-    a disturbance added to the plant's next state: where the noise of a
-    continuous plant's period goes, :ref:`theory-intersample-cost`)."""
+    """Linear expressions in ``[ξ_k; w_k; v_k; w_{k+1}; ω_k; n_s]``: a
+    matrix per quantity, columns in that order (``v`` the controller's
+    output, ``w_{k+1}`` the noise a measurement of the next step carries,
+    ``ω_k`` a disturbance added to the plant's next state: where the noise
+    of a continuous plant's period goes, :ref:`theory-intersample-cost`;
+    ``n_s`` the continuous noise gathered from a period's start to its
+    late sample, :ref:`theory-sampling-jitter`)."""
 
     def __init__(self, layout: Layout, nw: int, nv: int, n: int):
         self.layout, self.nw, self.nv = layout, nw, nv
@@ -203,7 +75,8 @@ class Rows:
         self.iv = slice(self.iw.stop, self.iw.stop + nv)
         self.inext = slice(self.iv.stop, self.iv.stop + nw)
         self.iomega = slice(self.inext.stop, self.inext.stop + n)
-        self.width = self.iomega.stop
+        self.isample = slice(self.iomega.stop, self.iomega.stop + n)
+        self.width = self.isample.stop
 
     def omega(self) -> np.ndarray:
         out = self.zeros(self.iomega.stop - self.iomega.start)
@@ -288,6 +161,26 @@ class Context:
         return step + delay.gamma0[c] @ u + \
             delay.gamma1[c] @ self.previous_input()
 
+    def at_sample(self, x: np.ndarray, held: np.ndarray, noise: np.ndarray,
+                  d: int) -> np.ndarray:
+        """The plant state at a late sample as rows, ``x`` the state at
+        the period's start: ``e^{As} x + Γs held + Γws noise + n_s``
+        (the input ``held`` and, in the sampled model, the noise held
+        until then; the continuous noise gathered, ``n_s``, in its own
+        columns, :ref:`theory-sampling-jitter`). ``x`` itself when the
+        sample ``d`` is not late."""
+        delay = self.P.input_delay
+        if delay is None or delay.samples is None or \
+                not delay.samples[d] > 0:
+            return x
+        assert delay.sample_state is not None
+        assert delay.sample_input is not None
+        assert delay.sample_noise is not None
+        out = delay.sample_state[d] @ x + delay.sample_input[d] @ held \
+            + delay.sample_noise[d] @ noise
+        out[:, self.rows.isample] += np.eye(x.shape[0])
+        return out
+
     def output(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         P = self.P
         return P.C1 @ x + P.D11 @ self.rows.noise() + P.D12 @ u
@@ -329,32 +222,36 @@ class Mode:
     Ew: np.ndarray
     x: np.ndarray
     u: np.ndarray
+    En: np.ndarray | None = None   # the reading's rows on n_s (static)
 
 
 # -- one function per controller kind ---------------------------------------------
-def _static_mode(ctx: Context, k: int, a: int, b: int, c: int,
+def _static_mode(ctx: Context, k: int, a: int, b: int, c: int, d: int,
                  a_prev: int | None) -> Mode:
     """Memoryless gain (:ref:`theory-static-loop`): ``v_k = K_{k,a} ŷ``,
     the gain of the measurement's age ``a`` (a block of the gain per age),
-    nothing when the sensor link is stale."""
+    nothing when the sensor link is stale. A late sample reads the state
+    at ``kh + s`` (buffered as it was sampled)."""
     r, P = ctx.rows, ctx.P
     p2 = P.C2.shape[0]
     x = r.state("x")
     u = ctx.applied(k, b)
+    xs = ctx.at_sample(x, ctx.previous_input(), r.noise(), d)
     nxt = {"x": ctx.plant(x, u, c)}
     for j in range(1, ctx.Ds + 1):
-        nxt[f"x{j}"] = x if j == 1 else r.state(f"x{j - 1}")
+        nxt[f"x{j}"] = xs if j == 1 else r.state(f"x{j - 1}")
     ctx.shift(nxt, u)
     read = np.zeros(((ctx.Ds + 1) * p2, r.width))
     if a <= ctx.Ds:
         S1 = np.diag(ctx.S1[(k - a) % ctx.N].astype(float))
-        xa = x if a == 0 else r.state(f"x{a}")
+        xa = xs if a == 0 else r.state(f"x{a}")
         read[a * p2:(a + 1) * p2] = S1 @ ctx.measurement(xa, a)
     L = r.layout.size
-    return Mode(nxt, ctx.output(x, u), read[:, :L], read[:, r.iw], x, u)
+    return Mode(nxt, ctx.output(x, u), read[:, :L], read[:, r.iw], x, u,
+                read[:, r.isample])
 
 
-def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int,
+def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int, d: int,
               a_prev: int | None) -> Mode:
     """An LTI controller (:ref:`theory-output-feedback`): its input ``ŷ``,
     what arrived at the end of the step (age ``a`` at ``k + 1``), is loop
@@ -376,7 +273,8 @@ def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int,
     held = Hs.T @ r.state("y_rcv") if ctx.sensor_hold else r.zeros(p2)
     if a <= ctx.Ds:
         S1 = np.diag(ctx.S1[(k + 1 - a) % ctx.N].astype(float))
-        xs = xn if a == 0 else (x if a == 1 else r.state(f"x{a - 1}"))
+        xs = ctx.at_sample(xn, u, r.next_noise(), d) if a == 0 else (
+            x if a == 1 else r.state(f"x{a - 1}"))
         y = S1 @ ctx.measurement(xs, a - 1) + (np.eye(p2) - S1) @ held
     else:
         y = held
@@ -387,7 +285,7 @@ def _lti_mode(ctx: Context, k: int, a: int, b: int, c: int,
                 np.zeros((p2 + nc, P.B1.shape[1])), x, u)
 
 
-def _model_mode(ctx: Context, k: int, a: int, b: int, c: int,
+def _model_mode(ctx: Context, k: int, a: int, b: int, c: int, d: int,
                 a_prev: int | None) -> Mode:
     """The model-based controller (:ref:`theory-predictor`,
     :ref:`theory-output-feedback`): estimates ``x̂`` of the last ``Ds + 1``
@@ -407,11 +305,15 @@ def _model_mode(ctx: Context, k: int, a: int, b: int, c: int,
     # index j holds step k + 1 - j
     est = [P.A @ xh[0] + P.B2 @ u] + xh[:Ds]
     true = [xn] + [xh[j] + er[j] for j in range(Ds)]
+    # a late sample of step k + 1: the estimator corrects with it as if it
+    # were taken at the instant (it knows the timing no more than τ)
+    sampled = [ctx.at_sample(xn, u, r.next_noise(), d)] + true[1:]
     new = a <= Ds and (a_prev is None or a <= a_prev)
     if new:
         S1 = np.diag(ctx.S1[(k + 1 - a) % ctx.N].astype(float))
         Lk = L[(k + 1 - a) % L.shape[0]]
-        innovation = S1 @ (ctx.measurement(true[a], a - 1) - P.C2 @ est[a])
+        innovation = S1 @ (ctx.measurement(sampled[a], a - 1)
+                            - P.C2 @ est[a])
         for j in range(a + 1):
             est[j] = est[j] + np.linalg.matrix_power(P.A, a - j) @ Lk \
                 @ innovation
@@ -555,6 +457,13 @@ def _plan(P: Any, controller: Any, actuator: Any, period: Any, sensor: Any,
     check_lifted_size(P.nstates, len(P.disturbance_labels),
                       len(P.performance_labels), N, "P")
     require_state_measured(P, controller, allow_static=True)
+    if controller != "static" and P.sensor_delay is not None and \
+            P.input_delay is not None and P.input_delay.late:
+        raise ControlArgument(
+            f"P: a late sample over a delayed sensor link has no model for "
+            f"controller={controller!r} (its buffer holds the plant states "
+            f"at the instants); use the static gain, or timing without "
+            f"sampling delays")
     net = network(P, controller, N)
     Ds, Da = _buffer(P.sensor_delay), _buffer(P.actuator_delay)
     n, m1, m2 = P.nstates, P.B1.shape[1], P.ncon
@@ -608,17 +517,17 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
     M = net.count
     fields: dict[str, list] = {f: [] for f in (
         "A", "Bu", "Bw", "Cz", "Du", "Dw", "E", "Ew", "Gnext", "x", "u",
-        "u_w", "u_v", "u_prev", "omega")}
+        "u_w", "u_v", "u_prev", "omega", "e_n", "n_in")}
     cache: dict = {}
     for k in range(N):
         for i in range(M):
-            a, b, c = (int(e) for e in net.emissions[k, i])
+            a, b, c, d = (int(e) for e in net.emissions[k, i])
             a_prev = None if net.previous is None else \
                 int(net.previous[k, i])
-            key = _phase_key(ctx, controller, k, (a, b, c, a_prev))
+            key = _phase_key(ctx, controller, k, (a, b, c, d, a_prev))
             if key not in cache:
-                cache[key] = _assemble(mode(ctx, k, a, b, c, a_prev), layout,
-                                       r, ctx.previous_input())
+                cache[key] = _assemble(mode(ctx, k, a, b, c, d, a_prev),
+                                       layout, r, ctx.previous_input())
                 if len(cache) == 1:
                     _check_mode_bytes(N, M, sum(
                         v.size for v in cache[key].values()), layout.size)
@@ -627,6 +536,7 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
     arr = {f: np.array(v).reshape((N, M) + v[0].shape)
            for f, v in fields.items()}
     arr["tau"] = net.emissions[:, :, 2]
+    arr["s"] = net.emissions[:, :, 2]          # the period's own pair
     p, T = net.law()
     nominal = net.nominal()
     observed = None if T is None and net.constraint is None \
@@ -636,14 +546,17 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
     E, Ew, Bu, Du = _per_phase_reading(arr["E"], arr["Ew"], arr["Bu"],
                                        arr["Du"])
     Gw = None
-    if np.any(arr["Gnext"]):
+    late = P.input_delay is not None and P.input_delay.late
+    if np.any(arr["Gnext"]) or (late and controller != "static"):
         # the noise of a measurement of the next step reaches the state with
         # that step's input: step k + 1 acts on ξ + Gw[k + 1, ℓ] w, ℓ = the
-        # mode at k (theory: measurement noise)
+        # mode at k (theory: measurement noise); so does a late sample's
+        # continuous noise, read at the end of the step (the record's n_in)
         Gw = np.roll(arr["Gnext"], 1, axis=0)
     if not np.any(Ew):
         Ew = None
-    sampling = None if P.continuous is None else _sampling(P, arr)
+    sampling = None if P.continuous is None else _sampling(P, arr,
+                                                           controller)
     description = _description(P, net)
     if controller == "lti":
         description["sensor"] = "hold" if ctx.sensor_hold else "zero"
@@ -695,19 +608,26 @@ def _lumped(arr: dict, p: np.ndarray, T: np.ndarray, nominal: np.ndarray,
     return dict(zip(names, mats)), pL, TL, nominal, observed
 
 
-def _sampling(P: NetworkedStateSpace, arr: dict) -> dict:
+def _sampling(P: NetworkedStateSpace, arr: dict, controller: str) -> dict:
     """What the cost between the samples needs of the open loop
     (:mod:`control_ncs.intersample`'s record, before the gain): per phase
     and mode the rows of ``x_k``, of ``u_k`` on the state, the noise and
-    the command, of ``u_{k-1}``, where ``ω_k`` enters, and the delay."""
+    the command, of ``u_{k-1}``, where ``ω_k`` enters, and the delay; with
+    sampling jitter the period's sampling delay ``s``, the reading's rows
+    on ``n_s`` (``e_n``) and where the sample's noise enters ``ξ_{k+1}``
+    (``n_in``: this period's for the static gain, the next period's for a
+    controller with memory, ``sample_next``)."""
     sys: Any = P.continuous
-    taus = (np.zeros(1) if P.input_delay is None
-            else np.asarray(P.input_delay.taus, float))
+    delay = P.input_delay
+    taus = np.zeros(1) if delay is None else np.asarray(delay.taus, float)
+    samples = (np.zeros(1) if delay is None or delay.samples is None
+               else np.asarray(delay.samples, float))
     return dict(h=float(P.dt), plant=tuple(np.array(X, float) for X in (
         sys.A, sys.B, sys.C, sys.D)), nmeas=P.nmeas, ncon=P.ncon,
         x=arr["x"], u=arr["u"], u_w=arr["u_w"], u_v=arr["u_v"],
         u_prev=arr["u_prev"], omega=arr["omega"],
-        tau=taus[arr["tau"]])
+        tau=taus[arr["tau"]], s=samples[arr["s"]], e_n=arr["e_n"],
+        n_in=arr["n_in"], sample_next=controller != "static")
 
 
 def _phase_key(ctx: Context, controller: str, k: int, emissions: tuple
@@ -715,7 +635,7 @@ def _phase_key(ctx: Context, controller: str, k: int, emissions: tuple
     """A mode's matrices depend on the phase only through the schedules'
     rows the ages point to and the estimator gain: modes of equal keys are
     built once (long periods repeat them)."""
-    a, b, c, a_prev = emissions
+    a, b, c, d, a_prev = emissions
     shift = 0 if controller == "static" else 1
     rows = [ctx.S1[(k + shift - j) % ctx.N].tobytes()
             for j in range(ctx.Ds + 1)]
@@ -723,7 +643,7 @@ def _phase_key(ctx: Context, controller: str, k: int, emissions: tuple
     if ctx.L is not None and ctx.L.shape[0] > 1:
         rows += [ctx.L[(k + shift - j) % ctx.L.shape[0]].tobytes()
                  for j in range(ctx.Ds + 1)]
-    return (a, b, c, a_prev, *rows)
+    return (a, b, c, d, a_prev, *rows)
 
 
 def _assemble(m: Mode, layout: Layout, r: Rows, u_prev: np.ndarray
@@ -735,11 +655,14 @@ def _assemble(m: Mode, layout: Layout, r: Rows, u_prev: np.ndarray
     nxt = np.zeros((nX, r.width))
     for name, rows in m.nxt.items():
         nxt[layout.slices[name]] = rows
+    n = r.isample.stop - r.isample.start
     return dict(A=nxt[:, :nX], Bw=nxt[:, r.iw], Bu=nxt[:, r.iv],
                 Gnext=nxt[:, r.inext], Cz=m.z[:, :nX], Dw=m.z[:, r.iw],
                 Du=m.z[:, r.iv], E=m.E, Ew=m.Ew, x=m.x[:, :nX],
                 u=m.u[:, :nX], u_w=m.u[:, r.iw], u_v=m.u[:, r.iv],
-                u_prev=u_prev[:, :nX], omega=nxt[:, r.iomega])
+                u_prev=u_prev[:, :nX], omega=nxt[:, r.iomega],
+                e_n=(np.zeros((m.E.shape[0], n)) if m.En is None else m.En),
+                n_in=nxt[:, r.isample])
 
 
 def _per_phase_reading(E: np.ndarray, Ew: np.ndarray, Bu: np.ndarray,
@@ -801,6 +724,8 @@ def _description(P: NetworkedStateSpace, net: Network) -> dict:
             out[f"{side}_delay"] = getattr(P, f"{side}_delay")
     if P.input_delay is not None:
         out["input_delay"] = P.input_delay.taus
+        if P.input_delay.late:
+            out["sample_delay"] = P.input_delay.samples
     return out
 
 

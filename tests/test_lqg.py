@@ -196,3 +196,147 @@ def test_lqg_refuses_what_it_does_not_cover():
     with pytest.raises(ValueError, match="critical"):
         ncs.lqg(scalar_plant(sensor_loss=0.8), [[1.0]], [[1.0]], [[1.0]],
                 [[1.0]])
+
+
+# --------------------------------------------------------------------------
+# continuous weights on a sampled plant (theory: LQG with continuous weights)
+# --------------------------------------------------------------------------
+def _servo_plant(h, **kw):
+    """The DC servo ``ẋ = [[0, 1], [0, -1]] x + [0; 1](u + w)``, ``y = x1``,
+    as a continuous plant sampled at ``h`` (``z`` is not used)."""
+    A = np.array([[0.0, 1.0], [0.0, -1.0]])
+    B = np.array([[0.0], [1.0]])
+    G = ct.ss(A, np.hstack([B, B]), np.vstack([np.eye(2), [[1.0, 0.0]]]),
+              np.zeros((3, 2)))
+    return ncs.nss(G, nmeas=1, ncon=1, dt=h, **kw), A, B
+
+
+def _sampled_by_quadrature(A, B, B1, Q, R, QN, h, tau=0.0, order=20):
+    """Åström–Wittenmark's sampled loss on ``[x; u_{k-1}; u_k]`` with the
+    input switching at ``τ`` by Gauss–Legendre on each piece of the
+    period; ``R1d = Σ(h)`` and ``c = ∫_0^h tr(Q Σ(t)) dt`` from the
+    covariance ODE ``Σ' = AΣ + ΣAᵀ + B1 QN B1ᵀ`` (one exponential of the
+    linear system with its integral)."""
+    from scipy.linalg import expm
+    n, m = B.shape
+    x, w = np.polynomial.legendre.leggauss(order)
+
+    def nodes(a, b):
+        return 0.5 * (b - a) * x + 0.5 * (b + a), 0.5 * (b - a) * w
+
+    def flow(t):
+        M = np.zeros((n + m, n + m))
+        M[:n, :n], M[:n, n:] = A, B
+        E = expm(M * t)
+        return E[:n, :n], E[:n, n:]
+
+    Qc = np.block([[Q, np.zeros((n, m))], [np.zeros((m, n)), R]])
+    W = np.zeros((n + 2 * m, n + 2 * m))
+    for t, wt in zip(*nodes(0.0, tau)) if tau > 0 else ():
+        E, G = flow(t)
+        F = np.block([[E, G, np.zeros((n, m))],
+                      [np.zeros((m, n)), np.eye(m), np.zeros((m, m))]])
+        W += wt * F.T @ Qc @ F
+    Gt = flow(tau)[1]
+    for t, wt in zip(*nodes(tau, h)):
+        E = flow(t)[0]
+        Er, Gr = flow(t - tau)
+        F = np.block([[E, Er @ Gt, Gr],
+                      [np.zeros((m, n + m)), np.eye(m)]])
+        W += wt * F.T @ Qc @ F
+    k = n * n
+    L = np.zeros((2 * k + 1, 2 * k + 1))
+    L[:k, :k] = np.kron(np.eye(n), A) + np.kron(A, np.eye(n))
+    L[:k, 2 * k] = (B1 @ QN @ B1.T).ravel()
+    L[k:2 * k, :k] = np.eye(k)
+    v = expm(L * h)[:, 2 * k]
+    return W, v[:k].reshape(n, n), float(np.trace(Q @ v[k:2 * k].reshape(n, n)))
+
+
+def test_continuous_lqg_is_the_classical_sampled_lqg():
+    import scipy.linalg as sl
+    h = 0.3
+    P, A, B = _servo_plant(h)
+    Q, R, QN, RN = np.diag([1.0, 0.2]), np.array([[0.1]]), \
+        np.array([[2.0]]), np.array([[0.01]])
+    K, CL, J = ncs.lqg(P, Q, R, QN, RN)
+    W, R1d, c = _sampled_by_quadrature(A, B, B, Q, R, QN, h)
+    Q1, Q12, Q2 = W[:2, :2], W[:2, 3:], W[3:, 3:]
+    Phi, Gam = np.asarray(P.A), np.asarray(P.B2)
+    S = sl.solve_discrete_are(Phi, Gam, Q1, Q2, s=Q12)
+    L = np.linalg.solve(Q2 + Gam.T @ S @ Gam, Gam.T @ S @ Phi + Q12.T)
+    C = np.array([[1.0, 0.0]])
+    Pm = sl.solve_discrete_are(Phi.T, C.T, R1d, RN)
+    Kf = Pm @ C.T @ np.linalg.inv(C @ Pm @ C.T + RN)
+    Pkk = Pm - Kf @ C @ Pm
+    J_ref = (np.trace(S @ R1d) + c
+             + np.trace(Pkk @ L.T @ (Q2 + Gam.T @ S @ Gam) @ L)) / h
+    assert J == pytest.approx(J_ref, rel=1e-9)
+    np.testing.assert_allclose(K.gains[0], -L, rtol=1e-8)
+    np.testing.assert_allclose(K.estimator_gain[0], Kf, rtol=1e-8)
+    assert ncs.cost(CL).cost == pytest.approx(J, rel=1e-12)
+    assert K.result.gap == pytest.approx(0.0, abs=1e-9 * J)
+    # the continuous cost is not the sampled one: a discrete design of the
+    # same weights at the instants costs more
+    Kd = -ct.dlqr(Phi, Gam, Q, R)[0]
+    from control_ncs._lqg_sampled import cost_plant, sample
+    Pc = cost_plant(P, sample(P, Q, R, QN, None), Q, R, QN, RN)
+    J_d = ncs.cost(ncs.feedback(Pc, Kd, estimator_gain=Kf)).cost
+    assert J_d > J
+
+
+def test_continuous_lqg_with_a_constant_delay_is_lqgdesign():
+    import scipy.linalg as sl
+    h, tau = 0.3, 0.12
+    P, A, B = _servo_plant(h, input_delay=([tau], [1.0]))
+    Q, R, QN, RN = np.diag([1.0, 0.2]), np.array([[0.1]]), \
+        np.array([[2.0]]), np.array([[0.01]])
+    K, CL, J = ncs.lqg(P, Q, R, QN, RN)
+    W, R1d, c = _sampled_by_quadrature(A, B, B, Q, R, QN, h, tau)
+    G0, G1 = P.input_delay.gamma0[0], P.input_delay.gamma1[0]
+    Phi = np.asarray(P.A)
+    Pa = np.block([[Phi, G1], [np.zeros((1, 3))]])
+    Ga = np.vstack([G0, np.eye(1)])
+    Q1, Q12, Q2 = W[:3, :3], W[:3, 3:], W[3:, 3:]
+    S = sl.solve_discrete_are(Pa, Ga, Q1, Q2, s=Q12)
+    L = np.linalg.solve(Q2 + Ga.T @ S @ Ga, Ga.T @ S @ Pa + Q12.T)
+    C = np.array([[1.0, 0.0]])
+    Pm = sl.solve_discrete_are(Phi.T, C.T, R1d, RN)
+    Pkk = Pm - Pm @ C.T @ np.linalg.inv(C @ Pm @ C.T + RN) @ C @ Pm
+    Pka = sl.block_diag(Pkk, np.zeros((1, 1)))
+    J_ref = (np.trace(S @ sl.block_diag(R1d, np.zeros((1, 1)))) + c
+             + np.trace(Pka @ L.T @ (Q2 + Ga.T @ S @ Ga) @ L)) / h
+    assert J == pytest.approx(J_ref, rel=1e-9)
+    assert ncs.cost(CL).cost == pytest.approx(J, rel=1e-12)
+    assert isinstance(K, ct.StateSpace) and K.result.cost == J
+
+
+def test_continuous_lqg_over_a_lossy_sensor_is_optimal_among_nearby_pairs():
+    h = 0.3
+    P, A, B = _servo_plant(h, sensor_loss=0.3)
+    Q, R, QN, RN = np.diag([1.0, 0.2]), np.array([[0.1]]), \
+        np.array([[2.0]]), np.array([[0.01]])
+    K, CL, J = ncs.lqg(P, Q, R, QN, RN)
+    J0 = ncs.lqg(_servo_plant(h)[0], Q, R, QN, RN)[2]
+    assert J > J0
+    assert ncs.cost(CL).cost == pytest.approx(J, rel=1e-12)
+    rng = np.random.default_rng(5)
+    from control_ncs._lqg_sampled import cost_plant, sample
+    s = sample(P, Q, R, QN, None)
+    Pc = cost_plant(P, s, Q, R, QN, RN)
+    for _ in range(3):
+        dK = 1 + 0.05 * rng.standard_normal(K.gains[0].shape)
+        dL = 1 + 0.05 * rng.standard_normal(K.estimator_gain[0].shape)
+        other = ncs.cost(ncs.feedback(Pc, K.gains[0] * dK,
+                                      estimator_gain=K.estimator_gain[0]
+                                      * dL)).cost
+        assert other > J
+
+
+def test_continuous_lqg_refuses_what_it_does_not_cover():
+    P, _, _ = _servo_plant(0.3, actuator_loss=0.1)
+    with pytest.raises(ControlArgument, match="continuous weights"):
+        ncs.lqg(P, np.eye(2), [[1.0]], [[1.0]], [[0.1]])
+    P, _, _ = _servo_plant(0.3, input_delay=([0.0, 0.1], [0.5, 0.5]))
+    with pytest.raises(ControlArgument, match="constant"):
+        ncs.lqg(P, np.eye(2), [[1.0]], [[1.0]], [[0.1]])
