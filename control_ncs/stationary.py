@@ -24,6 +24,13 @@ from .stability import (DENSE_MAX_STATES, dense_monodromy, kernel_side,
 
 __all__ = ["stationary_covariances"]
 
+#: With ``method='auto'``, a fixed point GMRES does not bring to ``tol``
+#: (slow convergence next to the stability edge, or rounding stagnation at
+#: ``tol ≈ 1e-13``) is solved on the dense Kronecker system up to this many
+#: unknowns (a matrix of 128 MiB; an estimator over a Gilbert–Elliott
+#: sensor and a bursty actuator link, 864 unknowns, needed it).
+DENSE_FALLBACK_SIZE = 4096
+
 
 def phase_forcing(B: np.ndarray, p: np.ndarray,
                   T: np.ndarray | None) -> np.ndarray:
@@ -120,19 +127,24 @@ def _stationary_run(sys: JumpStateSpace, method: str, tol: float
     for k in range(N):
         F = second_moment_operator(sys, k).matvec(F.ravel()).reshape(shape) \
             + _forcing(sys, k)
+    chosen = method
     if method == "auto":
         method = "dense" if size <= DENSE_MAX_STATES ** 2 else "matrix-free"
-    if method == "dense":
-        q = np.linalg.solve(np.eye(size) - dense_monodromy(sys), F.ravel())
-    else:
+    q = None
+    if method == "matrix-free":
         op = second_moment_operator(sys)
         lhs = LinearOperator((size, size), dtype=float,
                              matvec=lambda v: v - op.matvec(v))
         q, info = gmres(lhs, F.ravel(), rtol=tol, atol=0.0, restart=50,
                         maxiter=200)
         if info != 0:
-            raise ValueError(f"sys: GMRES did not reach tol={tol:g} on the "
-                             f"stationary second moment ({size} unknowns)")
+            if chosen != "auto" or size > DENSE_FALLBACK_SIZE:
+                raise ValueError(
+                    f"sys: GMRES did not reach tol={tol:g} on the stationary "
+                    f"second moment ({size} unknowns)")
+            q = None          # the route was ours to choose: solve it dense
+    if q is None:
+        q = np.linalg.solve(np.eye(size) - dense_monodromy(sys), F.ravel())
     out = [q.reshape(shape)]
     for k in range(N - 1):
         out.append(second_moment_operator(sys, k).matvec(

@@ -242,8 +242,13 @@ def assert_figures_agree(case: Case, steps: int = 6) -> None:
     np.testing.assert_allclose(got.outputs_cov, want.outputs_cov,
                                rtol=0, atol=RTOL * scale, err_msg=str(case))
     if rho < 0.999:
+        # ‖G‖₂² solves (I - 𝒯) q = F over one period: rounding is amplified
+        # by about 1/(1 - ρ^N), the distance of the period's monodromy from
+        # singular (a loop at ρ = 0.9916, N = 2 differs by 2e-8 between two
+        # exact constructions)
+        amplification = 1.0 / (1.0 - rho ** CL.period)
         assert ncs.norm(CL, 2, tol=1e-13) == pytest.approx(
-            ncs.norm(ref, 2, tol=1e-13), rel=RTOL), str(case)
+            ncs.norm(ref, 2, tol=1e-13), rel=RTOL * amplification), str(case)
 
 
 def _schedule(rng, period: int, width: int, delayed: bool) -> np.ndarray:
