@@ -1,4 +1,4 @@
-"""Hardening of the model layer: inputs refused at the boundary, objects that
+"""The model layer at its boundary: inputs refused where they enter, objects that
 cannot be corrupted, periods with a bound, and the model helpers shared with
 analysis and synthesis."""
 

@@ -1,4 +1,4 @@
-"""Hardening of the passivity analysis and its exact checks.
+"""The passivity analysis at its boundary, and its exact checks.
 
 python-control's signatures (``ispassive(sys, ofp_index, ifp_index)``,
 ``get_output_fb_index``), named errors at the public boundary of

@@ -1,4 +1,4 @@
-"""Synthesis hardening: solver failures, options, scaling, the edge of
+"""Synthesis under stress: solver failures, options, scaling, the edge of
 mean-square stability, proofs of infeasibility, time budget, the driver."""
 
 import time
