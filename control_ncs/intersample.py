@@ -73,8 +73,8 @@ from ._results import Result
 from .jump import JumpStateSpace, as_jump
 from ._timing import input_delay_sampling
 from .stability import ms_radius, second_moment_operator
-from .stationary import (_stationary, output_power, phase_forcing,
-                         stationary_covariances)
+from .stationary import (output_power, phase_forcing,
+                         stationary_covariances, stationary_of_stable)
 
 __all__ = ["cost", "CostResult"]
 
@@ -615,7 +615,7 @@ def _solve(sys: JumpStateSpace, method: str, tol: float,
                          f"({bracket.message}): the noise-driven second "
                          "moment has no steady state")
     else:
-        Q = _stationary(sys, method, tol)
+        Q = stationary_of_stable(sys, method, tol)
     modes = sys.modes
     N = sys.period
     shape = Q.shape[1:]

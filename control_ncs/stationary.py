@@ -100,10 +100,11 @@ def stationary_covariances(sys: Any, *, method: str = "auto",
         raise ValueError(f"sys: not proven mean-square stable "
                          f"({radius.message}): the noise-driven second "
                          "moment has no steady state")
-    return _stationary(sys, method, tol)
+    return stationary_of_stable(sys, method, tol)
 
 
-def _stationary(sys: JumpStateSpace, method: str, tol: float) -> np.ndarray:
+def stationary_of_stable(sys: JumpStateSpace, method: str, tol: float
+                         ) -> np.ndarray:
     """:func:`stationary_covariances` of a mean-square stable system."""
     with serial_blas(kernel_side(sys, method)):
         return _stationary_run(sys, method, tol)
@@ -167,7 +168,7 @@ def output_power(sys: Any, *, method: str = "auto",
     tol = positive_real(tol, "tol")
     if ms_radius(sys, bracket=True).stable is not True:
         return float("inf")
-    Q = _stationary(sys, method, tol)
+    Q = stationary_of_stable(sys, method, tol)
     m = sys.modes
     total = 0.0
     for k in range(sys.period):
