@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
+from .._blas import serial_blas
 from .._checks import choice, decay_bound, positive_real
 from ._h2 import H2Objective, local_h2
 from ._hinf import GainObjective
@@ -390,6 +391,15 @@ def _local_design(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
     (:mod:`control_ncs.synthesis._hinf`) from there. Returns the
     :class:`Design`: its figure is the exact norm of the loop (h2syn) or
     the certified bound of the better of the two loops (hinfsyn)."""
+    # the search's kernels are products of the second-moment map's
+    # matrices (n² × n² when dense): on one BLAS thread (see _blas)
+    with serial_blas(P.nstates ** 2):
+        return _local_search(P, plan, initial_gain, who)
+
+
+def _local_search(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
+                  who: str) -> Design:
+    """:func:`_local_design`'s body."""
     deadline = None if plan.time_limit is None else \
         time.perf_counter() + plan.time_limit
     mats, loop, shape, close, starts, L = _plant_problem(
@@ -473,20 +483,31 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
 
 
 #: Up to this many loop states the local searches start from the exact H2
-#: program of the full-information relaxation (one SDP).
+#: program of the full-information relaxation (one SDP) when its Riccati
+#: recursion does not converge.
 FULL_INFORMATION_MAX_STATES = 40
+
+#: Sweeps over the period of the full-information Riccati recursion.
+RICCATI_SWEEPS = 2000
 
 
 def _full_information(plant: JumpPlant) -> np.ndarray:
     """The H2-optimal gain on the whole loop state of ``plant`` (its
     reading replaced by the identity: the full-information relaxation of
-    the same open loop), per phase; zero gains when the program gives none
-    (Markov modes, a solver failure, a large loop): a start, not a
-    figure."""
+    the same open loop), per phase; zero gains when none is found (Markov
+    modes, a solver failure, a large loop): a start, not a figure.
+
+    For i.i.d. modes the optimum is the periodic Riccati recursion's of LQ
+    with multiplicative noise (:func:`_riccati_h2_gain`); the exact H2
+    program (one SDP) only where that recursion does not converge."""
     s = plant.shape
     zero = np.zeros((plant.period, s["nu"], s["nx"]))
-    if plant.transition is not None or \
-            s["nx"] > FULL_INFORMATION_MAX_STATES:
+    if plant.transition is not None:
+        return zero
+    gains = _riccati_h2_gain(plant)
+    if gains is not None:
+        return gains
+    if s["nx"] > FULL_INFORMATION_MAX_STATES:
         return zero
     full = replace(plant, E=np.broadcast_to(np.eye(s["nx"]), (
         plant.period, s["nx"], s["nx"])), Ew=None, Gw=None)
@@ -499,6 +520,61 @@ def _full_information(plant: JumpPlant) -> np.ndarray:
     except (ValueError, np.linalg.LinAlgError, ArithmeticError):
         return zero
     return gains if np.all(np.isfinite(gains)) else zero
+
+
+def _riccati_h2_gain(plant: JumpPlant) -> np.ndarray | None:
+    """The full-information H2-optimal periodic gains of i.i.d. modes by
+    the Riccati recursion of the cost-to-go ``ξᵀ S_k ξ`` (value iteration
+    from ``S = 0`` over the period, backwards):
+
+    ``H_k = Σ_i p_ki (Bu_kiᵀ S_{k+1} Bu_ki + Du_kiᵀ Du_ki)``,
+    ``g_k = Σ_i p_ki (Bu_kiᵀ S_{k+1} A_ki + Du_kiᵀ Cz_ki)``,
+    ``K_k = -H_k⁻¹ g_k``, ``S_k = Σ_i p_ki (A_kiᵀ S_{k+1} A_ki + Cz_kiᵀ
+    Cz_ki) + g_kᵀ K_k``:
+
+    the gain does not depend on the mode drawn at the step (the controller
+    does not know it), and additive noise does not change the optimal
+    gain of LQ with multiplicative noise, so these gains minimise the
+    loop's H2 norm among gains that see the whole state (the H2 program's
+    optimum). Inputs no mode acts with at a phase (``H``'s zero rows) get
+    zero gains. None when the recursion does not converge (to ``1e-12``
+    relative) in ``RICCATI_SWEEPS`` sweeps: no stabilising gain, or a slow
+    approach to the critical loss."""
+    N, nx, nu = plant.period, plant.shape["nx"], plant.shape["nu"]
+    A, Bu, Cz, Du, p = plant.A, plant.Bu, plant.Cz, plant.Du, \
+        plant.probabilities
+    CC = np.einsum("km,kmza,kmzb->kab", p, Cz, Cz)
+    DD = np.einsum("km,kmza,kmzb->kab", p, Du, Du)
+    DC = np.einsum("km,kmza,kmzb->kab", p, Du, Cz)
+    S = np.zeros((nx, nx))
+    K = np.zeros((N, nu, nx))
+    pw = p[:, :, None, None]
+    for _ in range(RICCATI_SWEEPS):
+        S_end = S
+        for k in reversed(range(N)):
+            SA = S @ A[k]                              # (M, nx, nx)
+            SB = S @ Bu[k]                             # (M, nx, nu)
+            AtSA = np.sum(pw[k] * (A[k].transpose(0, 2, 1) @ SA), axis=0)
+            H = np.sum(pw[k] * (Bu[k].transpose(0, 2, 1) @ SB), axis=0) \
+                + DD[k]
+            g = np.sum(pw[k] * (Bu[k].transpose(0, 2, 1) @ SA), axis=0) \
+                + DC[k]
+            live = np.flatnonzero(np.diag(H) > 0)
+            K[k] = 0.0
+            if live.size:
+                try:
+                    K[k][live] = -np.linalg.solve(H[np.ix_(live, live)],
+                                                  g[live])
+                except np.linalg.LinAlgError:
+                    return None
+            S = AtSA + CC[k] + g.T @ K[k]
+            S = 0.5 * (S + S.T)
+        if not np.all(np.isfinite(S)):
+            return None
+        if np.linalg.norm(S - S_end) <= 1e-12 * max(np.linalg.norm(S),
+                                                     1e-300):
+            return K.copy()
+    return None
 
 
 def hinfsyn(P: NetworkedStateSpace, *, decay: float | None = None,
