@@ -136,7 +136,7 @@ class H2Objective(StructuredLoop):
         X = np.eye(size).reshape((size,) + shape)
         for k in range(loop.N):
             A = Acl[k]
-            if self.markov:
+            if loop.T is not None:
                 Y = A @ X @ A.transpose(0, 2, 1)          # (size, M, n, n)
                 X = np.einsum("ij,sinm->sjnm", loop.T[k], Y)
             else:

@@ -598,8 +598,8 @@ def _riccati_h2_gain(plant: JumpPlant) -> np.ndarray | None:
             S = 0.5 * (S + S.T)
         if not np.all(np.isfinite(S)):
             return None
-        if np.linalg.norm(S - S_end) <= 1e-12 * max(np.linalg.norm(S),
-                                                     1e-300):
+        size = float(np.linalg.norm(S))
+        if float(np.linalg.norm(S - S_end)) <= 1e-12 * max(size, 1e-300):
             return K.copy()
     return None
 
