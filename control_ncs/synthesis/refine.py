@@ -203,8 +203,10 @@ class _Search:
         self.stopped = "converged"
         self.ends: list[tuple] = []     # (f, x, start, f at the start)
         # Markov modes: Nelder–Mead climbs only when its simplex fits
-        self.climbs = plant.is_iid or \
-            self.loop.free.size + 1 <= SIMPLEX_SHARE * EVALUATIONS
+        loop = self.loop
+        self.climbs = plant.is_iid or (
+            loop.free.size + 1 <= SIMPLEX_SHARE * EVALUATIONS
+            and loop.M * loop.n ** 2 <= PROJECTED_MAX)
 
     def out_of_time(self) -> bool:
         return self.deadline is not None and \
@@ -388,43 +390,44 @@ PROJECTED_MAX = 4096
 
 #: Markov modes: the derivative-free stage 2 climbs from a gain only when
 #: its simplex (one certificate per free entry) fits this share of its
-#: evaluations; otherwise the stable starts and ends of stage 1 are
-#: certified as they are and the best one wins.
+#: evaluations and the loop's moments have at most PROJECTED_MAX unknowns
+#: (a certificate of a larger loop takes seconds: 8 s for the 58 states
+#: and 7 modes of a buffer of 5); otherwise the stable starts and ends of
+#: stage 1 are certified as they are and the best one wins.
 SIMPLEX_SHARE = 0.25
 
 
 def delay_free_gain(plant: JumpPlant, loop: Loop) -> np.ndarray | None:
     """Free entries of the constant gain over a delayed link: the LQ gain
-    ``G₀`` (weights ``I``) of the plant without delays on every age of the
-    measurement, ``K = [G₀, G₀, …]``. The loop state of a delayed link is
-    the plant's state and its past copies, ``[x; x₋₁; …]``, and each mode
-    reads one ``n``-block of it. None unless the plant reads per mode, has
-    one phase and this layout (the nominal mode reading the first block)."""
-    if not plant.reads_per_mode or plant.period != 1:
+    ``G₀`` (weights ``I``) of the plant without delays, on every age of the
+    measurement (a gain per age: ``K = [G₀, G₀, …]``; the loop state is the
+    plant's state and its past copies, ``[x; x₋₁; …]``, each mode reading
+    one ``n``-block of it) or on the predictor's estimate (its first ``n``
+    coordinates). None for other loops, or more than one phase."""
+    if plant.period != 1 or not (plant.reads_per_mode
+                                 or plant.controller == "predictor") \
+            or plant.nominal is None:
         return None
-    E = loop.E[0]                                     # (M, nk, nx)
-    nominal = int(plant.nominal[0]) if plant.nominal is not None else -1
-    if nominal < 0:
-        return None
-    cols = np.flatnonzero(np.any(E[nominal] != 0, axis=0))
+    nominal = int(plant.nominal[0])
+    reading = loop.reading()[0]                       # (nk, nx)
+    E = loop.E[0, nominal]
+    cols = np.flatnonzero(np.any(E != 0, axis=0))
     n = cols.size
     if n == 0 or not np.array_equal(cols, np.arange(n)) or \
             loop.n % n != 0:
         return None
     A0 = plant.A[0, nominal][:n, :n]
     B0 = plant.Bu[0, nominal][:n]
+    m = B0.shape[1]
     if not np.any(B0):
         return None
     try:
-        S = scipy.linalg.solve_discrete_are(A0, B0, np.eye(n),
-                                            np.eye(B0.shape[1]))
-        G0 = -np.linalg.solve(B0.T @ S @ B0 + np.eye(B0.shape[1]),
-                              B0.T @ S @ A0)
+        S = scipy.linalg.solve_discrete_are(A0, B0, np.eye(n), np.eye(m))
+        G0 = -np.linalg.solve(B0.T @ S @ B0 + np.eye(m), B0.T @ S @ A0)
     except (ValueError, np.linalg.LinAlgError):
         return None
     if not np.all(np.isfinite(G0)):
         return None
-    reading = loop.reading()[0]                       # (nk, nx)
     K = np.zeros(loop.mask.shape)
     for j in range(reading.shape[0]):
         x = np.flatnonzero(reading[j])
