@@ -329,10 +329,14 @@ def lq_gain(plant: JumpPlant, probabilities: np.ndarray,
     for _ in range(sweeps):
         before = Pn
         for k in reversed(range(N)):
-            S = np.einsum("m,mxa,xy,myb->ab", p[k], A[k], Pn, A[k])
-            R = np.eye(nu) + np.einsum("m,mxa,xy,myb->ab", p[k], B[k], Pn,
-                                       B[k])
-            Nb = np.einsum("m,mxa,xy,myb->ab", p[k], B[k], Pn, A[k])
+            # Σ_i p_i Xᵀ P Y as batched products (a four-operand einsum
+            # loops over every index: M n⁴ per term)
+            w = p[k][:, None, None]
+            PA, PB = Pn @ A[k], Pn @ B[k]
+            At, Bt = A[k].transpose(0, 2, 1), B[k].transpose(0, 2, 1)
+            S = np.sum(w * (At @ PA), axis=0)
+            R = np.eye(nu) + np.sum(w * (Bt @ PB), axis=0)
+            Nb = np.sum(w * (Bt @ PA), axis=0)
             G[k] = -np.linalg.solve(R, Nb)
             Pn = np.eye(n) + S + Nb.T @ G[k]
             Pn = 0.5 * (Pn + Pn.T)
