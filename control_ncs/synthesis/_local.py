@@ -567,10 +567,12 @@ def _rate_upper(A: np.ndarray, p: np.ndarray | None, T: np.ndarray | None,
     N, M, n = A.shape[0], A.shape[1], A.shape[-1]
     markov = T is not None
     eye = np.broadcast_to(np.eye(n), (M, n, n)) if markov else np.eye(n)
+    laws = T if T is not None else p
+    assert laws is not None
 
     def period(Q: np.ndarray) -> np.ndarray:
         for k in range(N):
-            Q = phase_map(A[k], T[k] if markov else p[k], Q, markov)
+            Q = phase_map(A[k], laws[k], Q, markov)
         return Q
 
     c = bound ** N
