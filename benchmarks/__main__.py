@@ -29,6 +29,8 @@ SECTIONS = [
     ("bench_synthesis", "forms_detail"),
     ("bench_synthesis", "routes"),
     ("bench_synthesis", "compile_reduction"),
+    ("bench_synthesis", "dlqr_section"),
+    ("bench_synthesis", "delayed_default_section"),
     ("bench_stability", "ms_radius_section"),
     ("bench_stability", "monte_carlo_section"),
     ("bench_stability", "certified_radius_section"),

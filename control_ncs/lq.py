@@ -19,10 +19,11 @@ state, and the equations are coupled.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Iterator
 
 import control as ct
 import numpy as np
+import scipy.linalg as sla
 from control.exception import ControlArgument, ControlDimension
 
 from . import _mare
@@ -244,6 +245,10 @@ def _bernoulli(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
         if low is not None and nu <= low.upper:
             _refuse(nu, low, "")
     eq = _mare.Equation(A.T, B.T, Q, R, *_mare.bernoulli(nu))
+    if nu == 1.0:
+        quick = _loss_free(eq, A, B, Q, R)
+        if quick is not None:
+            return quick
     try:
         sol = _mare.solve(eq)
     except MareError as err:
@@ -253,6 +258,62 @@ def _bernoulli(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray,
     S, K = sol.X[0], sol.gains[0].T
     link = "loss-free" if nu == 1.0 else f"Bernoulli, arrival {nu:g}"
     return K, S, np.linalg.eigvals(A - nu * B @ K), sol.result(link)
+
+
+def _loss_free(eq: _mare.Equation, A: np.ndarray, B: np.ndarray,
+               Q: np.ndarray, R: np.ndarray) -> tuple | None:
+    """The loss-free equation (the plain DARE) by SciPy's generalized
+    Schur solver, checked as every answer of the equation kernel is: the
+    residual of the equation, and the loop's mean-square stability proven
+    by the Collatz–Wielandt bound of ``𝓛(Y) = A_Kᵀ Y A_K``, ``A_K = A - B
+    K``, at ``Y = S`` (``S = A_Kᵀ S A_K + Q + KᵀRK``: the bound is below 1
+    when ``Q + KᵀRK ≻ 0``) or else at the Stein solution of ``Y = A_Kᵀ Y
+    A_K + I``. The spectral radius of that map is exactly ``ρ(A_K)²``
+    (the eigenvalues of ``A_K ⊗ A_K`` are the products of ``A_K``'s).
+    None when the solver fails or a check does not pass: the caller then
+    solves the equation by the kernel's own route."""
+    try:
+        S = sla.solve_discrete_are(A, B, Q, R)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if not np.all(np.isfinite(S)):
+        return None
+    S = 0.5 * (S + S.T)
+    X = S[None]
+    L = eq.gains(X)                           # Kᵀ, the dual's gain
+    # eq.residual(X), its gain computed once
+    g = eq.apply(L, X) + eq.forcing(L)
+    g = 0.5 * (g + g.transpose(0, 2, 1))
+    residual = float(np.linalg.norm(X - g) / max(1.0, np.linalg.norm(X)))
+    if not residual <= _mare.RESIDUAL:
+        return None
+    K = L[0].T
+    E = np.linalg.eigvals(A - B @ K)
+    radius = float(np.max(np.abs(E))) ** 2 if E.size else 0.0
+    bracket = None
+    for Y in _certificates(S, A - B @ K):
+        bracket = _mare.collatz_wielandt(eq, L, Y[None], steps=1)
+        if bracket is not None and bracket[1] < 1.0:
+            break
+        bracket = None
+    if bracket is None:
+        return None
+    sol = _mare.Solution(X, L, residual, bracket[1], bracket[0], radius,
+                         "loss-free Riccati equation (generalized Schur)",
+                         0, "schur")
+    return K, S, E, sol.result("loss-free")
+
+
+def _certificates(S: np.ndarray, Acl: np.ndarray) -> Iterator[np.ndarray]:
+    """Candidates ``Y ≻ 0`` for the stability bound of the loss-free loop:
+    the cost ``S``, then the Stein solution of ``Y = A_Kᵀ Y A_K + I``."""
+    yield S
+    try:
+        Y = sla.solve_discrete_lyapunov(Acl.T, np.eye(Acl.shape[0]))
+    except (ValueError, np.linalg.LinAlgError):
+        return
+    if np.all(np.isfinite(Y)):
+        yield 0.5 * (Y + Y.T)
 
 
 def _closed_threshold(A: np.ndarray, B: np.ndarray

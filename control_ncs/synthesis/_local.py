@@ -329,10 +329,14 @@ def lq_gain(plant: JumpPlant, probabilities: np.ndarray,
     for _ in range(sweeps):
         before = Pn
         for k in reversed(range(N)):
-            S = np.einsum("m,mxa,xy,myb->ab", p[k], A[k], Pn, A[k])
-            R = np.eye(nu) + np.einsum("m,mxa,xy,myb->ab", p[k], B[k], Pn,
-                                       B[k])
-            Nb = np.einsum("m,mxa,xy,myb->ab", p[k], B[k], Pn, A[k])
+            # Σ_i p_i Xᵀ P Y as batched products (a four-operand einsum
+            # loops over every index: M n⁴ per term)
+            w = p[k][:, None, None]
+            PA, PB = Pn @ A[k], Pn @ B[k]
+            At, Bt = A[k].transpose(0, 2, 1), B[k].transpose(0, 2, 1)
+            S = np.sum(w * (At @ PA), axis=0)
+            R = np.eye(nu) + np.sum(w * (Bt @ PB), axis=0)
+            Nb = np.sum(w * (Bt @ PA), axis=0)
             G[k] = -np.linalg.solve(R, Nb)
             Pn = np.eye(n) + S + Nb.T @ G[k]
             Pn = 0.5 * (Pn + Pn.T)
@@ -503,7 +507,8 @@ def certified_search(plant: JumpPlant, loop: Loop, K: np.ndarray,
 
 
 # -- a proof that no gain helps ---------------------------------------------------
-def autonomous_rate(plant: JumpPlant) -> tuple[float, np.ndarray]:
+def autonomous_rate(plant: JumpPlant, bound: float | None = None
+                    ) -> tuple[float, np.ndarray]:
     """The exact rate of the part of the loop no gain reaches, and its states.
 
     The largest set ``S`` of coordinates with ``Bu_ki[S] = 0`` and
@@ -513,7 +518,10 @@ def autonomous_rate(plant: JumpPlant) -> tuple[float, np.ndarray]:
     a block of the loop's, so every closed loop's ``ms_radius`` is at least
     that of this block (:ref:`theory-mss`): when it is ``≥ min(1, r²)`` no gain
     of any structure is certified. Returns ``(rate, S)``; ``(0.0, [])`` when
-    ``S`` is empty.
+    ``S`` is empty. With ``bound`` given, ``rate`` is a certified upper
+    bound on the rate when one below ``bound`` is found cheaply
+    (:func:`_rate_upper`: then nothing is refuted, and the exact rate of
+    a large block is not computed).
     """
     from ..jump import jss
     S = np.flatnonzero(~np.any(plant.Bu != 0, axis=(0, 1, 3)))
@@ -526,9 +534,63 @@ def autonomous_rate(plant: JumpPlant) -> tuple[float, np.ndarray]:
     if not S.size:
         return 0.0, S
     A = plant.A[..., S, :][..., S]
+    T = plant.transition
+    if T is not None:
+        # modes no transition enters at any phase: the moments there vanish
+        # after one step (a zero diagonal block of the operator), so the
+        # rate is that of the others; dropped, as ARPACK and GMRES crawl on
+        # the nilpotent part (minutes for a buffer of 5)
+        keep = np.flatnonzero(np.any(T > 0, axis=(0, 1)))
+        A, T = A[:, keep], T[:, keep][:, :, keep]
     N, M = A.shape[:2]
+    if bound is not None:
+        upper = _rate_upper(A, plant.probabilities if T is None else None, T,
+                            bound)
+        if upper < bound:
+            return upper, S
     zeros = np.zeros((N, M, 1, 1))
     sub = jss(A, np.zeros((N, M, S.size, 1)), np.zeros((N, M, 1, S.size)),
-              zeros, None if plant.transition is not None
-              else plant.probabilities, transition=plant.transition)
+              zeros, None if T is not None else plant.probabilities,
+              transition=T)
     return exact_ms_radius(sub), S
+
+
+def _rate_upper(A: np.ndarray, p: np.ndarray | None, T: np.ndarray | None,
+                bound: float, terms: int = 60) -> float:
+    """An upper bound on the per-step mean-square rate of ``ξ⁺ = A_ki ξ``
+    (laws ``p`` or ``T``), aimed at proving it below ``bound``:
+    Collatz–Wielandt, ``𝒯(Y) ≼ t Y`` with ``Y ≻ 0`` proves ``ρ(𝒯) ≤ t``
+    for the period's positive map ``𝒯``. ``Y = Σ_{j<terms} (𝒯/c)^j(I)``,
+    ``c = bound^N``: when ``ρ(𝒯) < c`` the series converges and ``𝒯(Y) =
+    c (Y - I)`` up to its tail, so ``t < c``. ``inf`` when ``Y`` is not
+    positive definite or the series overflows."""
+    N, M, n = A.shape[0], A.shape[1], A.shape[-1]
+    markov = T is not None
+    eye = np.broadcast_to(np.eye(n), (M, n, n)) if markov else np.eye(n)
+    laws = T if T is not None else p
+    assert laws is not None
+
+    def period(Q: np.ndarray) -> np.ndarray:
+        for k in range(N):
+            Q = phase_map(A[k], laws[k], Q, markov)
+        return Q
+
+    c = bound ** N
+    Y = np.array(eye, float)
+    with np.errstate(all="ignore"):
+        for _ in range(terms - 1):
+            Y = eye + period(Y) / c
+            if not np.all(np.isfinite(Y)):
+                return math.inf
+        Z = period(Y)
+    Ys, Zs = (Y, Z) if markov else (Y[None], Z[None])
+    top = 0.0
+    for Yj, Zj in zip(Ys, Zs):
+        try:
+            L = np.linalg.cholesky(0.5 * (Yj + Yj.T))
+        except np.linalg.LinAlgError:
+            return math.inf
+        half = np.linalg.solve(L, Zj)
+        W = np.linalg.solve(L, half.T)
+        top = max(top, float(np.linalg.eigvalsh(0.5 * (W + W.T))[-1]))
+    return top ** (1.0 / N) if top > 0 else 0.0

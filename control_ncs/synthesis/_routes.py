@@ -144,7 +144,7 @@ def _refine_route(plant: JumpPlant, eta: float | None, decay: float,
     at a given ``eta`` is returned as is. Returns the :class:`Design` whose
     ``method`` names what certified it.
     """
-    rate, states = autonomous_rate(plant)
+    rate, states = autonomous_rate(plant, min(1.0, decay ** 2))
     if rate >= min(1.0, decay ** 2) * (1 + 1e-9):
         raise SynthesisError(
             f"passivesyn: infeasible: the states {states.tolist()} evolve "
@@ -270,7 +270,7 @@ def _routes(plant, eta, decay, margin, structure, structure0, form, solver,
         # condition, and its divergence proves infeasibility, where an
         # interior-point method ends inaccurate or fails near the edge of
         # mean-square stability (the batch reactor at 0.97-0.9999 of the
-        # critical loss, tests/test_hardening_synthesis.py).
+        # critical loss, tests/test_synthesis_robustness.py).
         try:
             return _riccati(plant, eta, decay, margin, {})
         except SynthesisError as err:
@@ -377,7 +377,21 @@ def _open_loop_bound(plant: JumpPlant, decay: float,
     acts = np.array([[bool(np.any(E[k, i]) and np.any(plant.Bu[k, i]))
                       for i in range(plant.probabilities.shape[1])]
                      for k in range(plant.period)])
-    A = np.where(acts[:, :, None, None], 0.0, plant.A)
+    # a mode never drawn (probability 0; Markov: no transition enters it
+    # at any phase) adds nothing to the second moments after the first
+    # step: the operator is block triangular with a zero block there, and
+    # the rate is the same without it
+    if plant.transition is None:
+        drawn = plant.probabilities > 0
+    else:
+        drawn = np.broadcast_to(np.any(plant.transition > 0, axis=(0, 1)),
+                                acts.shape)
+    A = np.where((acts | ~drawn)[:, :, None, None], 0.0, plant.A)
+    if not np.any(A):
+        # a gain acts in every mode drawn: the part is zero, its rate 0
+        # (ARPACK and GMRES on the nilpotent operator of a delayed loop
+        # took minutes to say so)
+        return
     n = plant.shape["nx"]
     alone = JumpStateSpace(A, np.zeros(A.shape[:3] + (1,)),
                            np.zeros(A.shape[:2] + (1, n)),

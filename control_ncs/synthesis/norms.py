@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
 
+from .._blas import serial_blas
 from .._checks import choice, decay_bound, positive_real
 from ._h2 import H2Objective, local_h2
 from ._hinf import GainObjective
@@ -391,6 +392,15 @@ def _local_design(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
     (:mod:`control_ncs.synthesis._hinf`) from there. Returns the
     :class:`Design`: its figure is the exact norm of the loop (h2syn) or
     the certified bound of the better of the two loops (hinfsyn)."""
+    # the search's kernels are products of the second-moment map's
+    # matrices (n² × n² when dense): on one BLAS thread (see _blas)
+    with serial_blas(P.nstates ** 2):
+        return _local_search(P, plan, initial_gain, who)
+
+
+def _local_search(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
+                  who: str) -> Design:
+    """:func:`_local_design`'s body."""
     deadline = None if plan.time_limit is None else \
         time.perf_counter() + plan.time_limit
     mats, loop, shape, close, starts, L = _plant_problem(
@@ -403,33 +413,20 @@ def _local_design(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
         starts.insert(0, np.broadcast_to(G, shape).reshape(
             loop.mask.shape).flat[loop.free].copy())
     Cz, Du, Bw, Dw, pi, Ew = mats
+    # hinfsyn: the H2 stage takes at most H2_SHARE of the time left, the
+    # rest is the l2 stage's and its certificates'
+    h2_deadline = deadline if deadline is None or who == "h2syn" else \
+        time.perf_counter() + H2_SHARE * (deadline - time.perf_counter())
     x = local_h2(H2Objective(loop, Cz, Du, Bw, Dw, pi, Ew, plan.decay),
-                 starts, deadline, who)
+                 starts, h2_deadline, who)
 
     def closed(x: np.ndarray) -> JumpStateSpace:
         return close(loop.gains(x).reshape(shape))
 
     certified = None
     if who == "hinfsyn":
-        candidates = [x]
-        if deadline is None or time.perf_counter() < deadline:
-            gain = GainObjective(loop, Cz, Du, Bw, Dw, pi, Ew, plan.decay)
-            x2, _, _, _ = bfgs(gain.value, x, -math.inf, deadline,
-                                HINF_ITERATIONS)
-            candidates.append(x2)
-        best = None
-        for xc in candidates:
-            try:
-                result = l2_gain(closed(xc))
-            except CertificationError:
-                continue
-            if best is None or result.gamma < best[1].gamma:
-                best = (xc, result)
-        if best is None:
-            raise SynthesisError(
-                "hinfsyn: the local search's loops have no certified l2 "
-                "gain", NOT_FOUND, {})
-        x, certified = best
+        gain = GainObjective(loop, Cz, Du, Bw, Dw, pi, Ew, plan.decay)
+        x, certified = _hinf_stage(gain, x, closed, deadline)
     gains = loop.gains(x).reshape(shape)
     CL = plan.plant.close(gains)          # the loop itself, not the figure's
     rate = _rate_within(CL, plan.decay, f"{who}: the local search's gain")
@@ -437,6 +434,46 @@ def _local_design(P: NetworkedStateSpace, plan: Plan, initial_gain: Any,
                        "local", plan.controller, plan.actuator,
                        estimator_gain=L, certified=certified,
                        decay=plan.decay)
+
+
+#: hinfsyn's local design: the share of ``time_limit`` its H2 stage may
+#: take, and the certificates' time reserved for the end of the l2 stage
+#: (as a multiple of what the first certificate took).
+H2_SHARE = 0.5
+CERTIFICATE_RESERVE = 1.5
+
+
+def _certified_gain(CL: JumpStateSpace) -> GainResult | None:
+    """:func:`l2_gain` of a loop, None when it certifies nothing."""
+    try:
+        return l2_gain(CL)
+    except CertificationError:
+        return None
+
+
+def _hinf_stage(gain: GainObjective, x: np.ndarray, closed: Any,
+                deadline: float | None) -> tuple[np.ndarray, GainResult]:
+    """hinfsyn's l2 stage from the H2 stage's gain ``x``: certify ``x``
+    (:func:`l2_gain`), search on the bounded real lemma's optimum until
+    ``HINF_ITERATIONS`` or the deadline less the time to certify where it
+    stops, certify that; returns the better certified gain. The time limit
+    covers the certificates: the search stops early enough for them (one
+    certificate started before the deadline runs to its end)."""
+    began = time.perf_counter()
+    candidates = [(x, _certified_gain(closed(x)))]
+    cost = time.perf_counter() - began
+    stop = None if deadline is None else \
+        deadline - CERTIFICATE_RESERVE * cost
+    if stop is None or time.perf_counter() < stop:
+        x2, _, _, _ = bfgs(gain.value, x, -math.inf, stop, HINF_ITERATIONS)
+        if not np.array_equal(x2, x):
+            candidates.append((x2, _certified_gain(closed(x2))))
+    found = [(xc, res) for xc, res in candidates if res is not None]
+    if not found:
+        raise SynthesisError(
+            "hinfsyn: the local search's loops have no certified l2 gain",
+            NOT_FOUND, {})
+    return min(found, key=lambda c: c[1].gamma)
 
 
 def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
@@ -474,20 +511,31 @@ def _plant_problem(P: NetworkedStateSpace, controller: str, actuator: str,
 
 
 #: Up to this many loop states the local searches start from the exact H2
-#: program of the full-information relaxation (one SDP).
+#: program of the full-information relaxation (one SDP) when its Riccati
+#: recursion does not converge.
 FULL_INFORMATION_MAX_STATES = 40
+
+#: Sweeps over the period of the full-information Riccati recursion.
+RICCATI_SWEEPS = 2000
 
 
 def _full_information(plant: JumpPlant) -> np.ndarray:
     """The H2-optimal gain on the whole loop state of ``plant`` (its
     reading replaced by the identity: the full-information relaxation of
-    the same open loop), per phase; zero gains when the program gives none
-    (Markov modes, a solver failure, a large loop): a start, not a
-    figure."""
+    the same open loop), per phase; zero gains when none is found (Markov
+    modes, a solver failure, a large loop): a start, not a figure.
+
+    For i.i.d. modes the optimum is the periodic Riccati recursion's of LQ
+    with multiplicative noise (:func:`_riccati_h2_gain`); the exact H2
+    program (one SDP) only where that recursion does not converge."""
     s = plant.shape
     zero = np.zeros((plant.period, s["nu"], s["nx"]))
-    if plant.transition is not None or \
-            s["nx"] > FULL_INFORMATION_MAX_STATES:
+    if plant.transition is not None:
+        return zero
+    gains = _riccati_h2_gain(plant)
+    if gains is not None:
+        return gains
+    if s["nx"] > FULL_INFORMATION_MAX_STATES:
         return zero
     full = replace(plant, E=np.broadcast_to(np.eye(s["nx"]), (
         plant.period, s["nx"], s["nx"])), Ew=None, Gw=None)
@@ -500,6 +548,61 @@ def _full_information(plant: JumpPlant) -> np.ndarray:
     except (ValueError, np.linalg.LinAlgError, ArithmeticError):
         return zero
     return gains if np.all(np.isfinite(gains)) else zero
+
+
+def _riccati_h2_gain(plant: JumpPlant) -> np.ndarray | None:
+    """The full-information H2-optimal periodic gains of i.i.d. modes by
+    the Riccati recursion of the cost-to-go ``ξᵀ S_k ξ`` (value iteration
+    from ``S = 0`` over the period, backwards):
+
+    ``H_k = Σ_i p_ki (Bu_kiᵀ S_{k+1} Bu_ki + Du_kiᵀ Du_ki)``,
+    ``g_k = Σ_i p_ki (Bu_kiᵀ S_{k+1} A_ki + Du_kiᵀ Cz_ki)``,
+    ``K_k = -H_k⁻¹ g_k``, ``S_k = Σ_i p_ki (A_kiᵀ S_{k+1} A_ki + Cz_kiᵀ
+    Cz_ki) + g_kᵀ K_k``:
+
+    the gain does not depend on the mode drawn at the step (the controller
+    does not know it), and additive noise does not change the optimal
+    gain of LQ with multiplicative noise, so these gains minimise the
+    loop's H2 norm among gains that see the whole state (the H2 program's
+    optimum). Inputs no mode acts with at a phase (``H``'s zero rows) get
+    zero gains. None when the recursion does not converge (to ``1e-12``
+    relative) in ``RICCATI_SWEEPS`` sweeps: no stabilising gain, or a slow
+    approach to the critical loss."""
+    N, nx, nu = plant.period, plant.shape["nx"], plant.shape["nu"]
+    A, Bu, Cz, Du, p = plant.A, plant.Bu, plant.Cz, plant.Du, \
+        plant.probabilities
+    CC = np.einsum("km,kmza,kmzb->kab", p, Cz, Cz)
+    DD = np.einsum("km,kmza,kmzb->kab", p, Du, Du)
+    DC = np.einsum("km,kmza,kmzb->kab", p, Du, Cz)
+    S = np.zeros((nx, nx))
+    K = np.zeros((N, nu, nx))
+    pw = p[:, :, None, None]
+    for _ in range(RICCATI_SWEEPS):
+        S_end = S
+        for k in reversed(range(N)):
+            SA = S @ A[k]                              # (M, nx, nx)
+            SB = S @ Bu[k]                             # (M, nx, nu)
+            AtSA = np.sum(pw[k] * (A[k].transpose(0, 2, 1) @ SA), axis=0)
+            H = np.sum(pw[k] * (Bu[k].transpose(0, 2, 1) @ SB), axis=0) \
+                + DD[k]
+            g = np.sum(pw[k] * (Bu[k].transpose(0, 2, 1) @ SA), axis=0) \
+                + DC[k]
+            live = np.flatnonzero(np.diag(H) > 0)
+            K[k] = 0.0
+            if live.size:
+                try:
+                    K[k][live] = -np.linalg.solve(H[np.ix_(live, live)],
+                                                  g[live])
+                except np.linalg.LinAlgError:
+                    return None
+            S = AtSA + CC[k] + g.T @ K[k]
+            S = 0.5 * (S + S.T)
+        if not np.all(np.isfinite(S)):
+            return None
+        size = float(np.linalg.norm(S))
+        if float(np.linalg.norm(S - S_end)) <= 1e-12 * max(size, 1e-300):
+            return K.copy()
+    return None
 
 
 def hinfsyn(P: NetworkedStateSpace, *, decay: float | None = None,

@@ -72,6 +72,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 from control.exception import ControlArgument, ControlDimension
 
 from .._checks import (choice, decay_bound, finite_real, positive_int,
@@ -83,10 +84,11 @@ from ..openloop import JumpPlant
 from ..plant import NetworkedStateSpace
 from ..stability import ms_radius as exact_ms_radius
 from ..verify import Certificate
-from ._local import (CONTINUATION, ETA_STEP, RESTART_SCALES, RESTARTS,
-                     STAGE2_ITERATIONS, TARGET_FRACTION, IndexObjective,
-                     Loop, bfgs, certificate_of, certified_search, continued,
-                     lq_gain, projected, restrict)
+from ._local import (CONTINUATION, ETA_STEP, EVALUATIONS, RESTART_SCALES,
+                     RESTARTS, STAGE2_ITERATIONS, TARGET_FRACTION,
+                     IndexObjective, Loop, bfgs, certificate_of,
+                     certified_search, continued, lq_gain, projected,
+                     restrict)
 
 __all__ = ["refine_gain", "RefineResult"]
 
@@ -110,9 +112,11 @@ class RefineResult(Result):
     ms_radius : float
         Exact per-step mean-square rate of the closed loop with ``gains``.
     start : str
-        Which starting point led to ``gains``: ``'given'``, ``'full'``
-        (the unstructured gain restricted), ``'zero'``,
-        ``'continuation'`` or ``'restart'``.
+        Which starting point led to ``gains``: ``'given'``,
+        ``'projected'`` or ``'full'`` (the unstructured gain projected or
+        restricted), ``'delay-free'`` or ``'delay-free half'`` (over a
+        delayed link, the delay-free plant's LQ gain on every age, or its
+        half), ``'zero'``, ``'continuation'`` or ``'restart'``.
     ms_radius_before : float
         The rate at that starting point.
     eta_before : float
@@ -198,6 +202,11 @@ class _Search:
         self.certified: dict = {}
         self.stopped = "converged"
         self.ends: list[tuple] = []     # (f, x, start, f at the start)
+        # Markov modes: Nelder–Mead climbs only when its simplex fits
+        loop = self.loop
+        self.climbs = plant.is_iid or (
+            loop.free.size + 1 <= SIMPLEX_SHARE * EVALUATIONS
+            and loop.M * loop.n ** 2 <= PROJECTED_MAX)
 
     def out_of_time(self) -> bool:
         return self.deadline is not None and \
@@ -254,6 +263,13 @@ class _Search:
         if not self.ends:
             f0, _, name, x = scored[0]
             self.end(name, x, f0, f0)
+        if not self.climbs:
+            # no climb from the ends: every stable start competes as it is
+            # (the result is never worse than the best of them)
+            done = {id(e[1]) for e in self.ends}
+            for f0, _, name, x in scored:
+                if f0 < self.edge and id(x) not in done:
+                    self.end(name, x, f0, f0)
         best = self.best()
         if not self.settled(best[0], best[1]) and not self.out_of_time() \
                 and self.plant.nominal is not None:
@@ -319,7 +335,8 @@ class _Search:
         by its envelope gradient (i.i.d. modes), the certified level itself
         derivative-free (Markov modes)."""
         eta, loop, plant = self.eta, self.loop, self.plant
-        if not (cert is None or eta is None) or self.out_of_time():
+        if not (cert is None or eta is None) or self.out_of_time() or \
+                not self.climbs:
             return K, cert
         if not plant.is_iid:
             return certified_search(plant, loop, K, cert, eta, self.decay,
@@ -345,17 +362,79 @@ class _Search:
 def _starts(plant: JumpPlant, loop: Loop, given: np.ndarray | None
             ) -> list[tuple[str, np.ndarray]]:
     """Stage 1's starting points: a given gain, the full-information LQ
-    gain projected on what the gain reads and restricted to it, zero."""
+    gain projected on what the gain reads (not for loops whose moments
+    outgrow :data:`PROJECTED_MAX`: its stationary moments cost more than
+    the search) and restricted to it, over a delayed link the delay-free
+    plant's LQ gain on every age of the measurement and its half (a gain
+    that acts on old measurements as on new ones, gentler), zero."""
     starts = []
     if given is not None:
         starts.append(("given", given.flat[loop.free].copy()))
     G = lq_gain(plant, plant.probabilities)
-    near = projected(plant, loop, G)
+    size = loop.M * loop.n ** 2 if loop.T is not None else loop.n ** 2
+    near = projected(plant, loop, G) if size <= PROJECTED_MAX else None
     if near is not None:
         starts.append(("projected", near))
     starts.append(("full", restrict(loop, G)))
+    constant = delay_free_gain(plant, loop)
+    if constant is not None:
+        starts += [("delay-free", constant), ("delay-free half",
+                                              0.5 * constant)]
     starts.append(("zero", np.zeros(loop.free.size)))
     return starts
+
+
+#: The projected start is computed for loops whose second moments have at
+#: most this many unknowns (``M n²``, ``n²`` for i.i.d. modes).
+PROJECTED_MAX = 4096
+
+#: Markov modes: the derivative-free stage 2 climbs from a gain only when
+#: its simplex (one certificate per free entry) fits this share of its
+#: evaluations and the loop's moments have at most PROJECTED_MAX unknowns
+#: (a certificate of a larger loop takes seconds: 8 s for the 58 states
+#: and 7 modes of a buffer of 5); otherwise the stable starts and ends of
+#: stage 1 are certified as they are and the best one wins.
+SIMPLEX_SHARE = 0.25
+
+
+def delay_free_gain(plant: JumpPlant, loop: Loop) -> np.ndarray | None:
+    """Free entries of the constant gain over a delayed link: the LQ gain
+    ``G₀`` (weights ``I``) of the plant without delays, on every age of the
+    measurement (a gain per age: ``K = [G₀, G₀, …]``; the loop state is the
+    plant's state and its past copies, ``[x; x₋₁; …]``, each mode reading
+    one ``n``-block of it) or on the predictor's estimate (its first ``n``
+    coordinates). None for other loops, or more than one phase."""
+    if plant.period != 1 or not (plant.reads_per_mode
+                                 or plant.controller == "predictor") \
+            or plant.nominal is None:
+        return None
+    nominal = int(plant.nominal[0])
+    reading = loop.reading()[0]                       # (nk, nx)
+    E = loop.E[0, nominal]
+    cols = np.flatnonzero(np.any(E != 0, axis=0))
+    n = cols.size
+    if n == 0 or not np.array_equal(cols, np.arange(n)) or \
+            loop.n % n != 0:
+        return None
+    A0 = plant.A[0, nominal][:n, :n]
+    B0 = plant.Bu[0, nominal][:n]
+    m = B0.shape[1]
+    if not np.any(B0):
+        return None
+    try:
+        S = scipy.linalg.solve_discrete_are(A0, B0, np.eye(n), np.eye(m))
+        G0 = -np.linalg.solve(B0.T @ S @ B0 + np.eye(m), B0.T @ S @ A0)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if not np.all(np.isfinite(G0)):
+        return None
+    K = np.zeros(loop.mask.shape)
+    for j in range(reading.shape[0]):
+        x = np.flatnonzero(reading[j])
+        if x.size != 1:
+            return None
+        K[0][:, j] = G0[:, x[0] % n]
+    return K.flat[loop.free].copy()
 
 
 def _refine(plant: JumpPlant, eta: float | None, decay: float,
