@@ -28,3 +28,46 @@ def pytest_runtest_setup(item):
     from _pytest.doctest import DoctestItem
     if isinstance(item, DoctestItem):
         item.dtest.globs.clear()
+
+
+#: Notebooks whose executed outputs carry no warning: notebook 4 once
+#: silenced cvxpy's 'Solution may be inaccurate' itself; the package now
+#: turns it into a status.
+QUIET_NOTEBOOKS = ("04_shared_channel_predictor.ipynb",)
+WARNING_TEXTS = ("Solution may be inaccurate", "Warning")
+
+
+def warnings_in_outputs(nb) -> list:
+    """The texts of ``WARNING_TEXTS`` found in an executed notebook's
+    outputs (streams and displayed data)."""
+    text = "".join(
+        out.get("text", "") + "".join(map(str, out.get("data", {}).values()))
+        for cell in nb.cells if cell.cell_type == "code"
+        for out in cell.get("outputs", []))
+    return [w for w in WARNING_TEXTS if w in text]
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_call(item):
+    """nbmake executes each notebook once; for the quiet notebooks, that
+    run's outputs are read for warnings (no second execution)."""
+    from pathlib import Path
+    if not getattr(item, "nbmake", False) or \
+            Path(item.filename).name not in QUIET_NOTEBOOKS:
+        return (yield)
+    from nbmake.nb_run import NotebookRun
+    original, executed = NotebookRun.execute, []
+
+    def execute(run):
+        result = original(run)
+        executed.append(result.nb)
+        return result
+
+    NotebookRun.execute = execute
+    try:
+        outcome = yield
+    finally:
+        NotebookRun.execute = original
+    found = warnings_in_outputs(executed[0])
+    assert not found, f"{item.filename}: outputs carry {found}"
+    return outcome

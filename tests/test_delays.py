@@ -52,8 +52,13 @@ def assert_matches_simulation(pmf, buffer, sent, seed, steps=200_000):
 
 
 def assert_ages_follow_the_chain(ages, pmf, buffer, sent):
+    """``ages``: one path, or independent paths (rows), each from phase 0;
+    the transitions of every path after its first ``buffer + 2`` steps are
+    counted together."""
     T = age_chain(np.asarray(pmf, float), buffer, np.asarray(sent, bool))
-    counts = empirical_transitions(ages, len(sent), buffer + 2, buffer + 2)
+    counts = sum(empirical_transitions(path, len(sent), buffer + 2,
+                                       buffer + 2)
+                 for path in np.atleast_2d(ages))
     visits = counts.sum(axis=2, keepdims=True)
     seen = visits[..., 0] >= 200
     freq = counts / np.maximum(visits, 1.0)
@@ -301,15 +306,18 @@ def test_delayed_loop_power_equals_a_packet_level_simulation(actuator):
 def test_time_stamped_packets_of_the_protocol_simulator_follow_the_chain():
     """The event-level simulator stamps each packet and keeps the freshest
     (its own implementation, not packet_level_ages): the ages it uses follow
-    the age chain, scheduled or not."""
+    the age chain, scheduled or not. 1000 independent paths of 150 steps
+    (the transitions after each path's first buffer + 2 steps counted
+    together: about 144,000, as many as one path of 150,000 steps gives)."""
     pmf, buffer, sent = [0.5, 0.3, 0.1], 3, (True, True, False)
     out = simulate_protocol(
         [[0.5]], [[0.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]],
         [[int(s)] for s in sent], [[1]] * 3, 0.0, 0.0,
-        np.zeros((buffer + 1, 1, 1)), 150_000,
+        np.zeros((buffer + 1, 1, 1)), 150, trials=1000,
         sensor_delay=ncs.random_delay(pmf, buffer=buffer),
         rng=np.random.default_rng(5))
-    assert_ages_follow_the_chain(out["age1"][0], pmf, buffer, sent)
+    assert out["age1"].shape == (1000, 150)
+    assert_ages_follow_the_chain(out["age1"], pmf, buffer, sent)
 
 
 @pytest.mark.parametrize("actuator", ["zero", "hold"])

@@ -7,8 +7,8 @@ import pytest
 from control_ncs import MomentsResponse, feedback, jss, moments
 
 from helpers import (assert_cov_within, assert_mean_within,
-                     fourth_moment_rate, random_jump, random_plant, sample_jump,
-                     scalar_plant)
+                     dense_fourth_moment_rate, fourth_moment_rate,
+                     random_jump, random_plant, sample_jump, scalar_plant)
 
 # the scalar loop of the closed forms: x⁺ = a x + bw w + u, z = c x + d w +
 # d12 u, u = -k x delivered with probability q = (1-α1)(1-α2)
@@ -93,6 +93,17 @@ def test_initial_covariance_adds_to_the_second_moment():
 
 
 # -- against sampled paths ---------------------------------------------------
+@pytest.mark.parametrize("n, N, M", [(3, 1, 2), (3, 3, 4), (4, 2, 3)])
+def test_fourth_moment_rate_is_the_dense_kronecker_radius(n, N, M):
+    """The Monte Carlo tests' tail check: the factor-by-factor operator
+    and ARPACK give the radius of the dense ``Π_k Σ_i p A⊗A⊗A⊗A``."""
+    rng = np.random.default_rng(10 * n + N)
+    for radius in (0.6, 1.02):
+        sys = random_jump(rng, n=n, N=N, M=M, radius=radius)
+        assert fourth_moment_rate(sys) == pytest.approx(
+            dense_fourth_moment_rate(sys), rel=1e-10)
+
+
 def mc_check(sys, T, trials, seed, n_se, **kw):
     # sample standard errors are trustworthy only with a light enough tail:
     # a mean-square stable fourth moment (see helpers.fourth_moment_rate)
