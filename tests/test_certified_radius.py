@@ -10,6 +10,7 @@ import control as ct
 from control_ncs import CertificationError, is_mss, jss, ms_radius
 from control_ncs.stability import second_moment_operator
 
+from benchmarks.bench_stability import lightly_damped_loop
 from helpers import random_jump
 
 SLOW = settings(max_examples=30, deadline=None)
@@ -51,17 +52,6 @@ def dense_radius_with_error(sys):
     return float(abs(w[i])), float(err)
 
 
-def lightly_damped_loop(n, seed, gain=0.01, loss=0.2):
-    """``x⁺ = 0.9 Q x + θ b k x`` with ``Q`` orthogonal (every eigenvalue
-    of ``A ⊗ A`` on one circle) and a small gain lost with probability
-    ``loss``: the top eigenvalues of the second-moment operator lie within
-    a hair of each other."""
-    rng = np.random.default_rng(seed)
-    Q = np.linalg.qr(rng.standard_normal((n, n)))[0]
-    A = 0.9 * Q
-    B = rng.standard_normal((n, 1))
-    K = gain * rng.standard_normal((1, n))
-    return jss([A, A + B @ K], B, np.eye(n)[:1], [[0.0]], [loss, 1 - loss])
 
 
 def single_ritz_value(sys):

@@ -715,3 +715,22 @@ def test_the_protocol_simulator_has_the_reference_power_with_input_delays(
     power = (out["z"][:, :, burn:] ** 2).sum(axis=1).mean(axis=1)
     se = power.std(ddof=1) / math.sqrt(trials)
     assert abs(power.mean() - exact) < 4 * se, (power.mean(), se, exact)
+
+
+def test_an_estimator_next_to_the_stability_edge_gets_its_h2_norm():
+    # a Gilbert–Elliott sensor, a bursty actuator, the estimator with held
+    # commands, ρ = 0.9916: GMRES stalls on the stationary second moment at
+    # tol 1e-13 (864 unknowns); the route the package chose is solved dense
+    rng = np.random.default_rng(1122)
+    case = make_case(rng, draw_link("gilbert_elliott", rng),
+                     draw_link("bursty", rng), "estimator", "hold", (2, 2), 2)
+    CL = package_loop(case)
+    rho = ncs.ms_radius(CL)
+    assert 0.99 < rho < 0.999
+    with pytest.raises(ValueError, match="GMRES"):
+        ncs.norm(CL, 2, tol=1e-13, method="matrix-free")
+    # the same dense system, its rounding amplified by 1/(1 - ρ^N)
+    assert ncs.norm(CL, 2, tol=1e-13) == pytest.approx(
+        ncs.norm(CL, 2, tol=1e-13, method="dense"),
+        rel=RTOL / (1.0 - rho ** CL.period))
+    assert_figures_agree(case)
