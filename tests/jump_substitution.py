@@ -16,7 +16,8 @@ system needs both). At the end of the session the counts and every test's
 outcome are written as JSON to the file named by the environment variable
 ``JUMP_SUBSTITUTION_REPORT``. With ``JUMP_SUBSTITUTION=off`` the
 constructors are wrapped but substitute nothing: the same session then
-checks the wrapping itself.
+checks the wrapping itself. Every test starts from the same seed of the
+global NumPy generator, so the outcomes do not change from run to run.
 """
 
 from __future__ import annotations
@@ -32,6 +33,8 @@ import control as ct
 import control.dtime
 import control.matlab
 import control.statesp
+
+import numpy as np
 
 import control_ncs as ncs
 
@@ -133,6 +136,19 @@ def pytest_configure(config):
     # only a session that loads this plugin substitutes (importing the
     # module, e.g. to collect its doctests, changes nothing)
     _install()
+
+
+def pytest_runtest_setup(item):
+    """Seed the global NumPy generator before every test.
+
+    python-control's tests draw random systems (``rss``, ``drss``,
+    ``np.random.rand``) from the unseeded global generator; some of their
+    tolerances fail on rare draws whatever class the system is (its
+    ``test_nonuniform_timepts[4-2-3]`` fails for 1 seed in 200 on a plain
+    continuous-time StateSpace). A fixed seed makes the session's
+    outcomes the same on every run. The session is a subprocess of its
+    own, so no other test sees this state."""
+    np.random.seed(0)
 
 
 def pytest_runtest_logreport(report):
