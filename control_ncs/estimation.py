@@ -362,7 +362,9 @@ class CriticalArrival(CertifiedResult):
         (Plarre and Bullo 2009), or the unstable eigenvalues are real, of
         distinct moduli and each seen by ``C`` (the simplest non-degenerate
         systems of Mo and Sinopoli 2012); decided from the structure, never
-        from numbers close to each other.
+        from numbers close to each other; or ``fixed_gain`` (certified) is
+        no more than ``lower``, which closes the bracket (a double
+        integrator seen through its position: both are 0).
     bracket : tuple of float
         ``(value, value)`` when exact, else ``(lower, fixed_gain)``.
     critical_recover : float or None
@@ -529,7 +531,8 @@ def critical_arrival(*args: Any, tol: float = 1e-7,
     rho = _mare.spectral_radius(A)
     lower = max(0.0, 1.0 - 1.0 / rho ** 2) if rho > 0 else 0.0
     subspace = _mare.closed_form_gain(A, C) is not None
-    exact = subspace or _non_degenerate(A, C)
+    # λ_c lies in [lower, fixed_gain] always: a closed bracket is exact too
+    exact = subspace or _non_degenerate(A, C) or th.upper <= lower
     return CriticalArrival(
         lower=lower, fixed_gain=th.upper,
         fixed_gain_bracket=(th.lower, th.upper), fixed_gain_exact=th.exact,

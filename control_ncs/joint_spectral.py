@@ -154,7 +154,11 @@ class JSRResult(Result):
     cycle : tuple
         The modes of the closed walk attaining ``lower``, in order of
         application (``A_c = A_{cycle[-1]} ⋯ A_{cycle[0]}``); empty when no
-        cycle has a positive spectral radius.
+        cycle has a positive spectral radius. For a loop over loss budgets
+        a mode reads ``(phase, (q, θ))``: the phase of the period, the
+        automaton's state ``q`` the step leads to (for :func:`weakly_hard`
+        the last outcomes, oldest first, ``'1'`` delivered, ``'0'`` lost)
+        and the step's outcome ``θ`` (1 delivered, 0 lost or not sent).
     walk : tuple of (node, next_node, mode)
         The same closed walk as edges of the graph.
     certificate : JSRCertificate

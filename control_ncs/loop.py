@@ -66,8 +66,9 @@ def feedback(P: NetworkedStateSpace, K: Any, *, controller: str | None = None,
         (:ref:`theory-delays`) the static controller may use a gain per age
         of the measurement: ``nk = (Ds + 1) nmeas``, the columns in blocks
         ``[age 0 | age 1 | …]`` (as designs return it); a gain of width
-        ``nmeas`` is used at every age, and a stack ``(Ds + 1, m2,
-        nmeas)`` is read as one gain per age.
+        ``nmeas`` is used at every age. A leading axis is always the
+        phase: a stack ``(N, m2, nmeas)`` is a periodic gain over the
+        delayed link too (never read as one gain per age).
     controller : {'static', 'predictor', 'estimator', 'lti'}, optional
         Default: ``'lti'`` for a system ``K``, else the gain's own kind,
         else ``'estimator'`` when an estimator gain is given, else
@@ -207,20 +208,14 @@ def _per_age(P: NetworkedStateSpace, gains: np.ndarray, controller: str
              ) -> np.ndarray:
     """A static gain over a buffered sensor link as the loop reads it: one
     block per age of the measurement, ``[age 0 | age 1 | …]``. A gain of
-    width ``nmeas`` acts at every age; a stack ``(Ds + 1, m2, nmeas)`` is
-    one gain per age (when it cannot be read as one per phase)."""
+    width ``nmeas`` (one per phase, or a single one) acts the same at
+    every age; a leading axis is always the phase, never the age (a gain
+    per age is given as blocks of columns, ``PeriodicGain(..., ages=)``),
+    so a periodic gain keeps its period over a delayed link."""
     Ds = measurement_ages(P) - 1
     p2 = P.C2.shape[0]
     if controller != "static" or not Ds or gains.shape[-1] != p2:
         return gains
-    if gains.ndim == 3 and gains.shape[0] == Ds + 1:
-        if gains.shape[0] == P.period and P.period > 1:
-            raise ControlDimension(
-                f"K: shape {gains.shape} reads both as one gain per phase "
-                f"(period {P.period}) and as one per age of the measurement "
-                f"(buffer {Ds}); give the per-age gains as blocks of columns, "
-                f"shape (m2, {(Ds + 1) * p2}) or (N, m2, {(Ds + 1) * p2})")
-        return np.concatenate(list(gains), axis=-1)[None]
     return np.concatenate([gains] * (Ds + 1), axis=-1)
 
 
@@ -259,12 +254,14 @@ def _warn_unused_gains(P: NetworkedStateSpace, plant: JumpPlant,
     else:
         effective *= ~dead[:, None, :]
     if unused.any():
-        where = {int(k % P.period): np.flatnonzero(unused[k]).tolist()
+        # columns numbered from 1, as sensors are in the schedules
+        where = {int(k % P.period): (np.flatnonzero(unused[k]) + 1).tolist()
                  for k in range(unused.shape[0]) if unused[k].any()}
         what = ("sensors" if controller == "static" else "inputs")
         warnings.warn(ScheduleWarning(
             f"K: at phase(s) {sorted(where)} the gain's columns for {what} "
-            f"{where} multiply nothing (no message is scheduled there); the "
+            f"{where} (phase: columns numbered from 1, as in the schedule) "
+            f"multiply nothing (no message is scheduled there); the "
             f"loop applies the gain without them (CL.info['effective_gains']). "
             f"To use every measurement, hold the last one (an LTI "
             f"controller with sensor='hold') or let a model bridge the "

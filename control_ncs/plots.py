@@ -97,8 +97,9 @@ def ensemble_plot(response: EnsembleResponse, ax: Any = None, paths: int = 5,
 
     One axes per output, each with ``paths`` thin sample paths, the band
     between the lowest and highest quantile (``fill_between``), the sample
-    mean (solid) and the exact mean of :ref:`theory-moments` (dashed, black) --
-    so ``paths + 2`` lines and one filled band per axes.
+    mean (dashed) and the exact mean of :ref:`theory-moments` (solid, black,
+    as in :meth:`EnsembleResponse.plot`) -- so ``paths + 2`` lines and one
+    filled band per axes.
 
     Parameters
     ----------
@@ -177,9 +178,10 @@ def ensemble_plot(response: EnsembleResponse, ax: Any = None, paths: int = 5,
             a.fill_between(t, bounds[0][i], bounds[1][i], color="C0",
                            alpha=0.25, linewidth=0, label=band_label)
         drawn += a.plot(t, response.sample_mean[i], color="C0", linewidth=1.8,
+                        linestyle="--",
                         label=f"sample mean ({response.trials} trials)")
-        drawn += a.plot(t, response.exact_mean[i], color="k", linestyle="--",
-                        linewidth=1.2, label="exact mean")
+        drawn += a.plot(t, response.exact_mean[i], color="k", linewidth=1.2,
+                        label="exact mean")
         a.set_ylabel(response.output_labels[i])
         lines[i, 0] = drawn
     axes[-1].set_xlabel("Time [s]")

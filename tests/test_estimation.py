@@ -359,6 +359,20 @@ def test_a_degenerate_system_reports_a_bracket():
     assert res.fixed_gain == pytest.approx(1 - 1 / 1.44 ** 2)
 
 
+def test_a_closed_bracket_is_exact():
+    """A double integrator seen through its position: no unstable
+    eigenvalue (ρ(A) = 1), and a stationary gain exists at every arrival
+    probability: lower = fixed_gain = 0 closes the bracket, so the value
+    is known, 0, and a filter with few arrivals still has a bounded error."""
+    A = [[1.0, 0.1], [0.0, 1.0]]
+    res = ncs.critical_arrival(A, [[1.0, 0.0]])
+    assert res.lower == res.fixed_gain == 0.0
+    assert res.exact and res.value == 0.0 and res.bracket == (0.0, 0.0)
+    L, S, _ = ncs.dlqe(A, np.eye(2), [[1.0, 0.0]], np.eye(2), [[1.0]],
+                       arrival=0.05)
+    assert np.all(np.isfinite(S))
+
+
 def test_without_a_closed_form_the_bisection_is_certified_above_and_tight():
     """Two sensors that read the two unstable modes only through one
     combination: neither closed form applies."""

@@ -70,3 +70,23 @@ def test_ages_are_a_label_the_loop_reads_the_same_columns():
     plain = ncs.feedback(P, ncs.PeriodicGain(PER_AGE))
     assert np.array_equal(labelled.modes.A, plain.modes.A)
     assert ncs.ms_radius(labelled) == ncs.ms_radius(plain)
+
+
+def test_a_periodic_gain_keeps_its_period_over_a_delayed_link():
+    """A stack of gains is one per phase even where its length equals the
+    number of ages: over a period-1 plant with a two-age sensor buffer, a
+    period-2 gain gives a period-2 loop applying each phase's gain at both
+    ages, the same loop as the gain written per age explicitly."""
+    P = ncs.nss([[1.0, 0.1], [0.0, 1.0]], [[0.0, 0.005], [0.0, 0.1]],
+                np.vstack([[1.0, 0.0], np.eye(2)]), np.zeros((3, 2)), 0.1,
+                nmeas=2, ncon=1,
+                actuator_loss=0.2, sensor_delay=[0.7, 0.3])
+    K = np.array([[[-1.0, 0.0]], [[0.0, -2.2]]])
+    CL = ncs.feedback(P, K)
+    assert CL.period == 2
+    explicit = ncs.feedback(P, ncs.PeriodicGain(
+        np.concatenate([K, K], axis=2), ages=2))
+    np.testing.assert_array_equal(CL.info["effective_gains"],
+                                  explicit.info["effective_gains"])
+    assert ncs.ms_radius(CL) == pytest.approx(ncs.ms_radius(explicit),
+                                              rel=1e-12)

@@ -219,7 +219,11 @@ def h2syn(P: NetworkedStateSpace, *, decay: float | None = None,
     CL : JumpStateSpace
         The closed loop ``w → z``.
     h2 : float
-        The exact H2 norm of ``CL`` (not the solver's objective).
+        The exact H2 norm of ``CL`` (not the solver's objective); for a
+        plant sampled from a continuous one (``nss(sys_c, ..., dt=h)``),
+        ``sqrt(J)``, ``J`` the continuous-time cost between the samples
+        (:func:`control_ncs.cost`), which is what the design minimises,
+        not ``norm(CL, 2)`` at the sampling instants.
 
     Raises
     ------
