@@ -412,7 +412,7 @@ def routes(quick: bool, riccati_ref: dict | None = None) -> Section:
                      f"{r['ms_radius']:.4f}" if r.get("ok") else "–",
                      detail or what[:110]])
     sec.add(f"**(b) Routes through `passivesyn`**: the default call "
-            "(`solver=None`: above `synthesis.RICCATI_THRESHOLD` = 8 states "
+            "(no solver named: above `synthesis.RICCATI_THRESHOLD` = 8 states "
             "with the full state known it takes the Riccati iteration of "
             "`control_ncs.riccati`, no cvxpy) and the LMI with other cvxpy "
             "solvers (`passivesyn(P, eta, options={'solver': ..., "
