@@ -95,7 +95,7 @@ def delayed_design_section(quick: bool) -> Section:
             start = time.perf_counter()
             try:
                 K, CL, eta = passivesyn(P, controller=controller, decay=0.99,
-                                        **limit)
+                                        options=limit)
                 got = f"{eta:.4f}"
                 rates.append(ms_radius(CL))
                 rate = f"{rates[-1]:.4f}"
@@ -145,7 +145,7 @@ def delayed_design_section(quick: bool) -> Section:
         start = time.perf_counter()
         try:
             K, CL, eta = passivesyn(P, controller="predictor", decay=0.99,
-                                    time_limit=45)
+                                    options={"time_limit": 45})
             got = f"certified η = {eta:.4f}"
         except SynthesisError as err:
             got = f"no design ({err.reason})"

@@ -16,7 +16,7 @@ estimator. Timed (median of ``repeats`` warm runs after a cold one):
 * ``passivesyn(controller='estimator')`` at the same ``η`` on the plant with
   ``y = C2 x``: ``L`` by ``estimator_gain``, then §8b's LMI for ``K`` on the
   estimator's loop (theory: output feedback); one cold run, in this process, with
-  ``time_limit=ESTIMATOR_LIMIT``;
+  ``options={'time_limit': ESTIMATOR_LIMIT}``;
 * the ratios to the predictor: the price of output feedback.
 
 From n = 16 on the predictor's synthesis takes minutes, so it runs once,
@@ -117,7 +117,7 @@ def _estimator_synthesis(Po) -> dict:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             K, _, _ = passivesyn(Po, ETA, controller="estimator",
-                                 time_limit=ESTIMATOR_LIMIT)
+                                 options={"time_limit": ESTIMATOR_LIMIT})
     except SynthesisError as err:
         return dict(synthesis=None, synthesis_outcome=err.reason,
                     synthesis_rate=None)

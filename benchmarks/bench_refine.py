@@ -68,7 +68,8 @@ def _call(n, N, loss, case, method, limit=CALL_LIMIT):
     t0 = time.perf_counter()
     try:
         passivesyn(plant(n, N, loss, case), -100.0, controller=controller,
-                   actuator=actuator, method=method, time_limit=limit)
+                   actuator=actuator, method=method,
+                   options={"time_limit": limit})
         ok = True
     except SynthesisError:
         ok = False

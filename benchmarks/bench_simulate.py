@@ -30,9 +30,11 @@ from .report import Section, Target, fmt_t, fmt_x
 
 def closed_loop(n: int, seed: int = 0):
     """A verified closed loop (N = 1, two modes) of ``random_plant(n)``,
-    with a gain from ``passivesyn(..., solver='riccati')`` at η = 0.5."""
+    with a gain from ``passivesyn(..., options={'solver': 'riccati'})`` at
+    η = 0.5."""
     from control_ncs import passivesyn
-    K, CL, eta = passivesyn(random_plant(n, 1, seed), 0.5, solver="riccati")
+    K, CL, eta = passivesyn(random_plant(n, 1, seed), 0.5,
+                            options={"solver": "riccati"})
     return CL
 
 

@@ -134,9 +134,9 @@ def structured_design_section(quick: bool) -> Section:
         if not quick:
             limits += [("hinfsyn", hinfsyn, None), ("hinfsyn", hinfsyn, 20.0)]
         for name, design, limit in limits:
-            kw = {} if limit is None else dict(time_limit=limit)
+            options = None if limit is None else dict(time_limit=limit)
             start = time.perf_counter()
-            K, CL, value = design(P, **kw)
+            K, CL, value = design(P, options=options)
             t = time.perf_counter() - start
             times[(n, name, limit)] = t
             cert = "–"
@@ -175,7 +175,7 @@ def structured_design_section(quick: bool) -> Section:
                "relative gap"], start_rows)
     sec.add("Whole designs of the same plants, one run each, default "
             "arguments (`time_limit` 60 s: it covers hinfsyn's certificates "
-            "too) and hinfsyn with `time_limit=20`: the figure is the exact "
+            "too) and hinfsyn with `options={'time_limit': 20}`: the figure is the exact "
             "H2 norm or the certified ℓ2 bound of the returned loop; the "
             "last column re-certifies hinfsyn's loop with `l2_gain` (the "
             "certificate the design includes, timed alone). Load average "

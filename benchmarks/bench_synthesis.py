@@ -24,15 +24,15 @@ from .report import Section, Target, fmt_mb, fmt_t, fmt_x, pct
 ETA = 0.5
 
 
-def _syn(P, eta, form="merged", **kw):
-    """passivesyn by the LMI (Clarabel unless ``solver=`` says otherwise):
+def _syn(P, eta, form="merged", solver="CLARABEL", **solver_options):
+    """passivesyn by the LMI (Clarabel unless ``solver`` says otherwise):
     the automatic choice would take the Riccati route above
     ``synthesis.RICCATI_THRESHOLD`` states, and §1 compares LMI forms."""
     from control_ncs import passivesyn
-    kw.setdefault("solver", "CLARABEL")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        K, CL, e = passivesyn(P, eta, form=form, **kw)
+        K, CL, e = passivesyn(P, eta, options=dict(
+            form=form, solver=solver, solver_options=solver_options))
     res = K.result
     return dict(eta=e, attempts=len(res.attempts),
                 compile=sum(a.compile_time for a in res.attempts),
@@ -104,7 +104,8 @@ def forms(quick: bool) -> Section:
                          fmt_x(r["total"] / m["total"]) if form == "paper"
                          and "error" not in m else ""])
     sec.add(f"Fixed `eta={ETA}` (a feasibility problem: one solver call per "
-            "`passivesyn`, no retries), the LMI route (`solver='CLARABEL'`: "
+            "`passivesyn`, no retries), the LMI route "
+            "(`options={'solver': 'CLARABEL'}`: "
             "the default call would take the Riccati route above 8 states, "
             "§2), Clarabel with the package's settings, "
             "seeded `random_plant(n, N)` (benchmarks/common.py: `C2 = I`, "
@@ -411,10 +412,11 @@ def routes(quick: bool, riccati_ref: dict | None = None) -> Section:
                      f"{r['ms_radius']:.4f}" if r.get("ok") else "–",
                      detail or what[:110]])
     sec.add(f"**(b) Routes through `passivesyn`**: the default call "
-            "(`solver=None`: above `synthesis.RICCATI_THRESHOLD` = 8 states "
+            "(no solver named: above `synthesis.RICCATI_THRESHOLD` = 8 states "
             "with the full state known it takes the Riccati iteration of "
             "`control_ncs.riccati`, no cvxpy) and the LMI with other cvxpy "
-            "solvers (`passivesyn(P, eta, solver=..., **options)`). Each run "
+            "solvers (`passivesyn(P, eta, options={'solver': ..., "
+            "'solver_options': ...})`). Each run "
             f"in a capped subprocess ({cap_gb:g} GiB, killed after "
             f"{timeout:g} s); time is `passivesyn`'s own (plant building and "
             "imports excluded); 'verified' means the call returned "
@@ -492,7 +494,8 @@ def compile_reduction(quick: bool) -> Section:
         def call():
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                K, _, _ = cn.passivesyn(P, eta, solver="CLARABEL")
+                K, _, _ = cn.passivesyn(P, eta,
+                                        options={"solver": "CLARABEL"})
             return K.result.attempts
         return call
 
@@ -510,7 +513,8 @@ def compile_reduction(quick: bool) -> Section:
     for n, N in cases:
         P0 = random_plant(n, N)
         plants = [random_plant(n, N, seed) for seed in range(count)]
-        loops = [cn.passivesyn(Pk, ETA, solver="CLARABEL")[1] for Pk in plants]
+        loops = [cn.passivesyn(Pk, ETA, options={"solver": "CLARABEL"})[1]
+                 for Pk in plants]
         sweeps = {
             f"η sweep {levels[0]}…{levels[-1]} ({count} × passivesyn)":
                 [syn(P0, e) for e in levels],
@@ -540,7 +544,7 @@ def compile_reduction(quick: bool) -> Section:
             "call compiles, as before this change) and with reuse (only the "
             "first call compiles). Cells: total time (cvxpy compile time, "
             "its share); best of two interleaved rounds. Fixed η, the LMI "
-            "route (`solver='CLARABEL'`).", "")
+            "route (`options={'solver': 'CLARABEL'}`).", "")
     sec.table(["n", "N", "sweep", "compile every call", "reuse",
                "compile saved ×", "total ×"], rows)
     sec.data.update(data)
@@ -633,7 +637,8 @@ def delayed_default_section(quick: bool) -> Section:
     try:
         # --quick: a one-second search (a smoke test)
         K, CL, eta = passivesyn(P, controller="predictor", decay=0.99,
-                                **(dict(time_limit=1.0) if quick else {}))
+                                options=dict(time_limit=1.0) if quick
+                                else None)
         got = eta
         how = K.result.refinement.start if K.result.refinement else "–"
     except SynthesisError as err:

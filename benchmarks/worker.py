@@ -7,7 +7,8 @@ caps the address space, watches the resident memory and enforces a timeout.
 
 Jobs (``"job"``):
 
-* ``"passivesyn"``: ``passivesyn(random_plant(n, N), eta, solver=..., **opts)``
+* ``"passivesyn"``: ``passivesyn(random_plant(n, N), eta, options=...)`` with
+  ``options={'solver': ..., 'solver_options': opts}``
   (``solver`` None: the package's automatic choice);
 * ``"ff_index"``: ``passivity_certificate(random_stable_ss(n))``;
 * ``"ms_dense"``: ``ms_radius(random_loop(n, N), method='dense')``;
@@ -21,6 +22,10 @@ import json
 import sys
 import time
 import warnings
+
+#: A job's ``options`` that are passivesyn's keywords (the rest are the
+#: solver's options).
+DESIGN_KEYWORDS = ("controller", "actuator", "gain", "method")
 
 
 def main(arg: str) -> dict:
@@ -38,8 +43,10 @@ def main(arg: str) -> dict:
     try:
         if spec["job"] == "passivesyn":
             from control_ncs import passivesyn
-            K, CL, e = passivesyn(P, eta, decay=decay, solver=spec.get("solver"),
-                                  **opts)
+            # the spec's options: the design's keywords, else solver options
+            kw = {k: opts.pop(k) for k in DESIGN_KEYWORDS if k in opts}
+            K, CL, e = passivesyn(P, eta, decay=decay, **kw, options=dict(
+                solver=spec.get("solver"), solver_options=opts))
             res = K.result
             out.update(ok=True, eta=e, ms_radius=res.ms_radius,
                        solver=res.report.solver,

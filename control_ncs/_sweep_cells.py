@@ -12,7 +12,7 @@ import math
 import threading
 import warnings
 from concurrent.futures import Executor
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 from .exceptions import (PROOFS, TIME_LIMIT, CertificationError,
                          NotPassiveWarning, ScheduleWarning, SynthesisError)
@@ -21,9 +21,28 @@ from .plant import NetworkedStateSpace
 from .stability import ms_radius as _ms_radius
 from .strategies import build
 from .synthesis import passivesyn
+from .synthesis._options import resolved_options
+from .synthesis.norms import DEFAULTS as NORM_OPTIONS, _not_exact
+from .synthesis.passive import DEFAULTS as PASSIVE_OPTIONS
 from ._tasks import run_tasks
 
 __all__: list[str] = []
+
+
+def sweep_options(who: str, objective: str,
+                   options: Mapping[str, Any] | None) -> dict | None:
+    """A sweep's ``options``, checked once before any cell runs against
+    the keys of the cells' design (its values are checked by the design,
+    in the first cell)."""
+    if options is None:
+        return None
+    passive = objective in ("eta", "rate")
+    resolved_options(who, options, {}, PASSIVE_OPTIONS if passive
+                     else NORM_OPTIONS)
+    given = dict(options)
+    if "solver_options" in given:
+        given["solver_options"] = dict(given["solver_options"])
+    return given
 
 
 def in_own_thread(func: Callable, *args: Any) -> Any:
@@ -53,9 +72,15 @@ def in_own_thread(func: Callable, *args: Any) -> Any:
     return box["value"]
 
 
+#: The options a cell searched locally takes (the others are the exact
+#: program's or the LMI's: a sweep gives them to the cells that solve one).
+LOCAL_OPTIONS = ("time_limit", "margin")
+
+
 def synthesise(P: NetworkedStateSpace, eta: float | None,
                 decay: float | None, controller: str, actuator: str,
-                method: str = "lmi", initial_gain: Any = None) -> tuple:
+                method: str = "lmi", initial_gain: Any = None,
+                options: dict | None = None) -> tuple:
     """One cell: ``(eta, ms_radius, feasible, reason, gains, exact)`` from
     passivesyn (``gains`` None where nothing is certified; ``exact``: the
     certified level is the best of its kind).
@@ -64,34 +89,54 @@ def synthesise(P: NetworkedStateSpace, eta: float | None,
     run in its own thread (:func:`in_own_thread`).
     """
     return in_own_thread(_synthesise_here, P, eta, decay, controller,
-                          actuator, method, initial_gain)
+                          actuator, method, initial_gain, options)
 
 
 def perform(P: NetworkedStateSpace, objective: str,
-             controller: str = "static", actuator: str = "zero") -> tuple:
+             controller: str = "static", actuator: str = "zero",
+             options: dict | None = None) -> tuple:
     """One cell of an H2 or H∞ map: ``(value, ms_radius, feasible, reason,
     gains, exact)`` from h2syn or hinfsyn, the value the exact analysis of
     the designed loop (never the solver's). Module level and in its own
     thread, as :func:`synthesise`."""
-    return in_own_thread(_perform_here, P, objective, controller, actuator)
+    return in_own_thread(_perform_here, P, objective, controller, actuator,
+                         options)
 
 
 def _perform_here(P: NetworkedStateSpace, objective: str,
-                  controller: str = "static", actuator: str = "zero"
-                  ) -> tuple:
+                  controller: str = "static", actuator: str = "zero",
+                  options: dict | None = None) -> tuple:
     design = h2syn if objective == "h2" else hinfsyn
+    if options and not _exact_program(P, controller, actuator):
+        options = _local_options(options)
     try:
         with warnings.catch_warnings():
             # a search enumerates schedules that leave nodes silent on
             # purpose; the warning is for schedules a user writes
             warnings.simplefilter("ignore", ScheduleWarning)
             K, CL, value = design(P, controller=controller,
-                                  actuator=actuator)
+                                  actuator=actuator, options=options)
     except CertificationError as err:
         return math.nan, math.nan, False, err.reason, None, False
     # "exact": the program's global optimum, not a local search's
     return (float(value), float(_ms_radius(CL)), True, "certified", K.gains,
             K.result.route == "program")
+
+
+def _local_options(options: dict) -> dict:
+    """The options a local search takes, of a sweep's."""
+    return {k: v for k, v in options.items() if k in LOCAL_OPTIONS}
+
+
+def _exact_program(P: NetworkedStateSpace, controller: str,
+                   actuator: str) -> bool:
+    """Whether h2syn / hinfsyn design this cell by their exact program
+    (else by a local search, which takes no solver options)."""
+    try:
+        plant = build(P, controller, actuator)
+    except (ValueError, TypeError):     # the design itself will say why
+        return True
+    return _not_exact(P, plant, controller, actuator, "design") is None
 
 
 def _local_only(P: NetworkedStateSpace, controller: str,
@@ -108,9 +153,11 @@ def _local_only(P: NetworkedStateSpace, controller: str,
 
 def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
                      decay: float | None, controller: str, actuator: str,
-                     method: str = "lmi", initial_gain: Any = None) -> tuple:
+                     method: str = "lmi", initial_gain: Any = None,
+                     options: dict | None = None) -> tuple:
     local = _local_only(P, controller, actuator)
-    options = {} if local else dict(method=method, initial_gain=initial_gain)
+    keywords = dict(options=_local_options(options or {})) if local else \
+        dict(method=method, initial_gain=initial_gain, options=options)
     try:
         with warnings.catch_warnings():
             # a map shows negative levels as they are; one warning per cell
@@ -118,7 +165,7 @@ def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
             warnings.simplefilter("ignore", NotPassiveWarning)
             K, _, eta_c = passivesyn(P, eta, decay=decay,
                                      controller=controller,
-                                     actuator=actuator, **options)
+                                     actuator=actuator, **keywords)
     except SynthesisError as err:
         return math.nan, math.nan, False, err.reason, None, False
     gains = K.gains if K.gains.ndim == 3 else None    # per phase: a start
@@ -131,8 +178,8 @@ def _synthesise_here(P: NetworkedStateSpace, eta: float | None,
 
 
 def design_cells(tasks: list, method: str, executor: Executor | None,
-           progress: bool, desc: str, neighbours: Callable | None = None
-           ) -> list:
+           progress: bool, desc: str, neighbours: Callable | None = None,
+           options: dict | None = None) -> list:
     """Every cell designed with ``method``.
 
     ``'auto'`` in two passes, so that a sweep costs little more than its
@@ -145,10 +192,12 @@ def design_cells(tasks: list, method: str, executor: Executor | None,
     'auto'. The better certified level of the two passes is kept. The
     second pass reads only the first pass's results, so the result does not
     depend on the executor or on the order in which cells finish.
+    ``options`` are passivesyn's, given to every cell (a cell searched
+    locally takes only ``LOCAL_OPTIONS``).
     """
     first = "lmi" if method == "auto" else method
-    out = run_tasks(synthesise, [t + (first,) for t in tasks], executor,
-               progress, desc)
+    out = run_tasks(synthesise, [t + (first, None, options) for t in tasks],
+                    executor, progress, desc)
     if method != "auto":
         return out
     # a cell read per mode already ran its local search (no LMI applies)
@@ -161,7 +210,7 @@ def design_cells(tasks: list, method: str, executor: Executor | None,
         near = [i] + (neighbours(i) if neighbours is not None else [])
         starts.append(next((out[j][4] for j in near
                             if out[j][2] and out[j][4] is not None), None))
-    again = run_tasks(synthesise, [tasks[i] + ("auto", s)
+    again = run_tasks(synthesise, [tasks[i] + ("auto", s, options)
                                for i, s in zip(todo, starts)],
                  executor, progress, desc)
     for i, r in zip(todo, again):

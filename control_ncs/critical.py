@@ -12,8 +12,9 @@ single crossing.
 
 from __future__ import annotations
 
+import inspect
 import warnings
-from typing import Any
+from typing import Any, Callable, Mapping
 
 import numpy as np
 from control.exception import ControlArgument
@@ -23,6 +24,9 @@ from .exceptions import CertificationError, NotPassiveWarning
 from .lq import critical_control_arrival
 from .performance import l2_gain, norm
 from .synthesis import h2syn, hinfsyn
+from .synthesis._options import resolved_options
+from .synthesis.norms import DEFAULTS as NORM_OPTIONS
+from .synthesis.passive import DEFAULTS as PASSIVE_OPTIONS
 from ._map_grid import at_loss
 from .delays import BurstyDelay
 from .network import GilbertElliott
@@ -37,6 +41,7 @@ __all__ = ["critical_loss"]
 def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
                   tol: float = 1e-6, h2: float | None = None,
                   hinf: float | None = None, eta: float | None = None,
+                  options: Mapping[str, Any] | None = None,
                   **kwargs: Any) -> float:
     """The loss probability at which a gain stops stabilising the loop.
 
@@ -67,7 +72,8 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     :func:`control_ncs.hinfsyn` (their exact programs where the gain sees
     the whole state, the global optimum; their local searches otherwise)
     or :func:`control_ncs.passivesyn` for ``eta``, with ``**kwargs`` as
-    their ``controller`` and ``actuator``.
+    their ``controller`` and ``actuator`` and ``options`` as their
+    ``options``.
 
     Parameters
     ----------
@@ -91,9 +97,16 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
         A passivity level (the output-feedback index ``η`` of
         :ref:`theory-passivity`), certified at each loss tried. At most one
         of ``h2``, ``hinf`` and ``eta``.
+    options : dict, optional
+        ``K=None`` with a spec: the solver options of each design (as
+        :func:`control_ncs.h2syn`, :func:`control_ncs.hinfsyn` or
+        :func:`control_ncs.passivesyn` take them, e.g. ``{'time_limit':
+        20}``).
     **kwargs
         Passed to :func:`control_ncs.feedback` (``controller``,
-        ``actuator``).
+        ``actuator``), or with ``K=None`` to the designs (their keywords:
+        ``controller``, ``actuator``, ``decay``, ...; solver options given
+        here are deprecated, pass them in ``options``).
 
     Returns
     -------
@@ -152,6 +165,10 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     if not isinstance(P, NetworkedStateSpace):
         raise ControlArgument(f"P: expected a NetworkedStateSpace (see nss()), "
                               f"got {type(P).__name__}")
+    if options is not None and K is not None:
+        raise ControlArgument(
+            "options: the solver options of the designs apply with K=None "
+            "and a spec (h2, hinf or eta); a given gain is analysed")
     choice(link, "link", ("actuator", "sensor"))
     tol = positive_real(tol, "tol")
     specs = [name for name, value in (("h2", h2), ("hinf", hinf),
@@ -162,6 +179,11 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     h2 = None if h2 is None else positive_real(h2, "h2")
     hinf = None if hinf is None else positive_real(hinf, "hinf")
     eta = None if eta is None else finite_real(eta, "eta")
+    if options is not None and not specs:
+        raise ControlArgument(
+            "options: the solver options of the designs apply with a spec "
+            "(h2, hinf or eta); without one the critical loss is "
+            "dlqr's closed form")
     if K is None and not specs:
         if link != "actuator" or P.period != 1 or not np.array_equal(
                 P.C2, np.eye(P.nstates)):
@@ -187,10 +209,13 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     top = 1.0 - 1e-12 if burst is None else burst / (1.0 + burst) * (
         1.0 - 1e-12)
 
+    if K is None:
+        design, keywords, solve = _design(h2, hinf, options, kwargs)
+
     def stable(alpha: float) -> bool:
         Pa = P.with_network(**{f"{link}_loss": at_loss(given, alpha, burst)})
         if K is None:
-            return _best_meets(Pa, h2, hinf, eta, kwargs)
+            return _best_meets(Pa, h2, hinf, eta, design, keywords, solve)
         CL = feedback(Pa, K, **kwargs)
         if h2 is not None:
             return norm(CL, print_warning=False) < h2
@@ -237,18 +262,35 @@ def critical_loss(P: Any, K: Any = None, *, link: str = "actuator",
     return float(hi)
 
 
+def _design(h2: float | None, hinf: float | None,
+            options: Mapping[str, Any] | None, kwargs: dict
+            ) -> tuple[Callable, dict, dict]:
+    """The design of a spec, its keywords among ``kwargs`` and its
+    options; the other keywords are solver options given the old way,
+    moved into the options (one DeprecationWarning)."""
+    design: Callable = h2syn if h2 is not None else \
+        hinfsyn if hinf is not None else passivesyn
+    takes = set(inspect.signature(design).parameters) - {
+        "P", "eta", "options", "kwargs"}
+    keywords = {k: v for k, v in kwargs.items() if k in takes}
+    knobs = {k: v for k, v in kwargs.items() if k not in takes}
+    defaults = PASSIVE_OPTIONS if design is passivesyn else NORM_OPTIONS
+    return design, keywords, resolved_options("critical_loss", options,
+                                              knobs, defaults)
+
+
 def _best_meets(P: NetworkedStateSpace, h2: float | None,
-                hinf: float | None, eta: float | None, options: dict
-                ) -> bool:
+                hinf: float | None, eta: float | None, design: Callable,
+                keywords: dict, options: dict) -> bool:
     """Whether the best design of ``P`` meets the spec (certified)."""
     try:
         if h2 is not None:
-            return h2syn(P, **options)[2] < h2
+            return design(P, **keywords, options=options)[2] < h2
         if hinf is not None:
-            return hinfsyn(P, **options)[2] < hinf
+            return design(P, **keywords, options=options)[2] < hinf
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", NotPassiveWarning)
             return eta is not None and \
-                passivesyn(P, None, **options)[2] >= eta
+                design(P, None, **keywords, options=options)[2] >= eta
     except CertificationError:          # no certified design there
         return False

@@ -23,7 +23,7 @@ import time
 import warnings
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 import control as ct
@@ -36,7 +36,7 @@ from ._checks import (choice, decay_bound, finite_real, flag,
 from ._map_grid import loss, map_cells
 from .budgets import budget_cell, budget_plant
 from .strategies import build
-from ._sweep_cells import design_cells, perform
+from ._sweep_cells import design_cells, perform, sweep_options
 from ._tasks import check_executor, progress_check, run_tasks
 from ._schedules import (PRUNE_REASONS, _alphabet, _big, _canonical_schedules,
                          _letter_maps, _loop_closes, _orbit_count, _prune,
@@ -266,7 +266,8 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
                objective: str = "eta", sensor_burst: Any = None,
                actuator_burst: Any = None,
                sensor_delay: Any = None, sensor_budget: Any = None,
-               actuator_budget: Any = None) -> DesignMap:
+               actuator_budget: Any = None,
+               options: Mapping[str, Any] | None = None) -> DesignMap:
     """Verified synthesis over a grid of loss probabilities.
 
     Cell ``[i, j]`` is ``passivesyn(P.with_network(sensor_loss=a1[i],
@@ -354,6 +355,14 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         certified rate (the same scale). Static state feedback with a zero
         actuator only; ``'h2'`` is refused (an average over patterns has
         no meaning without probabilities).
+    options : dict, optional
+        The solver options of every cell's design, as
+        :func:`control_ncs.passivesyn` (``objective='eta'``) or
+        :func:`control_ncs.h2syn` / :func:`control_ncs.hinfsyn` take them,
+        e.g. ``{'time_limit': 30}``; unknown keys raise ``TypeError``
+        before any cell runs. A cell searched locally (a delayed sensor
+        link; for ``'h2'``/``'hinf'`` a structured gain) takes only
+        ``time_limit`` and ``margin``. Not with a loss budget.
 
     Returns
     -------
@@ -410,6 +419,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     executor = check_executor(executor)
     progress = progress_check(progress)
     method = choice(method, "method", METHODS)
+    options = sweep_options("design_map", objective, options)
     if controller == "static" and not _loop_closes(
             P.sensor_schedule.pattern.any(axis=1),
             P.actuator_schedule.pattern.any(axis=1)):
@@ -420,15 +430,19 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
     start = time.perf_counter()
     shape = (a1.size, a2.size)
     if budgets:
+        if options is not None:
+            raise ControlArgument(
+                "options: over a loss budget each cell is one convex program "
+                "of worst_case_route, which takes no options here")
         return _budget_map(cells, axes, (a1, a2), objective, eta, decay,
                            controller, actuator, method, executor, progress,
                            start)
     if objective != "eta":
         _performance_options(objective, eta, decay, method)
     if objective != "eta":
-        out = run_tasks(perform, [(c, objective, controller, actuator)
-                                   for c in cells], executor, progress,
-                        "design_map")
+        out = run_tasks(perform, [(c, objective, controller, actuator,
+                                    options) for c in cells], executor,
+                        progress, "design_map")
         reason = np.empty(shape, dtype=object)
         reason.ravel()[:] = [r[3] for r in out]
         return DesignMap(
@@ -448,7 +462,7 @@ def design_map(P: NetworkedStateSpace, sensor_loss: Any = (0.0,),
         return [c for _, c in sorted(cells)]
 
     out = design_cells(tasks, method, executor, progress, "design_map",
-                       neighbours)
+                       neighbours, options)
     reason = np.empty(shape, dtype=object)
     reason.ravel()[:] = [r[3] for r in out]
     return DesignMap(
@@ -729,7 +743,8 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
                     decay: float | None = None, controller: str = "static",
                     actuator: str = "zero", executor: Executor | None = None,
                     top: int = 10, limit: int | None = 5000,
-                    progress: bool | None = None, method: str = "auto"
+                    progress: bool | None = None, method: str = "auto",
+                    options: Mapping[str, Any] | None = None
                     ) -> ScheduleSearch:
     """Rank every schedule of one period by verified design.
 
@@ -813,6 +828,13 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         end ``'sufficient_failed'``). ``'refine'``:
         :func:`control_ncs.passivesyn` with ``method='refine'`` for every
         cell, each from its own LMI start (slowest).
+    options : dict, optional
+        The solver options of every schedule's design, as
+        :func:`control_ncs.passivesyn` (``objective`` ``'eta'`` or
+        ``'rate'``) or :func:`control_ncs.h2syn` /
+        :func:`control_ncs.hinfsyn` take them; unknown keys raise
+        ``TypeError`` before any schedule is designed. A schedule whose
+        gain is searched locally takes only ``time_limit`` and ``margin``.
 
     Returns
     -------
@@ -880,6 +902,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         limit = positive_int(limit, "limit")
     progress = progress_check(progress)
     method = choice(method, "method", METHODS)
+    options = sweep_options("schedule_search", objective, options)
     start = time.perf_counter()
 
     p2, m2 = P.nmeas, P.ncon
@@ -929,9 +952,9 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
     feasible = np.zeros(len(words), dtype=bool)
     value = None
     if performance:
-        out = run_tasks(perform, [(t[0], objective, controller, actuator)
-                                   for t in tasks], executor, progress,
-                        "schedule_search")
+        out = run_tasks(perform, [(t[0], objective, controller, actuator,
+                                    options) for t in tasks], executor,
+                        progress, "schedule_search")
         value = np.full(len(words), math.nan)
         for t, (v, r, ok, why, _, _) in zip(todo, out):
             value[t], rate[t], feasible[t], reason[t] = v, r, ok, why
@@ -939,7 +962,7 @@ def schedule_search(P: NetworkedStateSpace, period: int, *,
         # schedules are not neighbours of one another: the refinement of a
         # cell the LMI leaves open starts from that cell's own LMI gain
         out = design_cells(tasks, method, executor, progress,
-                           "schedule_search")
+                           "schedule_search", None, options)
         for t, (e, r, ok, why, _, _) in zip(todo, out):
             eta_a[t], rate[t], feasible[t], reason[t] = e, r, ok, why
     good = np.flatnonzero(feasible)

@@ -331,14 +331,19 @@ def scalar_synthesis_plant():
                nmeas=1, ncon=1, actuator_loss=0.1)
 
 
+def _riccati(**settings):
+    """passivesyn's options for the Riccati route with these settings."""
+    return dict(options=dict(solver="riccati", solver_options=settings))
+
+
 @pytest.mark.parametrize("name, kwargs", [
-    ("rtol", dict(solver="riccati", rtol="x")),
-    ("rtol", dict(solver="riccati", rtol=None)),
-    ("max_sweeps", dict(solver="riccati", max_sweeps="x")),
-    ("max_sweeps", dict(solver="riccati", max_sweeps=True)),
-    ("max_sweeps", dict(solver="riccati", max_sweeps=float("inf"))),
-    ("margin", dict(solver="riccati", margin="x")),
-    ("margin", dict(margin=-1.0)),
+    ("rtol", _riccati(rtol="x")),
+    ("rtol", _riccati(rtol=None)),
+    ("max_sweeps", _riccati(max_sweeps="x")),
+    ("max_sweeps", _riccati(max_sweeps=True)),
+    ("max_sweeps", _riccati(max_sweeps=float("inf"))),
+    ("margin", dict(options=dict(solver="riccati", margin="x"))),
+    ("margin", dict(options=dict(margin=-1.0))),
     ("decay", dict(decay=1.5)),
     ("decay", dict(decay="x")),
     ("eta", dict(eta=float("nan"))),

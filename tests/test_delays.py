@@ -590,11 +590,11 @@ def test_passivesyn_over_a_delayed_link_certifies_a_gain_per_age():
 def test_passivesyn_over_a_delayed_link_says_when_a_level_is_not_reached():
     P = _passive_scalar(sensor_delay=[0.5, 0.3, 0.1])
     with pytest.raises(ncs.SynthesisError, match="nothing is proven") as info:
-        ncs.passivesyn(P, eta=0.4, time_limit=1.0)
+        ncs.passivesyn(P, eta=0.4, options={"time_limit": 1.0})
     # a local search that stops proves nothing, whatever stopped it
     assert info.value.reason in ("not_found", "time_limit")
     with pytest.raises(ControlArgument, match="^structure:"):
-        ncs.passivesyn(P, structure="full")
+        ncs.passivesyn(P, options={"structure": "full"})
 
 
 @pytest.mark.parametrize("controller", ["static", "predictor"])

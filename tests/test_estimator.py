@@ -468,7 +468,8 @@ def test_estimator_design_with_hold_actuators_closes_the_same_loop():
 @pytest.mark.parametrize("kwargs, error, words", [
     (dict(margin=-1.0), ValueError, "margin"),
     (dict(time_limit=0.0), ValueError, "time_limit"),
-    (dict(solver="NOSUCHSOLVER"), ControlArgument, "solver: 'NOSUCHSOLVER'")])
+    (dict(solver="NOSUCHSOLVER"), ControlArgument,
+     "solver: 'NOSUCHSOLVER'")])
 def test_estimator_design_checks_its_options_before_solving(monkeypatch,
                                                             kwargs, error,
                                                             words):
@@ -478,7 +479,7 @@ def test_estimator_design_checks_its_options_before_solving(monkeypatch,
         raise AssertionError("solved")
     monkeypatch.setattr(lmi, "solve", never)
     with pytest.raises(error, match=words):
-        passivesyn(measured_first(), controller="estimator", **kwargs)
+        passivesyn(measured_first(), controller="estimator", options=kwargs)
 
 
 def test_badly_scaled_plant_gets_an_estimator_and_a_verified_design():

@@ -204,7 +204,7 @@ def test_hinfsyn_over_a_delayed_link_certifies_a_gain_per_age(monkeypatch):
     # that what is returned (the better of the H2 stage's gain and the l2
     # stage's, certified either way) does not depend on the machine's speed
     monkeypatch.setattr(norms, "HINF_ITERATIONS", 3)
-    K, CL, gamma = ncs.hinfsyn(P, time_limit=None)
+    K, CL, gamma = ncs.hinfsyn(P, options={"time_limit": None})
     assert K.gains.shape == (1, 1, 3) and K.result.route == "local"
     assert gamma == ncs.l2_gain(ncs.feedback(P, K)).gamma
     h2_gain = ncs.h2syn(P)[0]
@@ -265,4 +265,4 @@ def test_the_local_search_uses_a_given_start_and_the_other_routes_options(
     K, CL, h2 = ncs.h2syn(delayed, controller="predictor", actuator="hold")
     assert K.gains.shape == (1, 1, 2) and math.isfinite(h2)
     with pytest.raises(ControlArgument, match="^margin: .*locally"):
-        ncs.h2syn(P, actuator="hold", margin=1e-3)
+        ncs.h2syn(P, actuator="hold", options={"margin": 1e-3})

@@ -208,9 +208,9 @@ def test_equal_rows_reproduce_the_bernoulli_design(gain):
                 [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0, 0, 0], [0, 0, 0]],
                 nmeas=2, ncon=1, sensor_loss=0.1, actuator_loss=0.2)
     plant = ncs.build(P)
-    K0, _, eta0 = passivesyn(plant, decay=0.95, solver="CLARABEL")
+    K0, _, eta0 = passivesyn(plant, decay=0.95, options={"solver": "CLARABEL"})
     K1, CL1, eta1 = passivesyn(with_equal_rows(plant), decay=0.95,
-                               gain=gain, solver="CLARABEL")
+                               gain=gain, options={"solver": "CLARABEL"})
     assert eta1 == pytest.approx(eta0, rel=1e-4, abs=1e-5)
     gains = K1.gains if gain == "phase" else K1.gains[:, 0]
     if gain == "mode":
@@ -242,7 +242,8 @@ def test_phase_gains_on_iid_links_are_the_iid_design():
 
 def test_phase_gains_with_a_common_x_are_certified_too():
     P = two_state()
-    K, CL, _ = passivesyn(P, decay=0.98, gain="phase", structure="block")
+    K, CL, _ = passivesyn(P, decay=0.98, gain="phase",
+                          options={"structure": "block"})
     assert K.result.structure == "block" and K.result.certificate.verified
 
 
@@ -312,8 +313,8 @@ def test_predictor_on_markov_links_gets_a_verified_gain():
 @pytest.mark.parametrize("decay", [1.0, 0.98])
 def test_coupled_riccati_equations_match_the_lmi_on_markov_links(decay):
     P = two_state()
-    Kr, CLr, eta_r = passivesyn(P, decay=decay, solver="riccati")
-    Kl, _, eta_l = passivesyn(P, decay=decay, solver="CLARABEL")
+    Kr, CLr, eta_r = passivesyn(P, decay=decay, options={"solver": "riccati"})
+    Kl, _, eta_l = passivesyn(P, decay=decay, options={"solver": "CLARABEL"})
     assert Kr.result.report.solver == "RICCATI" and Kr.mode_dependent
     assert Kr.result.certificate.verified and ms_radius(CLr) < decay ** 2
     # both certified; the bisection stops within rtol = 1e-4 of the supremum
@@ -336,7 +337,8 @@ def test_coupled_riccati_diverges_iff_the_closed_form_says_no_gain():
 
 def test_riccati_with_phase_gains_falls_back_to_the_lmi_and_says_so():
     P = two_state()
-    K, CL, _ = passivesyn(P, decay=0.98, solver="riccati", gain="phase")
+    K, CL, _ = passivesyn(P, decay=0.98, gain="phase",
+                          options={"solver": "riccati"})
     assert K.result.report.solver != "RICCATI" and not K.mode_dependent
     assert "LMI" in K.result.note and K.result.note in K.result.summary()
     assert K.result.certificate.verified

@@ -401,9 +401,10 @@ def test_h2syn_designs_locally_what_its_exact_program_does_not_cover():
     with pytest.raises(ControlArgument, match="^P:"):
         ncs.h2syn(ct.ss([[1.0]], [[1.0]], [[1.0]], [[0.0]], True))
     with pytest.raises(ControlArgument, match="^solver: .*locally"):
-        ncs.h2syn(_lq_plant(), actuator="hold", solver="CLARABEL")
+        ncs.h2syn(_lq_plant(), actuator="hold", options={"solver": "CLARABEL"})
     with pytest.raises(ControlArgument, match="^solver: .*locally"):
-        ncs.hinfsyn(_lq_plant(), actuator="hold", solver="CLARABEL")
+        ncs.hinfsyn(_lq_plant(), actuator="hold",
+                    options={"solver": "CLARABEL"})
 
 
 def test_dlqr_states_the_exact_critical_probability_of_a_two_state_plant():

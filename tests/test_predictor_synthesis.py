@@ -135,7 +135,7 @@ def test_static_gain_cannot_close_the_shared_channel_loop():
 def test_predictor_structure_full_is_refused():
     with pytest.raises(ValueError, match="full"):
         passivesyn(shared_channel_plant(), controller="predictor",
-                   structure="full")
+                   options={"structure": "full"})
 
 
 def test_predictor_with_decay_bound_is_verified():

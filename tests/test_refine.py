@@ -289,7 +289,7 @@ def test_time_limit_stops_with_a_message(slow_clock):
 def test_passivesyn_refine_time_limit_raises_time_limit_reason(slow_clock):
     with pytest.raises(SynthesisError) as info:
         ncs.passivesyn(batch_reactor(0.6, sensor_schedule=SCHEDULE), -100.0,
-                       method="refine", time_limit=0.05)
+                       method="refine", options={"time_limit": 0.05})
     assert info.value.reason == "time_limit"
 
 
@@ -386,7 +386,8 @@ def test_refinement_failure_is_never_called_infeasible():
     # three sensors in turns, loss 0.55 (no gain-independent part is
     # unstable on its own: 0.55·1.3² < 1): nothing found, nothing proven
     with pytest.raises(SynthesisError) as info:
-        ncs.passivesyn(random_scheduled(0, 0.55), -100.0, time_limit=5)
+        ncs.passivesyn(random_scheduled(0, 0.55), -100.0,
+                       options={"time_limit": 5})
     assert info.value.reason in ("not_found", "time_limit")
 
 

@@ -53,8 +53,8 @@ GRID = [(2, 1, 0), (3, 1, 0), (3, 1, 1), (3, 2, 0), (4, 1, 0), (4, 1, 1),
 @pytest.mark.parametrize("n, N, seed", GRID)
 def test_maximised_eta_agrees_with_lmi_to_the_bisection_tolerance(n, N, seed):
     P = grid_plant(n, N, seed)
-    Kl, _, eta_lmi = passivesyn(P, solver="CLARABEL")
-    Kr, CLr, eta_ric = passivesyn(P, solver="riccati")
+    Kl, _, eta_lmi = passivesyn(P, options={"solver": "CLARABEL"})
+    Kr, CLr, eta_ric = passivesyn(P, options={"solver": "riccati"})
     recheck(Kr, CLr, eta_ric)
     tol = 2 * RTOL * max(1.0, abs(eta_lmi))
     # never above what the LMI's optimum allows (both are certified)
@@ -67,9 +67,9 @@ def test_maximised_eta_agrees_with_lmi_to_the_bisection_tolerance(n, N, seed):
 
 def test_fixed_eta_returns_that_eta_verified():
     P = grid_plant(3, 2, 0)
-    _, _, best = passivesyn(P, solver="riccati")
+    _, _, best = passivesyn(P, options={"solver": "riccati"})
     eta = best - 0.1
-    K, CL, got = passivesyn(P, eta, solver="RICCATI")
+    K, CL, got = passivesyn(P, eta, options={"solver": "RICCATI"})
     assert got == eta and K.result.eta == eta
     recheck(K, CL, eta)
 
@@ -77,7 +77,7 @@ def test_fixed_eta_returns_that_eta_verified():
 # -- the scalar loop of theory: synthesis: critical actuator loss 1/a² = 0.25 ----------------
 def test_scalar_loop_feasible_below_critical_loss():
     P = scalar_plant(2.0, actuator_loss=0.24)
-    K, CL, eta = passivesyn(P, solver="riccati")
+    K, CL, eta = passivesyn(P, options={"solver": "riccati"})
     recheck(K, CL, eta)
     assert ms_radius(CL) < 1
 
@@ -86,7 +86,7 @@ def test_scalar_loop_feasible_below_critical_loss():
 def test_scalar_loop_infeasible_above_critical_loss(eta):
     P = scalar_plant(2.0, actuator_loss=0.26)
     with pytest.raises(SynthesisError) as info:
-        passivesyn(P, eta, solver="riccati")
+        passivesyn(P, eta, options={"solver": "riccati"})
     assert info.value.reason == "infeasible"
 
 
@@ -98,7 +98,7 @@ def test_scalar_loops_feasible_exactly_below_critical_loss(a, loss):
     P = scalar_plant(a, actuator_loss=loss)
     critical = loss * a * a
     try:
-        K, CL, eta = passivesyn(P, solver="riccati")
+        K, CL, eta = passivesyn(P, options={"solver": "riccati"})
     except SynthesisError as err:
         assert critical > 0.98, (critical, err.reason)
         assert err.reason in ("infeasible", "solver_failed")
@@ -111,10 +111,11 @@ def test_scalar_loops_feasible_exactly_below_critical_loss(a, loss):
 def test_decay_bound_is_honoured():
     P = grid_plant(3, 2, 1)
     r = 0.9       # free loop: ms_radius 0.656; best achievable about 0.64
-    K, CL, best = passivesyn(P, decay=r, solver="riccati")
+    K, CL, best = passivesyn(P, decay=r, options={"solver": "riccati"})
     recheck(K, CL, best, decay=r)
     assert ms_radius(CL) < r ** 2 and K.result.decay == r
-    K, CL, eta = passivesyn(P, best - 1.0, decay=r, solver="riccati")
+    K, CL, eta = passivesyn(P, best - 1.0, decay=r,
+                            options={"solver": "riccati"})
     recheck(K, CL, eta, decay=r)
     assert ms_radius(CL) < r ** 2
 
@@ -122,7 +123,7 @@ def test_decay_bound_is_honoured():
 # -- the result object -----------------------------------------------------------
 def test_result_is_filled_like_the_lmi_route():
     P = grid_plant(3, 2, 0)
-    K, CL, eta = passivesyn(P, solver="riccati")
+    K, CL, eta = passivesyn(P, options={"solver": "riccati"})
     res = K.result
     assert CL.info["synthesis"] is res
     assert res.report.solver == "RICCATI" and res.report.status == "optimal"
@@ -153,7 +154,8 @@ def test_auto_keeps_the_lmi_when_solver_options_are_given():
     rng = np.random.default_rng(6)
     big = random_plant(rng, _synthesis_routes.RICCATI_THRESHOLD + 1, m1=2, m2=2,
                        radius=1.05)
-    K, _, _ = passivesyn(big, -5.0, max_iter=200)
+    K, _, _ = passivesyn(big, -5.0,
+                         options={"solver_options": {"max_iter": 200}})
     assert K.result.report.solver == "CLARABEL"
 
 
@@ -163,24 +165,26 @@ def plant():
     return grid_plant(2, 1, 0)
 
 
-@pytest.mark.parametrize("kwargs", [dict(controller="predictor"),
-                                    dict(actuator="hold"),
-                                    dict(structure="extended")])
-def test_riccati_for_a_structured_loop_raises_naming_solver(plant, kwargs):
+@pytest.mark.parametrize("kwargs, options", [
+    (dict(controller="predictor"), {}), (dict(actuator="hold"), {}),
+    ({}, dict(structure="extended"))])
+def test_riccati_for_a_structured_loop_raises_naming_solver(plant, kwargs,
+                                                            options):
     with pytest.raises(ValueError, match="^solver: .*structure"):
-        passivesyn(plant, solver="riccati", **kwargs)
+        passivesyn(plant, **kwargs, options={"solver": "riccati", **options})
 
 
 def test_riccati_with_sensor_schedule_raises_naming_solver():
     rng = np.random.default_rng(1)
     P = random_plant(rng, 2, m1=1, m2=1, sensor_schedule=[1, 2])
     with pytest.raises(ValueError, match="^solver: .*structure"):
-        passivesyn(P, solver="riccati")
+        passivesyn(P, options={"solver": "riccati"})
 
 
 def test_unknown_riccati_option_raises_type_error(plant):
     with pytest.raises(TypeError, match="bogus_option"):
-        passivesyn(plant, solver="riccati", bogus_option=1)
+        passivesyn(plant, options={"solver": "riccati",
+                                   "solver_options": {"bogus_option": 1}})
 
 
 @pytest.mark.parametrize("option, value", [("rtol", -1.0),
@@ -189,13 +193,15 @@ def test_unknown_riccati_option_raises_type_error(plant):
 def test_bad_riccati_option_value_raises_value_error_naming_it(plant, option,
                                                               value):
     with pytest.raises(ValueError, match=f"^{option}: "):
-        passivesyn(plant, solver="riccati", **{option: value})
+        passivesyn(plant, options={"solver": "riccati",
+                                   "solver_options": {option: value}})
 
 
 def test_out_of_sweeps_is_inconclusive_not_infeasible():
     P = scalar_plant(2.0, actuator_loss=0.249)
     with pytest.raises(SynthesisError, match="inconclusive") as info:
-        passivesyn(P, -1.0, solver="riccati", max_sweeps=2)
+        passivesyn(P, -1.0, options={"solver": "riccati",
+                                     "solver_options": {"max_sweeps": 2}})
     assert info.value.reason == "solver_failed"
 
 

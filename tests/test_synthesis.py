@@ -203,8 +203,8 @@ def test_merged_and_paper_forms_give_the_same_optimal_eta(n, N, seed):
         spec = Spec(spec.A, spec.B1, spec.B2, spec.C1, spec.D11, spec.D12,
                     None, [1, 2], 0.1, 0.2)   # actuator schedule only: exact
     P = spec.plant()
-    Km, CLm, eta_m = passivesyn(P, form="merged", margin=1e-9)
-    Kp, CLp, eta_p = passivesyn(P, form="paper", margin=1e-9)
+    Km, CLm, eta_m = passivesyn(P, options={"form": "merged", "margin": 1e-9})
+    Kp, CLp, eta_p = passivesyn(P, options={"form": "paper", "margin": 1e-9})
     assert_verified(spec, Km, CLm, eta_m)
     assert_verified(spec, Kp, CLp, eta_p)
     assert eta_m == pytest.approx(eta_p, rel=1e-5)
@@ -221,9 +221,9 @@ def test_default_margin_costs_both_forms_alike_within_1e_4(n, N, seed):
         spec = Spec(spec.A, spec.B1, spec.B2, spec.C1, spec.D11, spec.D12,
                     None, [1, 2], 0.1, 0.2)
     P = spec.plant()
-    _, _, eta_m = passivesyn(P, form="merged")
-    _, _, eta_p = passivesyn(P, form="paper")
-    _, _, eta_0 = passivesyn(P, form="merged", margin=1e-9)
+    _, _, eta_m = passivesyn(P, options={"form": "merged"})
+    _, _, eta_p = passivesyn(P, options={"form": "paper"})
+    _, _, eta_0 = passivesyn(P, options={"form": "merged", "margin": 1e-9})
     assert eta_m == pytest.approx(eta_p, rel=1e-4)
     assert max(eta_m, eta_p) <= eta_0 + 1e-6 * max(1.0, abs(eta_0))
     assert eta_m == pytest.approx(eta_0, rel=1e-4)
@@ -231,8 +231,8 @@ def test_default_margin_costs_both_forms_alike_within_1e_4(n, N, seed):
 
 def test_paper_form_lmi_is_wider_than_merged():
     spec = random_spec(7, 3, 1, 0.1, 0.2)
-    Km, _, _ = passivesyn(spec.plant(), form="merged")
-    Kp, _, _ = passivesyn(spec.plant(), form="paper")
+    Km, _, _ = passivesyn(spec.plant(), options={"form": "merged"})
+    Kp, _, _ = passivesyn(spec.plant(), options={"form": "paper"})
     n, m1 = 3, 2
     assert Km.result.width == n + m1 + 2 * n
     assert Kp.result.width == n + m1 + 4 * n
@@ -384,7 +384,10 @@ def test_decay_outside_unit_interval_raises(plant, decay):
 def test_unknown_choice_raises_control_argument(plant, option, value):
     with pytest.raises(ControlArgument, match=option if option != "solver"
                        else "not an installed"):
-        passivesyn(plant, **{option: value})
+        if option in ("form", "structure", "solver"):
+            passivesyn(plant, options={option: value})
+        else:
+            passivesyn(plant, **{option: value})
 
 
 @pytest.mark.parametrize("solver", [None, "SCS", "CVXOPT"])
@@ -392,7 +395,8 @@ def test_unknown_solver_option_raises_type_error(plant, solver):
     if solver and solver not in cp.installed_solvers():
         pytest.skip(f"{solver} not installed")
     with pytest.raises(TypeError, match="bogus_option"):
-        passivesyn(plant, solver=solver, bogus_option=1)
+        passivesyn(plant, options={"solver": solver,
+                                   "solver_options": {"bogus_option": 1}})
 
 
 def test_cvxopt_rejects_option_it_would_ignore():
@@ -415,7 +419,7 @@ STRUCTURED = [(3, 2, 0), (3, 3, 1), (5, 3, 2), (2, 2, 3), (5, 2, 4)]
 def test_structured_gains_are_exactly_zero_where_nothing_is_heard_or_sent(
         n, N, seed, structure):
     spec = random_spec(seed, n, N, 0.1, 0.1, radius=0.9)
-    K, CL, eta = passivesyn(spec.plant(), structure=structure)
+    K, CL, eta = passivesyn(spec.plant(), options={"structure": structure})
     assert K.result.structure == structure
     for k in range(spec.N):
         silent = spec.sensor_rows[k] == 0
@@ -430,10 +434,12 @@ def test_structured_gains_are_exactly_zero_where_nothing_is_heard_or_sent(
 @pytest.mark.parametrize("n, N, seed", STRUCTURED)
 def test_extended_form_certifies_at_least_the_block_form(n, N, seed):
     spec = random_spec(seed, n, N, 0.1, 0.1, radius=0.9)
-    Ke, CLe, eta_e = passivesyn(spec.plant(), structure="extended")
+    Ke, CLe, eta_e = passivesyn(spec.plant(),
+                                options={"structure": "extended"})
     assert_verified(spec, Ke, CLe, eta_e)
     try:
-        Kb, CLb, eta_b = passivesyn(spec.plant(), structure="block")
+        Kb, CLb, eta_b = passivesyn(spec.plant(),
+                                    options={"structure": "block"})
     except SynthesisError as err:
         # extended certifies; block, a sufficient condition, finds nothing
         assert err.reason == "sufficient_failed"
@@ -447,14 +453,14 @@ def test_extended_form_is_strictly_less_conservative_on_seeded_plants():
     (-3.239, -4.796), (-12.88, -39.76), (-4.089, infeasible),
     (-13.79, -76.32)."""
     spec = random_spec(0, 3, 2, 0.1, 0.1, radius=0.9)
-    _, _, eta_e = passivesyn(spec.plant(), structure="extended")
-    _, _, eta_b = passivesyn(spec.plant(), structure="block")
+    _, _, eta_e = passivesyn(spec.plant(), options={"structure": "extended"})
+    _, _, eta_b = passivesyn(spec.plant(), options={"structure": "block"})
     assert eta_e - eta_b > 0.1
     spec = random_spec(3, 2, 2, 0.1, 0.1, radius=0.9)
-    K, CL, eta = passivesyn(spec.plant(), structure="extended")
+    K, CL, eta = passivesyn(spec.plant(), options={"structure": "extended"})
     assert_verified(spec, K, CL, eta)
     with pytest.raises(SynthesisError) as info:
-        passivesyn(spec.plant(), structure="block")
+        passivesyn(spec.plant(), options={"structure": "block"})
     # a sufficient condition failing proves nothing (extended certifies)
     assert info.value.reason == "sufficient_failed"
 
@@ -471,7 +477,7 @@ def test_auto_structure_is_full_without_and_extended_with_sensor_schedule():
 def test_full_structure_with_sensor_schedule_raises():
     spec = random_spec(0, 3, 2, 0.1, 0.1, radius=0.9)
     with pytest.raises(ValueError, match="full"):
-        passivesyn(spec.plant(), structure="full")
+        passivesyn(spec.plant(), options={"structure": "full"})
 
 
 def test_actuator_schedule_alone_keeps_exact_full_structure():
@@ -550,7 +556,8 @@ def test_other_solvers_return_verified_gain_or_synthesis_error(solver,
     # each solver must return a verified one, not merely not crash
     for seed, N in [(0, 1), (1, 2)]:
         spec = random_spec(seed, 3, N, 0.1, 0.2, radius=0.9)
-        K, CL, eta = passivesyn(spec.plant(), solver=solver, **options)
+        K, CL, eta = passivesyn(spec.plant(), options={
+            "solver": solver, "solver_options": options})
         assert K.result.report.solver == solver
         assert_verified(spec, K, CL, eta)
 
@@ -564,7 +571,7 @@ def test_synthesis_leaves_numpy_and_solver_state_alone():
     before_filters = list(warnings.filters)
     spec = random_spec(3, 3, 2, 0.1, 0.1, radius=0.9)
     K, CL, eta = passivesyn(spec.plant())
-    passivesyn(spec.plant(), solver="CVXOPT")
+    passivesyn(spec.plant(), options={"solver": "CVXOPT"})
     control_ncs.get_input_ff_index(CL)
     after_rng = np.random.get_state()
     assert before_rng[0] == after_rng[0]
@@ -587,7 +594,7 @@ def test_solver_panic_becomes_a_synthesis_error(monkeypatch, plant):
 
     monkeypatch.setattr(cp.Problem, "solve", panic)
     with pytest.raises(SynthesisError) as info:
-        passivesyn(plant, solver="CLARABEL")
+        passivesyn(plant, options={"solver": "CLARABEL"})
     assert info.value.reason == "solver_failed"
     report = lmi.solve(cp.Problem(cp.Minimize(0)), "CLARABEL")
     assert report.status == "solver_error" and "panicked" in report.message
@@ -623,14 +630,14 @@ def test_infeasible_retry_does_not_claim_the_problem_infeasible(monkeypatch,
     # the maximisation ends inaccurate, the first back-off is "infeasible"
     # (an inaccurate optimum can lie above the true one): keep trying
     calls = _scripted_solve(monkeypatch, ["optimal_inaccurate", "infeasible"])
-    K, CL, eta = passivesyn(plant, solver="CLARABEL")
+    K, CL, eta = passivesyn(plant, options={"solver": "CLARABEL"})
     assert len(calls) == 3
     assert K.result.certificate.verified
 
 
 def test_fixed_eta_is_retried_with_a_larger_margin(monkeypatch, plant):
     calls = _scripted_solve(monkeypatch, ["optimal_inaccurate"])
-    K, CL, eta = passivesyn(plant, eta=0.0, solver="CLARABEL")
+    K, CL, eta = passivesyn(plant, eta=0.0, options={"solver": "CLARABEL"})
     assert len(calls) == 2 and eta == 0.0
     assert K.result.certificate.verified
 
@@ -649,7 +656,7 @@ def test_infeasible_structured_lmi_is_a_failed_sufficient_condition():
     assert info.value.reason == "sufficient_failed"
     assert "nothing is proven about other gains" in str(info.value)
     with pytest.raises(SynthesisError) as info:
-        passivesyn(spec.plant(), solver="CLARABEL")
+        passivesyn(spec.plant(), options={"solver": "CLARABEL"})
     assert info.value.reason in ("solver_failed", "sufficient_failed")
 
 
@@ -703,7 +710,7 @@ def test_periodic_gain_refuses_an_empty_dimension(shape):
 @pytest.mark.parametrize("level", [-1e200, -1e12])
 @pytest.mark.parametrize("solver", [None, "riccati"])
 def test_very_negative_fixed_eta_gives_a_verified_gain(plant, level, solver):
-    K, CL, eta = passivesyn(plant, eta=level, solver=solver)
+    K, CL, eta = passivesyn(plant, eta=level, options={"solver": solver})
     cert = K.result.certificate
     assert eta == level and K.result.eta == level
     # checked at a floor above the level: Θ(η) ≼ Θ(η0) for η ≤ η0

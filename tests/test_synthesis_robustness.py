@@ -53,7 +53,7 @@ def test_solver_arithmetic_error_becomes_a_status(monkeypatch, plant):
     assert report.status == "solver_error"
     assert "ZeroDivisionError" in report.message
     with pytest.raises(SynthesisError) as info:
-        ncs.passivesyn(plant, solver="CLARABEL")
+        ncs.passivesyn(plant, options={"solver": "CLARABEL"})
     assert info.value.reason == "solver_failed"
 
 
@@ -69,18 +69,20 @@ def test_cvxopt_global_options_are_restored_after_a_solve():
 # -- 2. solver options checked at the boundary ------------------------------------
 def test_unknown_clarabel_option_raises_type_error_naming_it(plant):
     with pytest.raises(TypeError, match="'tol'.*tol_gap_abs"):
-        ncs.passivesyn(plant, tol=1e-9)
+        ncs.passivesyn(plant, options={"solver_options": {"tol": 1e-9}})
 
 
 def test_unknown_scs_option_raises_type_error_naming_it(plant):
     if "SCS" not in cp.installed_solvers():
         pytest.skip("SCS not installed")
     with pytest.raises(TypeError, match="'tol'"):
-        ncs.passivesyn(plant, solver="SCS", tol=1e-9)
+        ncs.passivesyn(plant,
+                       options={"solver": "SCS", "solver_options": {"tol": 1e-9}})
 
 
 def test_known_clarabel_setting_is_accepted(plant):
-    K, CL, eta = ncs.passivesyn(plant, decay=0.9, tol_gap_abs=1e-8)
+    K, CL, eta = ncs.passivesyn(plant, decay=0.9,
+                                options={"solver_options": {"tol_gap_abs": 1e-8}})
     verified(plant, K, CL, eta, 0.9)
 
 
@@ -227,7 +229,7 @@ def test_time_limit_ends_with_reason_time_limit(plant, monkeypatch):
     monkeypatch.setattr(_synthesis_routes, "solve",
                         lambda *a, **k: solves.append(1) or real(*a, **k))
     with pytest.raises(SynthesisError) as info:
-        ncs.passivesyn(plant, time_limit=1e-9)
+        ncs.passivesyn(plant, options={"time_limit": 1e-9})
     assert info.value.reason == "time_limit"
     # the budget is read before the first solve: no LMI was solved
     assert solves == []
@@ -236,7 +238,7 @@ def test_time_limit_ends_with_reason_time_limit(plant, monkeypatch):
 @pytest.mark.parametrize("bad", [0.0, -1.0, "soon"])
 def test_time_limit_must_be_positive(plant, bad):
     with pytest.raises(ValueError, match="time_limit"):
-        ncs.passivesyn(plant, time_limit=bad)
+        ncs.passivesyn(plant, options={"time_limit": bad})
 
 
 # -- 10. the driver's rules --------------------------------------------------------
@@ -341,7 +343,7 @@ def test_auto_structure_falls_back_to_block_and_says_so(monkeypatch):
     monkeypatch.setattr(_synthesis_routes, "synthesis_model",
                         broken_extended)
     with pytest.raises(SynthesisError):
-        ncs.passivesyn(P, structure="extended")
+        ncs.passivesyn(P, options={"structure": "extended"})
     K, CL, eta = ncs.passivesyn(P)
     assert K.result.structure == "block"
     verified(P, K, CL, eta)

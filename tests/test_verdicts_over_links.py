@@ -18,7 +18,7 @@ def _delayed(**extra):
 def test_a_negative_certified_level_over_a_delayed_link_is_a_shortage():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        K, CL, eta = ncs.passivesyn(_delayed(), time_limit=30)
+        K, CL, eta = ncs.passivesyn(_delayed(), options={"time_limit": 30})
     assert eta < 0 and K.result.status == "certified_shortage"
     assert not K.result.passive
     assert [w.category for w in caught

@@ -107,6 +107,9 @@ class DesignResult(Result):
     estimator_gain : ndarray or None
         The estimator's ``L_k`` the gain belongs to (``controller=
         'estimator'``).
+    options : dict
+        The solver options the design ran with (the ``options=`` of the
+        call filled in with their defaults; ``{}`` where none applied).
     plant : JumpPlant or None
         The open loop that was designed for.
 
@@ -150,6 +153,7 @@ class DesignResult(Result):
     form: str = ""
     width: int = 0
     estimator_gain: Any = None
+    options: dict = field(default_factory=dict)
     plant: Any = field(default=None, compare=False)
 
     _repr_fields: ClassVar[tuple[str, ...]] = ("value", "ms_radius", "period",
@@ -260,6 +264,10 @@ class DesignResult(Result):
             lines.append(f"solver {r.solver}: {r.status}, compile "
                          f"{r.compile_time:.3f} s, solve {r.solve_time:.3f} "
                          f"s, {len(self.attempts)} attempt(s)")
+        if self.options:
+            lines.append("options " + ", ".join(
+                f"{k}={v!r}" for k, v in self.options.items()
+                if k != "solver_options" or v))
         if self.estimator_gain is not None:
             lines.append(f"estimator gain L_k of shape "
                          f"{np.shape(self.estimator_gain)} (N_L, n, nmeas)")

@@ -51,8 +51,8 @@ RICCATI_THRESHOLD = 8
 RICCATI_FALLBACK_MAX = 16
 
 
-#: Options of the Riccati route (``solver='riccati'``), passed through
-#: ``**solver_options``; any other raises TypeError.
+#: Options of the Riccati route (``solver='riccati'``), passed in
+#: ``options['solver_options']``; any other raises TypeError.
 RICCATI_OPTIONS = ("rtol", "max_sweeps", "probe_sweeps")
 
 
@@ -585,7 +585,8 @@ def _riccati_options(options):
     if unknown:
         raise TypeError(
             f"passivesyn() got solver option(s) {sorted(unknown)} not "
-            f"accepted by solver='riccati' (known: {list(RICCATI_OPTIONS)})")
+            f"accepted by options['solver'] = 'riccati' (known: "
+            f"{list(RICCATI_OPTIONS)})")
     for name in ("max_sweeps", "probe_sweeps"):
         if name in options:
             positive_int(options[name], name)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 from control.exception import ControlArgument, ControlDimension
@@ -28,6 +28,7 @@ from .._checks import choice, decay_bound, positive_real
 from ._h2 import H2Objective, local_h2
 from ._hinf import GainObjective
 from ._budget import budget_design
+from ._options import COMMON_DEFAULTS, resolved_options
 from ._result import Design
 from ._local import bfgs
 from ..exceptions import (NOT_FOUND, NOT_MSS, SOLVER_FAILED,
@@ -45,6 +46,10 @@ from ..strategies import build
 from ._routes import _open_loop_bound
 
 __all__ = ["h2syn", "hinfsyn"]
+
+#: The keys of ``h2syn(options=...)`` and ``hinfsyn(options=...)`` and
+#: their defaults.
+DEFAULTS: dict[str, Any] = dict(COMMON_DEFAULTS)
 
 #: Quasi-Newton iterations of hinfsyn's local stage on the bounded real
 #: lemma (each solves the lemma's LMI once).
@@ -144,11 +149,10 @@ def _rate_within(CL: JumpStateSpace, decay: float, what: str) -> float:
 
 
 def h2syn(P: NetworkedStateSpace, *, decay: float | None = None,
-          controller: str = "static",
-          actuator: str = "zero", solver: str | None = None,
-          margin: float = DEFAULT_MARGIN, estimator_gain: Any = None,
-          initial_gain: Any = None, time_limit: float | None = 60.0,
-          **solver_options: Any) -> tuple[PeriodicGain, JumpStateSpace, float]:
+          controller: str = "static", actuator: str = "zero",
+          estimator_gain: Any = None, initial_gain: Any = None,
+          options: Mapping[str, Any] | None = None, **kwargs: Any
+          ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """H2-optimal periodic feedback over the lossy network.
 
     Like :func:`control.h2syn` with python-control's generalized-plant
@@ -196,19 +200,36 @@ def h2syn(P: NetworkedStateSpace, *, decay: float | None = None,
     actuator : {'zero', 'hold'}, optional
         What the actuator applies when a command is lost (the exact program
         needs ``'zero'``: the loop state is then the plant state).
-    solver : str, optional
-        Any installed cvxpy solver (default Clarabel).
-    margin : float, optional
-        Relative lower bound on the covariance ``Q_k``.
     estimator_gain : array_like, optional
         ``controller='estimator'``: ``L_k`` (default
         :func:`control_ncs.estimator_gain` of ``P``).
     initial_gain : array_like, optional
         A first start of the local search, in the shape of ``K.gains``.
-    time_limit : float or None, optional
-        Seconds the local search may take (default 60; None: no limit).
-    **solver_options
-        Passed to the solver.
+    options : dict, optional
+        The solver's knobs, as :func:`scipy.optimize.minimize` takes
+        them; every key is optional:
+
+        solver : str or None
+            Any installed cvxpy solver for the exact program (default
+            None: Clarabel).
+        margin : float
+            Relative lower bound on the covariance ``Q_k`` of the exact
+            program (default ``lmi.DEFAULT_MARGIN``, 1e-7).
+        time_limit : float or None
+            Seconds the local search may take (default 60; None: no
+            limit).
+        solver_options : dict
+            Passed to the solver of the exact program (checked first: an
+            option Clarabel, SCS or CVXOPT does not know raises
+            ``TypeError``).
+
+        ``solver``, ``margin`` and ``solver_options`` apply to the exact
+        program, ``time_limit`` to the local search; an unknown key raises
+        ``TypeError``. ``K.result.options`` holds the options used.
+    **kwargs
+        Deprecated: ``solver``, ``margin``, ``time_limit`` and solver
+        options given as keywords still work, with a
+        ``DeprecationWarning``; pass them in ``options``.
 
     Returns
     -------
@@ -231,8 +252,11 @@ def h2syn(P: NetworkedStateSpace, *, decay: float | None = None,
         ``P`` is not a NetworkedStateSpace, ``D21 ≠ 0`` with a controller
         other than the static gain or over delayed links, an unknown
         ``controller`` or ``actuator``, or options of the other route
-        (``solver``, ``margin`` or solver options for the local search;
+        (``solver``, ``margin`` or ``solver_options`` for the local search;
         ``initial_gain`` or ``estimator_gain`` for the exact program).
+    TypeError
+        An unknown key of ``options``, a knob given both in ``options``
+        and as a keyword, or a solver option the solver does not know.
     SynthesisError
         Exact program: ``'infeasible'`` (a proof: the modes in which every
         command is lost alone make every loop mean-square unstable, e.g.
@@ -269,10 +293,14 @@ def h2syn(P: NetworkedStateSpace, *, decay: float | None = None,
     >>> K.result.route, round(h2 ** 2, 3)
     ('local', 9.281)
     """
-    plan = _plan(P, controller, actuator, solver, margin, solver_options,
-                 estimator_gain, initial_gain, time_limit, "h2syn", decay)
+    opts = resolved_options("h2syn", options, kwargs, DEFAULTS)
+    solver_options = opts["solver_options"]
+    plan = _plan(P, controller, actuator, opts["solver"], opts["margin"],
+                 solver_options, estimator_gain, initial_gain,
+                 opts["time_limit"], "h2syn", decay)
     if plan.local:
-        return _local_design(P, plan, initial_gain, "h2syn").finish()
+        return _local_design(P, plan, initial_gain, "h2syn").with_fields(
+            options=opts).finish()
     model = h2_model(_decayed(plan.design, plan.decay), plan.margin)
     gains, CL, rate, report = _designed_loop(plan.plant, model, plan.solver,
                                              solver_options, "h2syn",
@@ -280,7 +308,8 @@ def h2syn(P: NetworkedStateSpace, *, decay: float | None = None,
     return norm_design("h2", gains, CL, rate, "program", "static", actuator,
                        report=report, decay=plan.decay,
                        solver_value=float(np.sqrt(max(
-                           model.problem.value, 0.0)))).finish()
+                           model.problem.value, 0.0)))).with_fields(
+        options=opts).finish()
 
 
 @dataclass(frozen=True)
@@ -610,12 +639,10 @@ def _riccati_h2_gain(plant: JumpPlant) -> np.ndarray | None:
 
 
 def hinfsyn(P: NetworkedStateSpace, *, decay: float | None = None,
-            controller: str = "static",
-            actuator: str = "zero", solver: str | None = None,
-            margin: float = DEFAULT_MARGIN, estimator_gain: Any = None,
-            initial_gain: Any = None, time_limit: float | None = 60.0,
-            **solver_options: Any) -> tuple[PeriodicGain, JumpStateSpace,
-                                            float]:
+            controller: str = "static", actuator: str = "zero",
+            estimator_gain: Any = None, initial_gain: Any = None,
+            options: Mapping[str, Any] | None = None, **kwargs: Any
+            ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """ℓ2-gain (H∞) optimal periodic feedback over the network.
 
     Like :func:`control.hinfsyn` (python-control's generalized-plant
@@ -645,11 +672,18 @@ def hinfsyn(P: NetworkedStateSpace, *, decay: float | None = None,
     actuator : {'zero', 'hold'}, optional
         What the actuator applies when a command is lost (the exact program
         needs ``'zero'``).
-    solver, margin, **solver_options
-        As for :func:`h2syn` (the exact program only; ``margin`` is the
-        bounded real lemma's relative strictness margin).
-    estimator_gain, initial_gain, time_limit
+    estimator_gain, initial_gain : optional
         As for :func:`h2syn` (the local search).
+    options : dict, optional
+        The solver's knobs, keys as for :func:`h2syn`: ``solver``,
+        ``margin`` (here the bounded real lemma's relative strictness
+        margin) and ``solver_options`` for the exact program, and
+        ``time_limit`` (default 60 s) for the local search, which covers
+        its certificates. An unknown key raises ``TypeError``.
+    **kwargs
+        Deprecated: ``solver``, ``margin``, ``time_limit`` and solver
+        options given as keywords still work, with a
+        ``DeprecationWarning``; pass them in ``options``.
 
     Returns
     -------
@@ -660,7 +694,7 @@ def hinfsyn(P: NetworkedStateSpace, *, decay: float | None = None,
 
     Raises
     ------
-    ControlArgument
+    ControlArgument, TypeError
         As :func:`h2syn`.
     SynthesisError
         As :func:`h2syn`: exact program ``'infeasible'`` (a proof),
@@ -690,21 +724,25 @@ def hinfsyn(P: NetworkedStateSpace, *, decay: float | None = None,
     >>> K.result.route, K.result.status
     ('local', 'certified')
     """
-    plan = _plan(P, controller, actuator, solver, margin, solver_options,
-                 estimator_gain, initial_gain, time_limit, "hinfsyn", decay)
+    opts = resolved_options("hinfsyn", options, kwargs, DEFAULTS)
+    solver, solver_options = opts["solver"], opts["solver_options"]
+    plan = _plan(P, controller, actuator, solver, opts["margin"],
+                 solver_options, estimator_gain, initial_gain,
+                 opts["time_limit"], "hinfsyn", decay)
     if plan.budget:
-        return budget_design(plan.plant, "hinf", decay=plan.decay,
-                             solver=solver,
-                             solver_options=solver_options).finish()
-    if plan.local:
-        return _local_design(P, plan, initial_gain, "hinfsyn").finish()
-    model = hinf_model(_decayed(plan.plant, plan.decay), plan.margin)
-    gains, CL, rate, report = _designed_loop(plan.plant, model, plan.solver,
-                                             solver_options, "hinfsyn",
-                                             plan.decay)
-    return norm_design("hinf", gains, CL, rate, "program", "static",
-                       actuator, report=report, decay=plan.decay,
-                       certified=l2_gain(CL, solver=solver)).finish()
+        design = budget_design(plan.plant, "hinf", decay=plan.decay,
+                               solver=solver, solver_options=solver_options)
+    elif plan.local:
+        design = _local_design(P, plan, initial_gain, "hinfsyn")
+    else:
+        model = hinf_model(_decayed(plan.plant, plan.decay), plan.margin)
+        gains, CL, rate, report = _designed_loop(
+            plan.plant, model, plan.solver, solver_options, "hinfsyn",
+            plan.decay)
+        design = norm_design("hinf", gains, CL, rate, "program", "static",
+                             actuator, report=report, decay=plan.decay,
+                             certified=l2_gain(CL, solver=solver))
+    return design.with_fields(options=opts).finish()
 
 
 def norm_design(spec: str, gains: np.ndarray, CL: JumpStateSpace,

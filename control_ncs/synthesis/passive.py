@@ -20,7 +20,7 @@ import time
 import warnings
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Mapping
 
 from control.exception import ControlArgument, ControlDimension
 
@@ -37,6 +37,7 @@ from ..exceptions import (INFEASIBLE, SOLVER_FAILED, NotPassiveWarning, Synthesi
 from ..verify import (level_floor)
 from .._lifting import unseen_modes
 from ._budget import budget_design
+from ._options import resolved_options
 from ._result import SHORTAGE_HELP, Design, DesignResult
 from ._routes import (_feedthrough, _open_loop_bound, _plant_arrays,
                                 _refine_route, _riccati_options, _routes)
@@ -47,6 +48,11 @@ __all__ = ["passivesyn", "DesignResult"]
 
 #: Default time budget of :func:`passivesyn`, seconds.
 TIME_BUDGET = 120.0
+
+#: The keys of ``passivesyn(options=...)`` and their defaults.
+DEFAULTS: dict[str, Any] = dict(solver=None, margin=DEFAULT_MARGIN,
+                                time_limit=TIME_BUDGET, form="merged",
+                                structure="auto", solver_options={})
 
 
 
@@ -112,14 +118,10 @@ def _checks(P, eta, decay, controller, actuator, form, structure, plant,
 
 def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                decay: float | None = None, controller: str = "static",
-               actuator: str = "zero", form: str = "merged",
-               structure: str = "auto", gain: str = "mode",
-               solver: str | None = None,
-               margin: float = DEFAULT_MARGIN,
-               time_limit: float | None = TIME_BUDGET,
+               actuator: str = "zero", gain: str = "mode",
                estimator_gain: Any = None, method: str = "auto",
                initial_gain: Any = None,
-               **solver_options: Any
+               options: Mapping[str, Any] | None = None, **kwargs: Any
                ) -> tuple[PeriodicGain, JumpStateSpace, float]:
     """Periodic feedback making a networked loop strictly passive.
 
@@ -173,14 +175,6 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         closes the same loop). ``'static'`` and ``'predictor'`` need ``y = x``.
     actuator : {'zero', 'hold'}
         What actuators apply when their message is lost or not addressed.
-    form : {'merged', 'paper'}
-        ``'merged'`` (default): coinciding network modes merged, LMI side
-        ``n + m1 + 2n`` for the static gain; ``'paper'``: one row per mode
-        (eq. 15), side ``n + m1 + 4n``. Both give the same optimum.
-    structure : {'auto', 'full', 'block', 'extended'}
-        ``'auto'``: ``'full'`` (exact) when the controller knows every
-        coordinate at every phase, else ``'extended'``. ``'block'`` and
-        ``'extended'`` are sufficient conditions (:ref:`theory-synthesis`).
     gain : {'mode', 'phase'}
         Markov (bursty) links, :ref:`theory-markov`: ``'mode'`` (default)
         designs gains ``K_{k,ℓ}`` that also use the previous network mode
@@ -191,32 +185,11 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``G_k``, or a common ``X_k`` with ``structure='block'``). For
         i.i.d. links both are the LMI of :ref:`theory-synthesis` and the gain
         is ``K_k``. ``K.result.gain_kind`` says which kind was certified.
-    solver : str, optional
-        An installed cvxpy solver for the LMI, or ``'riccati'``
-        (case-insensitive) for the monotone Riccati iteration of
-        :mod:`control_ncs.riccati` (needs ``structure`` to resolve to
-        ``'full'``; no cvxpy, memory ``O(N n²)``; ``form`` does not apply to
-        it). None (default): the Riccati iteration when the structure
-        resolves to ``'full'``, the plant has more than
-        ``RICCATI_THRESHOLD`` states and no solver options are given (if
-        that iteration is inconclusive and the plant has at most
-        ``RICCATI_FALLBACK_MAX`` states, Clarabel after it), else Clarabel.
-        Over Markov links the iteration solves the coupled Riccati
-        equations (gains ``K_{k,ℓ}``); with ``gain='phase'`` the LMI is
-        solved instead (``K.result.note`` says so).
-    margin : float, optional
-        Relative strictness margin of the LMIs (for the Riccati iteration:
-        the ``εI`` added at each step, relative to the data's scale).
-    time_limit : float or None, optional
-        Time budget in seconds (default ``TIME_BUDGET`` = 120 s; None: no
-        limit). The remaining time is passed to Clarabel
-        (``time_limit``); the budget is checked between attempts. A
-        Riccati iteration already running is not interrupted.
     estimator_gain : array_like or EstimatorGain, optional
         ``controller='estimator'`` only: ``L_k`` of shape ``(n, nmeas)`` or
         ``(N_L, n, nmeas)`` (e.g. from :func:`control.dlqe`); default
         :func:`control_ncs.estimator_gain` ``(P, decay=decay)`` with the
-        LMI ``solver`` if one is named.
+        LMI solver ``options['solver']`` if one is named.
     method : {'auto', 'lmi', 'refine'}
         ``'lmi'``: the synthesis LMI (or Riccati) routes above.
         ``'refine'``: the local refinement of
@@ -228,7 +201,7 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         improved, never globally optimal, and its failure proves nothing.
         ``'auto'`` (default): ``'lmi'`` where the LMI is exact (structure
         ``'full'`` with gains on everything the controller observes) and
-        where a structure, a solver or solver options are named;
+        where ``options`` name a structure, a solver or solver options;
         ``'refine'`` wherever the LMI is only sufficient, on Bernoulli and
         Markov links alike. On Markov links the refinement designs gains
         per phase ``K_k`` (explicit ``'refine'`` needs ``gain='phase'``);
@@ -239,13 +212,56 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         sufficient LMI's gain (which is then not solved), e.g. a
         neighbouring design of a map (``design_map`` warm-starts its cells
         so). Used where the refinement runs.
-    **solver_options
-        Passed to the solver, checked first: an option Clarabel (its
-        ``DefaultSettings``), SCS or CVXOPT does not know raises
-        ``TypeError``. For ``solver='riccati'``: ``rtol``
-        (bisection tolerance on ``η``, default 1e-4), ``max_sweeps``
-        (default 20000), ``probe_sweeps`` (per bisection level, default
-        3000); see :func:`control_ncs.riccati.riccati_synthesis`.
+    options : dict, optional
+        The solver's knobs, as :func:`scipy.optimize.minimize` takes
+        them; every key is optional:
+
+        solver : str or None
+            An installed cvxpy solver for the LMI, or ``'riccati'``
+            (case-insensitive) for the monotone Riccati iteration of
+            :mod:`control_ncs.riccati` (needs ``structure`` to resolve to
+            ``'full'``; no cvxpy, memory ``O(N n²)``; ``form`` does not
+            apply to it). None (default): the Riccati iteration when the
+            structure resolves to ``'full'``, the plant has more than
+            ``RICCATI_THRESHOLD`` states and no ``solver_options`` are
+            given (if that iteration is inconclusive and the plant has at
+            most ``RICCATI_FALLBACK_MAX`` states, Clarabel after it), else
+            Clarabel. Over Markov links the iteration solves the coupled
+            Riccati equations (gains ``K_{k,ℓ}``); with ``gain='phase'``
+            the LMI is solved instead (``K.result.note`` says so).
+        margin : float
+            Relative strictness margin of the LMIs (for the Riccati
+            iteration: the ``εI`` added at each step, relative to the
+            data's scale). Default ``lmi.DEFAULT_MARGIN`` (1e-7).
+        time_limit : float or None
+            Time budget in seconds (default ``TIME_BUDGET`` = 120 s; None:
+            no limit). The remaining time is passed to Clarabel
+            (``time_limit``); the budget is checked between attempts. A
+            Riccati iteration already running is not interrupted.
+        form : {'merged', 'paper'}
+            ``'merged'`` (default): coinciding network modes merged, LMI
+            side ``n + m1 + 2n`` for the static gain; ``'paper'``: one row
+            per mode (eq. 15), side ``n + m1 + 4n``. Both give the same
+            optimum.
+        structure : {'auto', 'full', 'block', 'extended'}
+            ``'auto'`` (default): ``'full'`` (exact) when the controller
+            knows every coordinate at every phase, else ``'extended'``.
+            ``'block'`` and ``'extended'`` are sufficient conditions
+            (:ref:`theory-synthesis`).
+        solver_options : dict
+            Passed to the solver, checked first: an option Clarabel (its
+            ``DefaultSettings``), SCS or CVXOPT does not know raises
+            ``TypeError``. For ``solver='riccati'``: ``rtol`` (bisection
+            tolerance on ``η``, default 1e-4), ``max_sweeps`` (default
+            20000), ``probe_sweeps`` (per bisection level, default 3000);
+            see :func:`control_ncs.riccati.riccati_synthesis`.
+
+        An unknown key raises ``TypeError``; the values are checked as
+        above. ``K.result.options`` holds the options the design used.
+    **kwargs
+        Deprecated: ``solver``, ``margin``, ``time_limit``, ``form``,
+        ``structure`` and solver options given as keywords still work, with
+        a ``DeprecationWarning``; pass them in ``options``.
 
     Returns
     -------
@@ -306,8 +322,9 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
         ``estimator_gain`` given to another controller;
         ``solver='riccati'`` for a loop whose structure is not ``'full'``.
     TypeError
-        A solver option the chosen solver (or the Riccati iteration) does
-        not know.
+        An unknown key of ``options``, a knob given both in ``options``
+        and as a keyword, or a solver option the chosen solver (or the
+        Riccati iteration) does not know.
 
     Warns
     -----
@@ -327,10 +344,10 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     (a diagonal similarity by powers of two, exact in floating point), and
     every solve goes through one solve-and-verify loop
     (:func:`control_ncs.driver.drive`: retries ``driver.RETRIES``, then once
-    ``lmi.FALLBACK_SOLVER``). Without ``solver=`` and with ``eta=None``,
+    ``lmi.FALLBACK_SOLVER``). With no solver named and ``eta=None``,
     when the maximisation gives no verified gain, fixed levels of ``η`` are
     tried and, for structure ``'full'``, the Riccati iteration; under
-    ``structure='auto'`` a loop that resolves to ``'extended'`` is also
+    structure ``'auto'`` a loop that resolves to ``'extended'`` is also
     tried with ``'block'``. Progress (each attempt) is logged on the
     ``'control_ncs'`` logger at level INFO
     (``logging.basicConfig(level=logging.INFO)`` shows it).
@@ -360,7 +377,8 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
 
     The same by the Riccati iteration:
 
-    >>> K, CL, eta = ncs.passivesyn(P, decay=0.9, solver='riccati')
+    >>> K, CL, eta = ncs.passivesyn(P, decay=0.9,
+    ...                             options={'solver': 'riccati'})
     >>> K.result.report.solver, bool(ncs.ms_radius(CL) < 0.81)
     ('RICCATI', True)
 
@@ -394,9 +412,12 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
     >>> bool(ncs.ms_radius(ncs.feedback(P2, K)) == ncs.ms_radius(CL))
     True
     """
+    opts = resolved_options("passivesyn", options, kwargs, DEFAULTS)
+    solver, form, structure = opts["solver"], opts["form"], opts["structure"]
+    solver_options = opts["solver_options"]
     margin, deadline, initial_gain = _validated(
-        P, controller, actuator, method, initial_gain, estimator_gain, margin,
-        time_limit)
+        P, controller, actuator, method, initial_gain, estimator_gain,
+        opts["margin"], opts["time_limit"])
     plant = _open_loop(P, controller, actuator, estimator_gain, decay, solver)
     if plant.constraint is not None:
         # a loss budget: certified for every allowed pattern
@@ -406,10 +427,11 @@ def passivesyn(P: NetworkedStateSpace | JumpPlant, eta: float | None = None, *,
                                solver_options=dict(solver_options))
         if eta is None:
             _warn_shortage(design.value, "stable under every allowed pattern")
-        return design.finish()
+        return design.with_fields(options=opts).finish()
     plan = _plan(P, plant, eta, decay, controller, actuator, form, structure,
                  gain, solver, method, dict(solver_options), initial_gain)
-    return _stated(_run(plant, plan, margin, deadline, initial_gain), plan)
+    design = _run(plant, plan, margin, deadline, initial_gain)
+    return _stated(design.with_fields(options=opts), plan)
 
 
 def _validated(P: Any, controller: str, actuator: str, method: str,
