@@ -289,12 +289,18 @@ def _two_state_delayed_loop():
     return P, np.array([[[-0.4, -0.3]], [[-0.3, -0.2]], [[-0.2, -0.1]]])
 
 
+def _per_age(K):
+    """A stack of gains, one per age of the measurement (as the packet
+    simulations read it), as the loop takes it: blocks of columns."""
+    return ncs.PeriodicGain(np.concatenate(list(K), axis=-1), ages=len(K))
+
+
 @pytest.mark.parametrize("actuator", ["zero", "hold"])
 def test_delayed_loop_power_equals_a_packet_level_simulation(actuator):
     """Stationary output power under unit noise: exact (the jump model's
     stationary covariances) against the protocol run from packets."""
     P, K = _two_state_delayed_loop()
-    CL = ncs.feedback(P, K, actuator=actuator)
+    CL = ncs.feedback(P, _per_age(K), actuator=actuator)
     exact = ncs.norm(CL) ** 2
     zz = _packet_loop(P, K, P.sensor_delay, P.actuator_delay, actuator,
                       200_000, np.random.default_rng(3))[1000:]
@@ -325,7 +331,7 @@ def test_delayed_loop_power_equals_the_protocol_simulator(actuator):
     """Stationary output power under unit noise: exact against the
     event-level simulator with time-stamped packets on both links."""
     P, K = _two_state_delayed_loop()
-    exact = ncs.norm(ncs.feedback(P, K, actuator=actuator)) ** 2
+    exact = ncs.norm(ncs.feedback(P, _per_age(K), actuator=actuator)) ** 2
     rng = np.random.default_rng(12)
     trials, steps, burn = 2000, 500, 100
     out = simulate_protocol(
@@ -493,7 +499,7 @@ def test_scheduled_delayed_link_power_equals_a_packet_level_simulation():
                 actuator_delay=ncs.random_delay([0.8], buffer=0))
     K = np.array([[[-0.4, -0.3]], [[-0.3, -0.2]], [[-0.2, -0.15]],
                   [[-0.1, -0.1]]])
-    CL = ncs.feedback(P, K)
+    CL = ncs.feedback(P, _per_age(K))
     assert CL.period == 2
     exact = ncs.norm(CL) ** 2
     zz = _packet_loop(P, K, P.sensor_delay, P.actuator_delay, "zero",

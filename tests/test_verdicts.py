@@ -223,7 +223,9 @@ def test_a_full_gain_on_a_scheduled_network_warns_once_naming_the_silence():
                                                 ncs.ScheduleWarning)]
     assert len(schedule) == 1
     text = str(schedule[0].message)
-    assert "phase(s) [0, 1]" in text and "{0: [1], 1: [0]}" in text
+    # sensors numbered from 1 as in sensor_schedule=[1, 2]: sensor 2 is
+    # silent at phase 0, sensor 1 at phase 1
+    assert "phase(s) [0, 1]" in text and "{0: [2], 1: [1]}" in text
     assert "sensor='hold'" in text and "predictor" in text
     assert schedule[0].filename == __file__
     # the loop is the one of the gain without the silent columns
