@@ -195,7 +195,7 @@ def test_the_site_ships_its_math_renderer():
 
 
 README = ROOT / "README.md"
-TEST_COMMAND = 'python -m pip install -e ".[test]" && python -m pytest'
+TEST_COMMAND = 'python -m pip install -e ".[test]" && python -m pytest -n auto'
 DEMO_COMMAND = "python -m pip install -e . && python -m control_ncs demo"
 
 
