@@ -90,12 +90,18 @@ def __getattr__(name: str) -> _Any:
     """Resolve a name that lives in its submodule (earlier code's spelling).
 
     ``control_ncs.check_certificate`` keeps working as
-    ``control_ncs.verify.check_certificate``; it is not listed in
+    ``control_ncs.verify.check_certificate``, with a
+    :class:`DeprecationWarning` naming the submodule; it is not listed in
     ``__all__`` or ``dir(control_ncs)``.
     """
     if name in _IN_SUBMODULE:
         import importlib
-        return getattr(importlib.import_module(_IN_SUBMODULE[name]), name)
+        import warnings
+        where = _IN_SUBMODULE[name]
+        warnings.warn(f"control_ncs.{name} is deprecated: it lives in its "
+                      f"module, {where}.{name}", DeprecationWarning,
+                      stacklevel=2)
+        return getattr(importlib.import_module(where), name)
     raise AttributeError(f"module 'control_ncs' has no attribute {name!r}")
 
 

@@ -628,7 +628,7 @@ def mode_transition(sensor_link: Any, actuator_link: Any) -> np.ndarray:
 
     Examples
     --------
-    >>> T = ncs.mode_transition(0.0, ncs.gilbert_elliott(fail=0.1, recover=0.5))
+    >>> T = ncs.network.mode_transition(0.0, ncs.gilbert_elliott(fail=0.1, recover=0.5))
     >>> T[3].round(3).tolist()          # from (1, 1): θ2 fails w.p. 0.1
     [0.0, 0.1, 0.0, 0.9]
     """

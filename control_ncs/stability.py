@@ -151,7 +151,7 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
     multiplied by ``0.2·4 = 0.8``.
 
     >>> sys = ncs.jss([[[2.0]], [[0.0]]], [[1.0]], [[1.0]], [[0.0]], [0.2, 0.8])
-    >>> ncs.second_moment_operator(sys).matvec(np.array([1.0])).round(12).tolist()
+    >>> ncs.stability.second_moment_operator(sys).matvec(np.array([1.0])).round(12).tolist()
     [0.8]
 
     With period 2 and ``x⁺ = 0.5x`` at phase 1, ``k=1`` gives that phase's
@@ -159,9 +159,9 @@ def second_moment_operator(sys: Any, k: int | None = None) -> LinearOperator:
 
     >>> sys2 = ncs.jss([[[[2.0]], [[0.0]]], [[[0.5]], [[0.5]]]], [[1.0]], [[1.0]],
     ...            [[0.0]], [[0.2, 0.8], [0.5, 0.5]])
-    >>> ncs.second_moment_operator(sys2, k=1) @ np.array([1.0])
+    >>> ncs.stability.second_moment_operator(sys2, k=1) @ np.array([1.0])
     array([0.25])
-    >>> (ncs.second_moment_operator(sys2) @ np.array([1.0])).round(12)
+    >>> (ncs.stability.second_moment_operator(sys2) @ np.array([1.0])).round(12)
     array([0.2])
     """
     sys = as_jump(sys)

@@ -5,7 +5,7 @@ The stationary covariances ``Q_k`` of a mean-square stable jump system
 driven by unit white noise, and the output power ``‖G‖₂²`` they give: the
 fixed point of the forced second-moment recursion over one period, solved
 on the same kernel that :func:`control_ncs.ms_radius` certifies with
-(:func:`control_ncs.second_moment_operator`).
+(:func:`control_ncs.stability.second_moment_operator`).
 """
 
 from __future__ import annotations

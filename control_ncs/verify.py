@@ -172,7 +172,7 @@ def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
 
     >>> from control_ncs.verify import dissipation_blocks
     >>> A, B, C, D = (np.array([[[x]]]) for x in (0.5, 1.0, 1.0, 1.0))
-    >>> ncs.dissipation_blocks([1.0], A, B, C, D, np.eye(1), np.eye(1), 0.0).tolist()
+    >>> ncs.verify.dissipation_blocks([1.0], A, B, C, D, np.eye(1), np.eye(1), 0.0).tolist()
     [[-0.75, -0.5], [-0.5, -1.0]]
     """
     return supply_blocks(probabilities, A, B, C, D, P, P_next,
@@ -243,7 +243,7 @@ def ifp_supremum(theta0: np.ndarray, n: int) -> float:
     ``-1 - 0.25/(-0.75) = -2/3``, so ``η < 1/3``:
 
     >>> from control_ncs.verify import ifp_supremum
-    >>> round(ncs.ifp_supremum(np.array([[-0.75, -0.5], [-0.5, -1.0]]), 1), 12)
+    >>> round(ncs.verify.ifp_supremum(np.array([[-0.75, -0.5], [-0.5, -1.0]]), 1), 12)
     0.333333333333
     """
     M11, M12, M22 = theta0[:n, :n], theta0[:n, n:], theta0[n:, n:]
@@ -285,7 +285,7 @@ def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
     A feedthrough ``D = 1`` lost with probability 0.1 (``D̄ = 0.9``):
 
     >>> from control_ncs.verify import feedthrough_bound
-    >>> ncs.feedthrough_bound([0.9, 0.1], np.array([[[1.0]], [[0.0]]]))
+    >>> ncs.verify.feedthrough_bound([0.9, 0.1], np.array([[[1.0]], [[0.0]]]))
     (0.9, 0)
     """
     p = np.asarray(probabilities, float).reshape(-1, D.shape[-3])
@@ -385,11 +385,11 @@ def supply_rows(modes: Modes) -> np.ndarray:
     >>> from control_ncs.verify import supply_rows
     >>> chain = ncs.jss([[[0.5]], [[2.0]]], [[1.0]], [[1.0]], [[1.0]],
     ...                    transition=[[0.9, 0.1], [0.25, 0.75]])
-    >>> ncs.supply_rows(chain.modes).tolist()
+    >>> ncs.verify.supply_rows(chain.modes).tolist()
     [[[0.9, 0.1], [0.25, 0.75]]]
     >>> p = chain.modes.probabilities
     >>> iid = ncs.jss(chain.modes.A, [[1.0]], [[1.0]], [[1.0]], p[0])
-    >>> ncs.supply_rows(iid.modes).round(6).tolist()
+    >>> ncs.verify.supply_rows(iid.modes).round(6).tolist()
     [[[0.714286, 0.285714]]]
     """
     if modes.is_iid:
@@ -420,7 +420,7 @@ def supply_feedthrough_bound(sys: JumpStateSpace, ofp_index: float = 0.0
     >>> from control_ncs.verify import supply_feedthrough_bound
     >>> G = ncs.jss([[[0.5]], [[0.5]]], [[1.0]], [[1.0]],
     ...                [[[1.0]], [[0.0]]], transition=[[0.9, 0.1], [0.5, 0.5]])
-    >>> ncs.supply_feedthrough_bound(G)           # row ℓ = 1: D̄ = 0.5
+    >>> ncs.verify.supply_feedthrough_bound(G)           # row ℓ = 1: D̄ = 0.5
     0.5
     """
     rows = supply_rows(sys.modes)
@@ -561,7 +561,7 @@ def dissipation_matrices(sys: Any, P: Any, eta: float, *,
     --------
     >>> import control as ct
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> [T.round(2).tolist() for T in ncs.dissipation_matrices(G, [[1.0]], 0.0)]
+    >>> [T.round(2).tolist() for T in ncs.verify.dissipation_matrices(G, [[1.0]], 0.0)]
     [[[-0.75, -0.5], [-0.5, -1.0]]]
     """
     sys = square_system(sys)
@@ -602,7 +602,7 @@ def certified_index(sys: Any, P: Any, *, decay: float = 1.0,
     --------
     >>> import control as ct
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> round(ncs.certified_index(G, [[1.0]]), 6)  # the index 1/3, at P = 1
+    >>> round(ncs.verify.certified_index(G, [[1.0]]), 6)  # the index 1/3, at P = 1
     0.333333
     """
     sys = square_system(sys)
@@ -649,12 +649,12 @@ class Certificate(Result):
     ``G(z) = 1 + 1/(z - 0.5)`` with ``P = 1`` proves every ``η < 1/3``:
 
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> cert = ncs.check_certificate(G, [[1.0]], 0.3)
+    >>> cert = ncs.verify.check_certificate(G, [[1.0]], 0.3)
     >>> cert.verified, cert.failures
     (True, [])
     >>> cert.theta_max.round(4).tolist(), round(cert.eta_sup, 6)
     ([-0.0453], 0.333333)
-    >>> ncs.check_certificate(G, [[1.0]], 0.4).failures
+    >>> ncs.verify.check_certificate(G, [[1.0]], 0.4).failures
     ['λmax(Θ_k) = 9.564e-02 is not < 0']
     """
 
@@ -712,7 +712,7 @@ class Certificate(Result):
         Examples
         --------
         >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-        >>> figures = ncs.check_certificate(G, [[1.0]], 0.3).figures()
+        >>> figures = ncs.verify.check_certificate(G, [[1.0]], 0.3).figures()
         >>> sorted(figures)
         ['P_min', 'decay', 'eta', 'eta_sup', 'ms_radius', 'ofp_index', 'theta_max']
         >>> figures["P_min"], round(figures["ms_radius"], 12)
@@ -798,7 +798,7 @@ def check_certificate(sys: Any, P: Any, eta: float, *, decay: float = 1.0,
     --------
     >>> import control as ct
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> ncs.check_certificate(G, [[1.0]], 0.3).verified
+    >>> ncs.verify.check_certificate(G, [[1.0]], 0.3).verified
     True
     """
     sys = square_system(sys)
@@ -839,7 +839,7 @@ def certify_index(sys: Any, P: Any, *, decay: float = 1.0,
     --------
     >>> import control as ct
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    >>> cert = ncs.certify_index(G, [[1.0]])
+    >>> cert = ncs.verify.certify_index(G, [[1.0]])
     >>> cert.verified, round(cert.eta, 5)
     (True, 0.33333)
     """
@@ -906,7 +906,7 @@ def certify_ofp_index(sys: Any, P: Any, rho: float, *, eta: float = 0.0,
 
     >>> import control as ct
     >>> G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[2.0]], True)
-    >>> cert = ncs.certify_ofp_index(G, [[1.0]], 0.2)
+    >>> cert = ncs.verify.certify_ofp_index(G, [[1.0]], 0.2)
     >>> cert.verified, 0.25 - 1e-5 < cert.ofp_index < 0.25
     (True, True)
     """

@@ -133,7 +133,7 @@ def test_probabilities_of_a_budget_are_refused_by_name():
         with pytest.raises(ControlArgument, match="loss budget"):
             ask()
     with pytest.raises(ControlArgument, match="no transition probabilities"):
-        ncs.mode_transition(0.0, ncs.weakly_hard(1, 3))
+        ncs.network.mode_transition(0.0, ncs.weakly_hard(1, 3))
     plant = ncs.build(P)
     for ask in (plant.mean, plant.transitions):
         with pytest.raises(ControlArgument, match="loss budget"):

@@ -4,6 +4,7 @@ python-control's ``docstrings_test.py`` asks the same of its own functions;
 a summary is what ``help()``, autosummary tables and IDE tooltips show.
 """
 
+import importlib
 import inspect
 
 import pytest
@@ -16,7 +17,8 @@ LIMIT = 64
 def _documented():
     out = {}
     for name in [*ncs.__all__, *ncs._IN_SUBMODULE]:
-        obj = getattr(ncs, name)
+        obj = getattr(importlib.import_module(
+            ncs._IN_SUBMODULE.get(name, "control_ncs")), name)
         out[name] = obj
         if inspect.isclass(obj):
             for member, value in vars(obj).items():

@@ -8,6 +8,7 @@ Returns section for functions that return something, and an Example.
 
 from __future__ import annotations
 
+import importlib
 import inspect
 import re
 
@@ -29,8 +30,14 @@ def _public_names() -> list[str]:
     return sorted([*control_ncs.__all__, *control_ncs._IN_SUBMODULE])
 
 
+def _named(name: str):
+    """A public name from where it lives (the top level or its module)."""
+    return getattr(importlib.import_module(
+        control_ncs._IN_SUBMODULE.get(name, "control_ncs")), name)
+
+
 def _is_class(name: str) -> bool:
-    return inspect.isclass(getattr(control_ncs, name))
+    return inspect.isclass(_named(name))
 
 
 def _attribute_names(cls) -> set[str]:
@@ -52,7 +59,7 @@ def _names_in(message: str) -> set[str]:
 
 @pytest.mark.parametrize("name", _public_names())
 def test_public_name_has_a_complete_numpydoc_docstring(name):
-    obj = getattr(control_ncs, name)
+    obj = _named(name)
     module = obj.__module__
     report = numpydoc_validate.validate(f"{module}.{obj.__qualname__}")
     enforced = set(ENFORCED)

@@ -5,6 +5,7 @@ Every public function or method that takes ``**kwargs`` is listed in
 the list stays complete, so a new ``**kwargs`` function must join it.
 """
 
+import importlib
 import inspect
 
 import control as ct
@@ -147,7 +148,8 @@ PLOTS = {"SamplePaths.plot", "EnsembleResponse.plot"}
 def _public_kwargs_callables():
     names = set()
     for name in [*ncs.__all__, *ncs._IN_SUBMODULE]:
-        obj = getattr(ncs, name)
+        obj = getattr(importlib.import_module(
+            ncs._IN_SUBMODULE.get(name, "control_ncs")), name)
         members = [(name, obj)]
         if inspect.isclass(obj):
             members += [(f"{name}.{m}", v) for m, v in vars(obj).items()

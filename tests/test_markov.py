@@ -255,7 +255,7 @@ def test_dense_and_matrix_free_ms_radius_agree(seed, n, N, M):
 
 def test_second_moment_operator_acts_on_mode_tuples():
     sys = markov_jss(np.random.default_rng(2), n=2, N=1, M=3)
-    op = ncs.second_moment_operator(sys)
+    op = ncs.stability.second_moment_operator(sys)
     assert op.shape == (3 * 4, 3 * 4)
     Q = np.stack([np.eye(2) * (i + 1) for i in range(3)])
     m = sys.modes

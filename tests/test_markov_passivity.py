@@ -93,10 +93,10 @@ def test_equal_rows_with_another_initial_law_run_the_markov_code():
 def test_equal_rows_give_the_iid_dissipation_matrices_and_index():
     chain, iid = _equal_rows(np.random.default_rng(4))
     P = ncs.passivity_certificate(iid).certificate.P     # (1, n, n)
-    for T in ncs.dissipation_matrices(chain, np.repeat(P[:, None], 3, 1),
+    for T in ncs.verify.dissipation_matrices(chain, np.repeat(P[:, None], 3, 1),
                                       0.1):
         np.testing.assert_allclose(
-            T, ncs.dissipation_matrices(iid, P, 0.1)[0], atol=1e-12)
+            T, ncs.verify.dissipation_matrices(iid, P, 0.1)[0], atol=1e-12)
     assert ncs.get_input_ff_index(chain) == pytest.approx(
         ncs.get_input_ff_index(iid), rel=1e-5, abs=1e-6)
 
@@ -121,9 +121,9 @@ def test_every_analysis_function_takes_a_bursty_closed_loop():
     assert nu == pytest.approx(result.eta, rel=1e-4, abs=1e-6)
     assert ncs.ispassive(CL, ifp_index=nu - 1e-3)
     assert not ncs.ispassive(CL, ifp_index=nu + 1e-2)
-    cert = ncs.check_certificate(CL, result.certificate.P, nu - 1e-3)
+    cert = ncs.verify.check_certificate(CL, result.certificate.P, nu - 1e-3)
     assert cert.verified
-    assert ncs.certified_index(CL, result.certificate.P) >= nu
+    assert ncs.verify.certified_index(CL, result.certificate.P) >= nu
     rho = ncs.get_output_fb_index(CL)
     assert np.isfinite(rho)
 
@@ -140,14 +140,14 @@ def test_burstiness_at_equal_average_loss_lowers_the_certified_index():
 def test_markov_certificate_needs_one_storage_per_previous_mode():
     CL = _bursty_loop()
     with pytest.raises(ControlDimension, match="previous mode"):
-        ncs.check_certificate(CL, np.ones((1, 3, 1, 1)), 0.0)
+        ncs.verify.check_certificate(CL, np.ones((1, 3, 1, 1)), 0.0)
 
 
 def test_one_storage_matrix_is_broadcast_to_every_previous_mode():
     CL = _bursty_loop()
     P = ncs.passivity_certificate(CL).certificate.P
     common = np.full((1, 1), P.max())
-    thetas = ncs.dissipation_matrices(CL, common, -10.0)
+    thetas = ncs.verify.dissipation_matrices(CL, common, -10.0)
     assert len(thetas) == CL.modes.count
 
 
@@ -184,4 +184,4 @@ def test_certificate_shape_error_names_the_shape_given(markov):
     sys = (_bursty_loop() if markov
            else ncs.jss([[0.5]], [[1.0]], [[1.0]], [[1.0]], [1.0]))
     with pytest.raises(ControlDimension, match=r"got \(3, 1, 1\)$"):
-        ncs.check_certificate(sys, np.ones((3, 1, 1)), 0.1)
+        ncs.verify.check_certificate(sys, np.ones((3, 1, 1)), 0.1)

@@ -54,7 +54,7 @@ def test_gain_and_synthesis_result_round_trip(design):
 
 def test_certificate_and_passivity_result_round_trip(design):
     _, CL, _ = design
-    cert = _round_trip(ncs.certify_index(CL, CL.info["synthesis"].certificate.P))
+    cert = _round_trip(ncs.verify.certify_index(CL, CL.info["synthesis"].certificate.P))
     assert cert.verified
     res = ncs.passivity_certificate(CL)
     assert _round_trip(res).eta == res.eta

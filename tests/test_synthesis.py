@@ -715,7 +715,7 @@ def test_very_negative_fixed_eta_gives_a_verified_gain(plant, level, solver):
     assert eta == level and K.result.eta == level
     # checked at a floor above the level: Θ(η) ≼ Θ(η0) for η ≤ η0
     assert cert.verified and cert.eta >= level
-    assert control_ncs.check_certificate(CL, cert.P, cert.eta).verified
+    assert control_ncs.verify.check_certificate(CL, cert.P, cert.eta).verified
 
 
 def test_synthesis_on_a_built_jump_plant_equals_synthesis_on_its_plant(plant):
