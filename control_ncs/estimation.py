@@ -884,7 +884,7 @@ def lqg(P: NetworkedStateSpace, Q: Any, R: Any, QN: Any, RN: Any,
     R = matrix(R, "R", (m, m))
     QN, RN = _covariances(G, C, QN, RN)
     W = G @ QN @ G.T
-    Lp, S, _, est = dlqe(A, G, C, QN, RN, arrival=lam, full_output=True)
+    _, S, _, est = dlqe(A, G, C, QN, RN, arrival=lam, full_output=True)
     Kc, Sc, _, ctrl = dlqr(A, B, Q, R, arrival=nu, full_output=True)
     Lf = S @ C.T @ np.linalg.inv(C @ S @ C.T + RN)
     P_post = S - lam * Lf @ C @ S          # the a posteriori covariance P̃

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
-from control.exception import ControlArgument, ControlDimension
+from control.exception import ControlDimension
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
@@ -391,38 +391,6 @@ def markov_mean(modes: Modes) -> tuple[np.ndarray, ...]:
     Cbar = C.transpose(0, 2, 1, 3).reshape(N, q, M * n)
     Dbar = np.einsum("ki,kiab->kab", p, D)
     return Abar, Bbar, Cbar, Dbar
-
-
-
-def require_iid(sys: Any, what: str, name: str = "sys") -> None:
-    """Refuse Markov modes where only the i.i.d. formulas exist yet.
-
-    For the analyses and syntheses written from ``probabilities`` alone
-    (:ref:`theory-passivity`, :ref:`theory-synthesis`): on a Markov system they
-    would silently answer for i.i.d. modes with the stationary marginals, which
-    is wrong (:ref:`theory-markov`).
-
-    Parameters
-    ----------
-    sys : JumpStateSpace or JumpPlant
-    what : str
-        The caller's name, for the message.
-    name : str
-        The argument's name, for the message.
-
-    Raises
-    ------
-    ControlArgument
-        If ``sys`` has Markov modes.
-    """
-    modes = getattr(sys, "modes", sys)
-    if getattr(modes, "transition", None) is not None:
-        raise ControlArgument(
-            f"{what}: {name} has Markov (bursty) modes; {what} is written for "
-            f"i.i.d. losses only and would answer for the stationary "
-            f"marginals, which is wrong for bursts (theory: Markov losses). Exact "
-            f"mean-square analysis works: ms_radius, moments, simulate")
-
 
 
 def transition_matrix(value: Any, name: str) -> np.ndarray:

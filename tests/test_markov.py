@@ -424,18 +424,6 @@ def test_stationary_law_of_a_closed_loop_has_exact_zeros_on_unvisited_modes():
     np.testing.assert_allclose(law[[1, 3]], [0.2, 0.8], atol=1e-14)
 
 
-def test_require_iid_refuses_markov_systems_and_plants_by_name():
-    from control_ncs.modes import require_iid
-    from control_ncs.strategies import build
-    P = scalar_plant(2.0, actuator_loss=gilbert_elliott(fail=0.1, recover=0.5))
-    for obj in (feedback(P, [[-2.0]]), build(P)):
-        with pytest.raises(ControlArgument, match="passivesyn: P has Markov"):
-            require_iid(obj, "passivesyn", "P")
-    iid = scalar_plant(2.0, actuator_loss=0.1)
-    assert require_iid(feedback(iid, [[-2.0]]), "ispassive") is None
-    assert require_iid(build(iid), "passivesyn") is None
-
-
 # -- the chain survives interconnection; Bernoulli-only tools refuse it ------
 def test_jump_feedback_and_interconnect_keep_the_chain():
     S = ncs.jss([[[0.5]], [[1.2]]], [[1.0]], [[1.0]], [[0.0]],

@@ -30,9 +30,6 @@ SHORTAGE_HELP = ("a larger feedthrough D11 from w to z, a weaker decay "
 
 #: The figure each specification certifies, and its name.
 FIGURES = {"passivity": "eta", "h2": "h2", "hinf": "gamma"}
-#: How a gain can be found: a convex program (exact or sufficient), a
-#: Riccati iteration, or a local search on exact figures.
-ROUTES = ("program", "riccati", "local")
 
 
 @dataclass(frozen=True, repr=False)
