@@ -83,7 +83,7 @@ def _storage():
 def test_package_theta_is_the_expected_storage_increment_minus_supply():
     mats, K, P = _plant_and_gain()
     Pc = _storage()
-    theta, = cn.dissipation_matrices(cn.feedback(P, K), Pc, ETA)
+    theta, = cn.verify.dissipation_matrices(cn.feedback(P, K), Pc, ETA)
     for x, w in _samples():
         v = np.concatenate([x, w])
         assert np.isclose(v @ theta @ v,
@@ -140,7 +140,8 @@ def test_periodic_loop_is_certified_with_a_time_indexed_storage():
     result = cn.passivity_certificate(_periodic_system())
     assert result.passive
     P = np.asarray(result.certificate.P)
-    assert cn.check_certificate(_periodic_system(), P, result.eta).verdict
+    assert cn.verify.check_certificate(
+        _periodic_system(), P, result.eta).verdict
     assert not np.isclose(P[0, 0, 0], P[1, 0, 0], rtol=1e-3)
 
 
@@ -149,5 +150,6 @@ def test_no_time_invariant_storage_certifies_the_periodic_loop():
     ``(a_0² - 1) p`` is positive for every ``p > 0``."""
     sys = _periodic_system()
     for p in np.logspace(-8, 8, 81):
-        thetas = cn.dissipation_matrices(sys, np.full((2, 1, 1), p), 0.0)
+        thetas = cn.verify.dissipation_matrices(
+            sys, np.full((2, 1, 1), p), 0.0)
         assert max(np.linalg.eigvalsh(T).max() for T in thetas) > 0

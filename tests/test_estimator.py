@@ -15,8 +15,8 @@ import pytest
 from control.exception import ControlArgument, ControlDimension
 
 from control_ncs import (PeriodicGain, ScheduleWarning, SynthesisError,
-                         feedback, jss, moments, ms_radius, nss, passivesyn,
-                         require_state_measured)
+                         feedback, jss, moments, ms_radius, nss, passivesyn)
+from control_ncs.strategies import require_state_measured
 from control_ncs.estimator import estimation_error_loop, estimator_gain
 from control_ncs.protocol import simulate_protocol
 

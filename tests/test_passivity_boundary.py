@@ -123,7 +123,8 @@ def test_output_fb_index_is_certified_exactly():
     cert = result.certificate
     assert result.passive and cert.verified
     assert result.ofp_index == cert.ofp_index
-    again = cn.check_certificate(G, cert.P, 0.0, ofp_index=result.ofp_index)
+    again = cn.verify.check_certificate(
+        G, cert.P, 0.0, ofp_index=result.ofp_index)
     assert again.verified and again.theta_max.max() < 0
     assert ispassive(G, result.ofp_index - 1e-4)
     assert not ispassive(G, result.ofp_index + 1e-3)
@@ -166,7 +167,7 @@ def test_output_fb_index_on_a_lossy_loop_is_exactly_certified():
     result = passivity_certificate(J, 0.0, ofp_index=None)
     assert result.passive and result.method == "lmi"
     rho = result.ofp_index
-    assert cn.check_certificate(J, result.certificate.P, 0.0,
+    assert cn.verify.check_certificate(J, result.certificate.P, 0.0,
                                 ofp_index=rho).verified
     assert not ispassive(J, rho + 1e-3 * max(1.0, abs(rho)))
 
@@ -183,7 +184,7 @@ def test_input_index_at_a_fixed_output_level_matches_the_frequency_test(rho):
     assert result.passive and result.method == "lmi"
     assert result.ofp_index == rho == result.certificate.ofp_index
     assert nu - 1e-5 < result.eta < nu + 1e-9
-    assert cn.check_certificate(G, result.certificate.P, result.eta,
+    assert cn.verify.check_certificate(G, result.certificate.P, result.eta,
                                 ofp_index=rho).verified
 
 
@@ -211,8 +212,8 @@ def test_transfer_functions_are_accepted_wherever_control_accepts_them():
     assert cn.frequency_ff_index(G) == cn.frequency_ff_index(S)
     assert cn.mean_input_ff_index(G) == cn.mean_input_ff_index(S)
     P = passivity_certificate(S).certificate.P
-    assert cn.check_certificate(G, P, 1.3).verified
-    assert cn.certified_index(G, P) == cn.certified_index(S, P)
+    assert cn.verify.check_certificate(G, P, 1.3).verified
+    assert cn.verify.certified_index(G, P) == cn.verify.certified_index(S, P)
 
 
 # -- 2. named errors at the boundary of verify ------------------------------------
@@ -220,10 +221,10 @@ def stable_ss():
     return ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
 
 
-CHECKS = [lambda G, P: cn.certified_index(G, P),
-          lambda G, P: cn.certify_index(G, P),
-          lambda G, P: cn.dissipation_matrices(G, P, 0.0),
-          lambda G, P: cn.check_certificate(G, P, 0.0)]
+CHECKS = [lambda G, P: cn.verify.certified_index(G, P),
+          lambda G, P: cn.verify.certify_index(G, P),
+          lambda G, P: cn.verify.dissipation_matrices(G, P, 0.0),
+          lambda G, P: cn.verify.check_certificate(G, P, 0.0)]
 
 
 @pytest.mark.parametrize("check", CHECKS)
@@ -254,27 +255,28 @@ def test_non_square_system_is_a_control_dimension(check):
 @pytest.mark.parametrize("decay", [5, -1, 0, np.nan, "fast"])
 def test_check_certificate_rejects_a_decay_outside_0_1(decay):
     with pytest.raises(ValueError, match="^decay:"):
-        cn.check_certificate(stable_ss(), [[1.0]], 0.3, decay=decay)
+        cn.verify.check_certificate(stable_ss(), [[1.0]], 0.3, decay=decay)
 
 
 def test_decay_above_one_would_verify_an_eta_above_the_index():
     """Before: decay=5 verified η = 0.5 > 1/3 (the index), a false proof."""
     G = stable_ss()
-    assert not cn.check_certificate(G, [[1.0]], 0.5).verified
+    assert not cn.verify.check_certificate(G, [[1.0]], 0.5).verified
     with pytest.raises(ValueError, match="^decay:"):
-        cn.check_certificate(G, [[1.0]], 0.5, decay=5)
+        cn.verify.check_certificate(G, [[1.0]], 0.5, decay=5)
 
 
 @pytest.mark.parametrize("eta", [np.nan, np.inf, "high", None])
 def test_check_certificate_rejects_a_non_finite_eta(eta):
     with pytest.raises(ValueError, match="^eta:"):
-        cn.check_certificate(stable_ss(), [[1.0]], eta)
+        cn.verify.check_certificate(stable_ss(), [[1.0]], eta)
 
 
 @pytest.mark.parametrize("check", [
-    lambda: cn.certified_index(stable_ss(), [[1.0]], decay=2.0),
-    lambda: cn.certify_index(stable_ss(), [[1.0]], decay=-0.5),
-    lambda: cn.dissipation_matrices(stable_ss(), [[1.0]], 0.0, decay=0.0)])
+    lambda: cn.verify.certified_index(stable_ss(), [[1.0]], decay=2.0),
+    lambda: cn.verify.certify_index(stable_ss(), [[1.0]], decay=-0.5),
+    lambda: cn.verify.dissipation_matrices(
+        stable_ss(), [[1.0]], 0.0, decay=0.0)])
 def test_every_check_rejects_a_decay_outside_0_1(check):
     with pytest.raises(ValueError, match="^decay:"):
         check()
@@ -364,11 +366,11 @@ def test_kernel_is_the_expected_dissipation_of_the_supply_rate():
 
 def test_certified_index_is_the_schur_complement_supremum_of_the_kernel():
     G = stable_ss()
-    T0 = cn.dissipation_matrices(G, [[1.0]], 0.0)[0]
+    T0 = cn.verify.dissipation_matrices(G, [[1.0]], 0.0)[0]
     sup = verify.ifp_supremum(T0, 1)
-    assert sup == cn.certified_index(G, [[1.0]]) == pytest.approx(1 / 3)
-    assert cn.check_certificate(G, [[1.0]], sup - 1e-9).verified
-    assert not cn.check_certificate(G, [[1.0]], sup + 1e-9).verified
+    assert sup == cn.verify.certified_index(G, [[1.0]]) == pytest.approx(1 / 3)
+    assert cn.verify.check_certificate(G, [[1.0]], sup - 1e-9).verified
+    assert not cn.verify.check_certificate(G, [[1.0]], sup + 1e-9).verified
 
 
 def test_feedthrough_bound_is_the_smallest_eigenvalue_over_phases():
@@ -396,7 +398,8 @@ def test_floor_level_with_an_output_feedback_index_is_not_refused_for_feedthroug
     G = ct.ss(0.5, 1.0, 1.0, 1.0, True)
     res = cn.passivity_certificate(G, -1e9, ofp_index=1e7)
     assert res.passive and res.eta == -1e9
-    assert cn.check_certificate(G, [[2e8]], -1e9, ofp_index=1e7).verified
+    assert cn.verify.check_certificate(
+        G, [[2e8]], -1e9, ofp_index=1e7).verified
 
 
 def test_a_maximised_margin_within_solver_tolerance_of_zero_refutes_nothing():
@@ -408,6 +411,6 @@ def test_a_maximised_margin_within_solver_tolerance_of_zero_refutes_nothing():
             nmeas=1, ncon=1, actuator_loss=0.1)
     CL = cn.feedback(P, cn.PeriodicGain([[[-1.5]]]))
     level = 0.3519238534011 - 1e-10
-    assert cn.check_certificate(CL, [[1.11978503]], level).verified
+    assert cn.verify.check_certificate(CL, [[1.11978503]], level).verified
     res = cn.passivity_certificate(CL, level, method="lmi")
     assert res.passive or res.reason != "infeasible"

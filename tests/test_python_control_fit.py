@@ -390,7 +390,7 @@ def _results():
     G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
     r = cn.step_response(CL, 200, input=0, trials=300, keep_paths=50, seed=0)
     return dict(
-        certificate=cn.check_certificate(G, [[1.0]], 0.3),
+        certificate=cn.verify.check_certificate(G, [[1.0]], 0.3),
         passivity=cn.passivity_certificate(G),
         refuted=cn.passivity_certificate(G, 0.4),
         lmi_route=cn.passivity_certificate(CL, 0.0),
@@ -434,7 +434,7 @@ def test_verdicts_share_verdict_status_and_message():
 
 def test_certificate_that_fails_says_why_in_its_message():
     G = ct.ss([[0.5]], [[1.0]], [[1.0]], [[1.0]], True)
-    cert = cn.check_certificate(G, [[1.0]], 0.4)
+    cert = cn.verify.check_certificate(G, [[1.0]], 0.4)
     assert not cert.verdict and not cert.success
     assert cert.status == "not_verified"
     assert "λmax(Θ_k)" in cert.message and "not_verified" in repr(cert)
