@@ -97,6 +97,20 @@ def test_unknown_option_raises_type_error_listing_the_accepted_keys(design,
         design(P, options={key: 1})
 
 
+@pytest.mark.parametrize("design", [ncs.passivesyn, ncs.h2syn,
+                                    ncs.hinfsyn])
+def test_an_unknown_keyword_is_a_type_error_without_a_deprecation(design):
+    """A keyword that is neither the design's nor an option of its solver
+    is refused at once as an unknown keyword; no deprecation warning of
+    the solver-option spelling comes first."""
+    P = passive_plant() if design is ncs.passivesyn else lq_plant()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        with pytest.raises(TypeError, match=rf"{design.__name__}\(\) got "
+                                            r"unexpected keyword.*'bogus_kw'"):
+            design(P, bogus_kw=1)
+
+
 def test_options_must_be_a_mapping_with_a_mapping_of_solver_options():
     with pytest.raises(TypeError, match="options must be a mapping"):
         ncs.h2syn(lq_plant(), options=[("margin", 1e-6)])

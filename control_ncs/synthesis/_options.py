@@ -15,7 +15,7 @@ import warnings
 from typing import Any, Mapping
 
 from .._checks import caller_stacklevel
-from ..lmi import DEFAULT_MARGIN
+from ..lmi import DEFAULT_MARGIN, check_options, check_solver, installed_solvers
 
 __all__: list[str] = []
 
@@ -54,6 +54,20 @@ def resolved_options(who: str, options: Mapping[str, Any] | None,
         given["solver_options"] = dict(_checked_mapping(
             who, given["solver_options"], "options['solver_options']"))
     moved = _moved_keywords(who, keywords, defaults, given)
+    if "solver_options" in moved:
+        # a keyword that is no option of the solver is an unknown keyword:
+        # TypeError at once, without a deprecation warning before it
+        solver = moved.get("solver", given.get("solver", defaults.get(
+            "solver")))
+        if solver is None or str(solver).upper() in installed_solvers():
+            try:
+                check_options(check_solver(solver), moved["solver_options"])
+            except TypeError as err:
+                raise TypeError(
+                    f"{who}() got unexpected keyword argument(s) "
+                    f"{sorted(moved['solver_options'])}: neither a keyword "
+                    f"of {who} nor, deprecated, a solver option ({err})"
+                    ) from None
     if moved:
         _warn_deprecated(who, keywords, moved)
     resolved = dict(defaults, **given, **moved)
