@@ -26,7 +26,8 @@ from ._checks import choice, positive_int, real_array
 from ._lifting import check_lifted_size
 from .gain import ACTUATORS, CONTROLLERS
 from .automata import LossAutomaton
-from .modes import join_labels, lump_markov, markov_classes
+from .modes import (entered_modes, join_labels, keep_modes, lump_markov,
+                    markov_classes)
 from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
 from .modechain import Network, network
@@ -592,20 +593,34 @@ def _lumped(arr: dict, p: np.ndarray, T: np.ndarray, nominal: np.ndarray,
     new; a burst state matters only through the next outcome), so the
     loop has the modes its figures need. Gains per previous mode see the
     lumped mode: a class holding modes the controller tells apart joins
-    their labels. Equal rows after lumping: i.i.d. modes."""
+    their labels. Modes no transition enters are dropped first
+    (:func:`~control_ncs.modes.entered_modes`: exact, they are never
+    drawn; e.g. a link's loss state when it loses nothing, or pairs of
+    ages that cannot follow each other). Equal rows after lumping: i.i.d.
+    modes."""
     names = list(arr)
+    keep = entered_modes(T, nominal)
+    if not keep.all():
+        mats, T, p, index = keep_modes([arr[f] for f in names], T, p, keep)
+        arr = dict(zip(names, mats))
+        N = T.shape[0]
+        nominal = np.array([int(np.flatnonzero(index[k] == nominal[k])[0])
+                            for k in range(N)])
+        if observed is not None:
+            observed = np.stack([observed[k][index[k - 1]]
+                                 for k in range(N)])
     mats = [arr[f] for f in names]
     labels = markov_classes(mats, T)
-    if all(int(lab.max()) + 1 == T.shape[1] for lab in labels):
-        return arr, p, T, nominal, observed
-    mats, lumped, pL = lump_markov(mats, T, p, labels)
-    TL: np.ndarray | None = lumped
-    nominal = np.array([labels[k][nominal[k]] for k in range(T.shape[0])])
-    if observed is not None:
-        observed = join_labels(observed, labels)
-    if np.all(lumped == lumped[:, :1, :]):
+    if not all(int(lab.max()) + 1 == T.shape[1] for lab in labels):
+        mats, T, p = lump_markov(mats, T, p, labels)
+        nominal = np.array([labels[k][nominal[k]]
+                            for k in range(T.shape[0])])
+        if observed is not None:
+            observed = join_labels(observed, labels)
+    TL: np.ndarray | None = T
+    if np.all(T == T[:, :1, :]):
         TL, observed = None, None
-    return dict(zip(names, mats)), pL, TL, nominal, observed
+    return dict(zip(names, mats)), p, TL, nominal, observed
 
 
 def _sampling(P: NetworkedStateSpace, arr: dict, controller: str) -> dict:
