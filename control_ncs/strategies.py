@@ -543,7 +543,8 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
     observed = None if T is None and net.constraint is None \
         else net.observed()
     if T is not None:
-        arr, p, T, nominal, observed = _lumped(arr, p, T, nominal, observed)
+        arr, p, T, nominal, observed = _lumped(
+            arr, p, T, nominal, observed, buffered=bool(ctx.Ds or ctx.Da))
     E, Ew, Bu, Du = _per_phase_reading(arr["E"], arr["Ew"], arr["Bu"],
                                        arr["Du"])
     Gw = None
@@ -585,7 +586,7 @@ def _check_mode_bytes(N: int, M: int, per_mode: int, states: int) -> None:
 
 
 def _lumped(arr: dict, p: np.ndarray, T: np.ndarray, nominal: np.ndarray,
-            observed: Any) -> tuple:
+            observed: Any, buffered: bool = False) -> tuple:
     """The Markov modes lumped exactly (:func:`~control_ncs.modes.markov_
     classes`): modes of equal matrices, readings and records that move
     alike are one mode. The product of two links' chains repeats itself
@@ -593,14 +594,17 @@ def _lumped(arr: dict, p: np.ndarray, T: np.ndarray, nominal: np.ndarray,
     new; a burst state matters only through the next outcome), so the
     loop has the modes its figures need. Gains per previous mode see the
     lumped mode: a class holding modes the controller tells apart joins
-    their labels. Modes no transition enters are dropped first
-    (:func:`~control_ncs.modes.entered_modes`: exact, they are never
-    drawn; e.g. a link's loss state when it loses nothing, or pairs of
-    ages that cannot follow each other). Equal rows after lumping: i.i.d.
-    modes."""
+    their labels. Over a buffered (delayed) link the modes no transition
+    enters are dropped first (:func:`~control_ncs.modes.entered_modes`:
+    exact, they are never drawn; e.g. the other link's loss state when it
+    loses nothing, or pairs of ages that cannot follow each other): the
+    certificates of such loops cost their modes, and GMRES crawls on the
+    nilpotent block they add. Without buffers the modes keep the layout
+    ``(θ1, θ2)`` that gains per previous mode are given on. Equal rows
+    after lumping: i.i.d. modes."""
     names = list(arr)
     keep = entered_modes(T, nominal)
-    if not keep.all():
+    if buffered and not keep.all():
         mats, T, p, index = keep_modes([arr[f] for f in names], T, p, keep)
         arr = dict(zip(names, mats))
         N = T.shape[0]
