@@ -402,7 +402,9 @@ def build(P: NetworkedStateSpace, controller: str = "static",
         Unmerged. Without buffers the four modes ``(θ1, θ2) = (0, 0),
         (1, 0), (0, 1), (1, 1)`` (the sensor bit of the step's end for the
         controllers with memory); in general the product of the links'
-        states, the sensor link's fastest; ``nominal`` is the loss-free
+        states, the sensor link's fastest; over a buffered (delayed) link
+        Markov modes no transition enters are left out (never drawn) and
+        modes that move alike are lumped; ``nominal`` is the loss-free
         mode.
 
     Raises
