@@ -335,6 +335,58 @@ def lump_markov(mats: Sequence[np.ndarray], T: np.ndarray, p: np.ndarray,
     return out, TL, prob
 
 
+def entered_modes(T: np.ndarray, always: np.ndarray | None = None
+                  ) -> np.ndarray:
+    """The modes a periodic chain can occupy after any number of steps:
+    ``keep[k, j]`` is False when no kept mode of phase ``k - 1`` moves into
+    mode ``j`` of phase ``k`` (repeated until nothing changes).
+
+    A mode left out is occupied at most at the first step, and never under
+    a law that gives it probability 0 (the stationary one): its second
+    moment vanishes after one step, a zero diagonal block of the operator
+    (:ref:`theory-markov`), so every mean, moment and mean-square figure of
+    the chain without it is unchanged. ``always`` (shape (N,), a mode per
+    phase, e.g. the loss-free one) is kept whatever enters it.
+    """
+    N, M = T.shape[:2]
+    keep = np.ones((N, M), bool)
+    while True:
+        entered = np.stack([np.any(T[k - 1][keep[k - 1]] > 0, axis=0)
+                            for k in range(N)])
+        if always is not None:
+            entered[np.arange(N), always] = True
+        new = keep & entered
+        if np.array_equal(new, keep):
+            return keep
+        keep = new
+
+
+def keep_modes(mats: Sequence[np.ndarray], T: np.ndarray, p: np.ndarray,
+               keep: np.ndarray) -> tuple[list[np.ndarray], np.ndarray,
+                                          np.ndarray, list[np.ndarray]]:
+    """The chain on the modes ``keep`` (:func:`entered_modes`) marks: every
+    ``X[k]`` of ``mats``, ``T`` and ``p`` restricted to them, and the old
+    index of each new mode per phase. Phases with fewer modes repeat their
+    first kept mode as a copy no mode moves into (probability 0), as
+    :func:`lump_markov` pads."""
+    N = T.shape[0]
+    G = int(keep.sum(axis=1).max())
+    index = []
+    for k in range(N):
+        kept = np.flatnonzero(keep[k])
+        index.append(np.concatenate([kept, np.full(G - kept.size, kept[0])]))
+    out = [np.stack([X[k, index[k]] for k in range(N)]) for X in mats]
+    TK = np.zeros((N, G, G))
+    prob = np.zeros((N, G))
+    for k in range(N):
+        nxt = index[(k + 1) % N]
+        real = int(keep[(k + 1) % N].sum())
+        TK[k][:, :real] = T[k][np.ix_(index[k], nxt[:real])]
+        real_k = int(keep[k].sum())
+        prob[k, :real_k] = p[k, index[k][:real_k]]
+    return out, TK, prob, index
+
+
 def join_labels(observed: np.ndarray, labels: list[np.ndarray]
                 ) -> np.ndarray:
     """What a controller knows of the previous lumped mode: ``observed[k,

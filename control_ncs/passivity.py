@@ -57,7 +57,7 @@ from .lmi import (DEFAULT_MARGIN, AnalysisModel, SolveReport, SupplyModel,
                   analysis_model, check_options, check_solver, solve,
                   supply_model)
 from .jump import JumpStateSpace
-from .stability import ms_radius
+from .stability import ms_radius, radius_memo
 from .verify import (Certificate, certify_index, certify_ofp_index,
                      check_certificate, level_floor, square_system,
                      supply_feedthrough_bound)
@@ -354,8 +354,9 @@ def passivity_certificate(sys: Any, ifp_index: float | None = None, *,
         bound = supply_feedthrough_bound(sys, ofp_index or 0.0)
         ifp_index = max(ifp_index, level_floor(
             bound, sys.modes.A, sys.modes.B, sys.modes.C, sys.modes.D))
-    result = _certificate(sys, ifp_index, ofp_index, decay, method, solver,
-                          margin, solver_options)
+    with radius_memo():     # the necessary condition and the check share it
+        result = _certificate(sys, ifp_index, ofp_index, decay, method,
+                              solver, margin, solver_options)
     if requested is None or requested == ifp_index:
         return result
     # certified at the floor: every lower level is certified exactly; a

@@ -165,9 +165,13 @@ class RiccatiResult:
 class _Phase:
     """One phase's data, restricted to live modes and active inputs."""
 
-    def __init__(self, p, A, Bu, Bw, Cz, Du, Dw, active, means, nxt=None):
+    def __init__(self, p, A, Bu, Bw, Cz, Du, Dw, active, means, nxt=None,
+                 shared=None):
         live = np.flatnonzero(p > 0)
         self.p = p[live]
+        self.live = live
+        # Markov modes: the phase's products Fᵢᵀ P⁺ Fᵢ, shared by its classes
+        self.shared = shared
         # Markov modes: the class of each live next mode at phase k + 1
         self.nxt = None if nxt is None else np.asarray(nxt)[live]
         self.active = active
@@ -188,13 +192,39 @@ class _Phase:
         (i.i.d.), or one per live next mode (Markov)."""
         return Pn[0] if self.nxt is None else Pn[self.nxt]
 
-    def quad(self, Pn: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Blocks of ``Σ p Fᵀ P⁺ F``: (AA, AW, AU, WW, WU, UU)."""
-        F = self.F
-        Q = np.tensordot(self.p, np.swapaxes(F, 1, 2) @ (Pn @ F), axes=1)
+    def quad(self, Pnext: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Blocks of ``Σ p Fᵀ P⁺ F``: (AA, AW, AU, WW, WU, UU), from the
+        next phase's stack ``Pnext`` (:meth:`after`). With Markov modes
+        each mode's ``Fᵢᵀ P⁺ Fᵢ`` is the same for every class of previous
+        modes (only the weights differ): computed once per stack."""
+        if self.shared is not None:
+            Y = self.shared.products(Pnext)[self.live]
+        else:
+            F = self.F
+            Pn = self.after(Pnext)
+            Y = np.swapaxes(F, 1, 2) @ (Pn @ F)
+        Q = np.tensordot(self.p, Y, axes=1)
         n, nw = self.n, self.nw
         a, w, u = slice(0, n), slice(n, n + nw), slice(n + nw, None)
         return Q[a, a], Q[a, w], Q[a, u], Q[w, w], Q[w, u], Q[u, u]
+
+
+class _Products:
+    """``Fᵢᵀ P⁺_{cls(i)} Fᵢ`` of every mode ``i`` of one phase (Markov), for
+    the last stack of next-phase ``P`` asked: the classes of previous modes
+    of a phase weigh the same products (one sweep: one stack)."""
+
+    def __init__(self, F: np.ndarray, nxt: np.ndarray, used: np.ndarray):
+        self.F, self.nxt, self.used = F, np.asarray(nxt), used
+        self.key: np.ndarray | None = None
+        self.Y = np.zeros((F.shape[0], F.shape[2], F.shape[2]))
+
+    def products(self, Pnext: np.ndarray) -> np.ndarray:
+        if self.key is not Pnext:
+            F, u = self.F[self.used], self.used
+            self.Y[u] = np.swapaxes(F, 1, 2) @ (Pnext[self.nxt[u]] @ F)
+            self.key = Pnext
+        return self.Y
 
 
 def _sym(M: np.ndarray) -> np.ndarray:
@@ -210,7 +240,7 @@ def _chol(M: np.ndarray) -> np.ndarray | None:
 
 def _step(d: _Phase, Pn: np.ndarray, eta: float):
     """``(G_k(K*; P⁺), K*)``, or None when ``R_k(P⁺)`` is not positive definite."""
-    Qaa, Qaw, Qau, Qww, Qwu, Quu = d.quad(Pn)
+    Qaa, Qaw, Qau, Qww, Qwu, Quu = d.quad(Pn)   # Pn: the next stack
     Lr = _chol(_sym(d.Dsym - 2 * eta * np.eye(d.nw) - Qww))
     if Lr is None:
         return None
@@ -281,7 +311,7 @@ def _iterate(data, eta, decay, eps, P0, max_sweeps, blowup):
         for k in reversed(range(N)):
             new = np.empty_like(P[k])
             for c, d in enumerate(data[k]):
-                out = _step(d, d.after(P[(k + 1) % N]), eta)
+                out = _step(d, P[(k + 1) % N], eta)
                 if out is None:      # R_k lost definiteness: a proof
                     return "diverged", P, K, sweep
                 G, K[k][c] = out
@@ -498,14 +528,19 @@ def _phases(plant: JumpPlant) -> tuple[list, list]:
     data = []
     for k in range(N):
         ds = []
+        active = plant.active_inputs(k)
+        used = np.flatnonzero(np.any(T[k - 1][classes[k][1]] > 0, axis=0))
+        shared = _Products(np.concatenate(
+            [plant.A[k], plant.Bw[k], plant.Bu[k][:, :, active]], axis=2),
+            classes[(k + 1) % N][0], used)
         for rep in classes[k][1]:
             t = T[k - 1][rep]
             means = tuple(np.einsum("m,mij->ij", t, X[k])
                           for X in (plant.Cz, plant.Du, plant.Dw))
             ds.append(_Phase(t, plant.A[k], plant.Bu[k], plant.Bw[k],
                              plant.Cz[k], plant.Du[k], plant.Dw[k],
-                             plant.active_inputs(k), means,
-                             nxt=classes[(k + 1) % N][0]))
+                             active, means,
+                             nxt=classes[(k + 1) % N][0], shared=shared))
         data.append(ds)
     return data, [c[0] for c in classes]
 

@@ -31,8 +31,10 @@ from __future__ import annotations
 
 import math
 import warnings
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
-from typing import Any, Callable, ClassVar, Literal, overload
+from typing import Any, Callable, ClassVar, Iterator, Literal, overload
 
 import numpy as np
 from scipy.linalg import LinAlgWarning, lu_factor, lu_solve, matrix_balance
@@ -797,9 +799,47 @@ def ms_radius(sys: Any, *, method: str = "auto", tol: float = 1e-8,
     tol = positive_real(tol, "tol")
     if not isinstance(bracket, (bool, np.bool_)):
         raise ValueError(f"bracket: expected True or False, got {bracket!r}")
+    res = _measured(sys, method, tol)
+    return res if bracket else res.radius
+
+
+def _measured(sys: JumpStateSpace, method: str, tol: float
+              ) -> RadiusBracket:
+    """The certified bracket of ``sys``; inside :func:`radius_memo`,
+    computed once per loop (its modes are read-only)."""
+    memo = _MEMO.get()
+    key = (id(sys.modes), method, float(tol))
+    if memo is not None and key in memo and memo[key][0] is sys.modes:
+        return memo[key][1]
     with serial_blas(kernel_side(sys, method)):
         res = _bracket(sys, method, tol)
-    return res if bracket else res.radius
+    if memo is not None:
+        memo[key] = (sys.modes, res)
+    return res
+
+
+#: The brackets of the loops measured inside :func:`radius_memo`, by the
+#: identity of their (read-only) modes; None outside.
+_MEMO: ContextVar[dict | None] = ContextVar("ms_radius_memo", default=None)
+
+
+@contextmanager
+def radius_memo() -> Iterator[None]:
+    """Within the block, :func:`ms_radius` of one loop is computed once.
+
+    A passivity certificate measures its loop twice (the necessary
+    condition before the solve, the exact check after it); the second
+    reads the first. Outside the block every call computes (timings of
+    ``ms_radius`` stay what they say). Nested blocks share the outer memo.
+    """
+    if _MEMO.get() is not None:
+        yield
+        return
+    token = _MEMO.set({})
+    try:
+        yield
+    finally:
+        _MEMO.reset(token)
 
 
 def kernel_side(sys: JumpStateSpace, method: str) -> int:

@@ -26,7 +26,8 @@ from ._checks import choice, positive_int, real_array
 from ._lifting import check_lifted_size
 from .gain import ACTUATORS, CONTROLLERS
 from .automata import LossAutomaton
-from .modes import join_labels, lump_markov, markov_classes
+from .modes import (entered_modes, join_labels, keep_modes, lump_markov,
+                    markov_classes)
 from .openloop import JumpPlant
 from .plant import NetworkedStateSpace
 from .modechain import Network, network
@@ -401,7 +402,9 @@ def build(P: NetworkedStateSpace, controller: str = "static",
         Unmerged. Without buffers the four modes ``(θ1, θ2) = (0, 0),
         (1, 0), (0, 1), (1, 1)`` (the sensor bit of the step's end for the
         controllers with memory); in general the product of the links'
-        states, the sensor link's fastest; ``nominal`` is the loss-free
+        states, the sensor link's fastest; over a buffered (delayed) link
+        Markov modes no transition enters are left out (never drawn) and
+        modes that move alike are lumped; ``nominal`` is the loss-free
         mode.
 
     Raises
@@ -542,7 +545,8 @@ def _run(ctx: Context, net: Network, controller: str, actuator: str,
     observed = None if T is None and net.constraint is None \
         else net.observed()
     if T is not None:
-        arr, p, T, nominal, observed = _lumped(arr, p, T, nominal, observed)
+        arr, p, T, nominal, observed = _lumped(
+            arr, p, T, nominal, observed, buffered=bool(ctx.Ds or ctx.Da))
     E, Ew, Bu, Du = _per_phase_reading(arr["E"], arr["Ew"], arr["Bu"],
                                        arr["Du"])
     Gw = None
@@ -584,7 +588,7 @@ def _check_mode_bytes(N: int, M: int, per_mode: int, states: int) -> None:
 
 
 def _lumped(arr: dict, p: np.ndarray, T: np.ndarray, nominal: np.ndarray,
-            observed: Any) -> tuple:
+            observed: Any, buffered: bool = False) -> tuple:
     """The Markov modes lumped exactly (:func:`~control_ncs.modes.markov_
     classes`): modes of equal matrices, readings and records that move
     alike are one mode. The product of two links' chains repeats itself
@@ -592,20 +596,37 @@ def _lumped(arr: dict, p: np.ndarray, T: np.ndarray, nominal: np.ndarray,
     new; a burst state matters only through the next outcome), so the
     loop has the modes its figures need. Gains per previous mode see the
     lumped mode: a class holding modes the controller tells apart joins
-    their labels. Equal rows after lumping: i.i.d. modes."""
+    their labels. Over a buffered (delayed) link the modes no transition
+    enters are dropped first (:func:`~control_ncs.modes.entered_modes`:
+    exact, they are never drawn; e.g. the other link's loss state when it
+    loses nothing, or pairs of ages that cannot follow each other): the
+    certificates of such loops cost their modes, and GMRES crawls on the
+    nilpotent block they add. Without buffers the modes keep the layout
+    ``(θ1, θ2)`` that gains per previous mode are given on. Equal rows
+    after lumping: i.i.d. modes."""
     names = list(arr)
+    keep = entered_modes(T, nominal)
+    if buffered and not keep.all():
+        mats, T, p, index = keep_modes([arr[f] for f in names], T, p, keep)
+        arr = dict(zip(names, mats))
+        N = T.shape[0]
+        nominal = np.array([int(np.flatnonzero(index[k] == nominal[k])[0])
+                            for k in range(N)])
+        if observed is not None:
+            observed = np.stack([observed[k][index[k - 1]]
+                                 for k in range(N)])
     mats = [arr[f] for f in names]
     labels = markov_classes(mats, T)
-    if all(int(lab.max()) + 1 == T.shape[1] for lab in labels):
-        return arr, p, T, nominal, observed
-    mats, lumped, pL = lump_markov(mats, T, p, labels)
-    TL: np.ndarray | None = lumped
-    nominal = np.array([labels[k][nominal[k]] for k in range(T.shape[0])])
-    if observed is not None:
-        observed = join_labels(observed, labels)
-    if np.all(lumped == lumped[:, :1, :]):
+    if not all(int(lab.max()) + 1 == T.shape[1] for lab in labels):
+        mats, T, p = lump_markov(mats, T, p, labels)
+        nominal = np.array([labels[k][nominal[k]]
+                            for k in range(T.shape[0])])
+        if observed is not None:
+            observed = join_labels(observed, labels)
+    TL: np.ndarray | None = T
+    if np.all(T == T[:, :1, :]):
         TL, observed = None, None
-    return dict(zip(names, mats)), pL, TL, nominal, observed
+    return dict(zip(names, mats)), p, TL, nominal, observed
 
 
 def _sampling(P: NetworkedStateSpace, arr: dict, controller: str) -> dict:

@@ -196,3 +196,24 @@ def test_a_badly_scaled_loop_is_bracketed_as_its_balanced_twin():
     Ri = np.linalg.inv(R)
     gap = got.upper * np.eye(2) - Ri @ image @ Ri.T
     assert np.linalg.eigvalsh(0.5 * (gap + gap.T)).min() > 0
+
+
+def test_a_passivity_certificate_measures_its_loop_once(monkeypatch):
+    """Its necessary condition and its exact check read one bracket
+    (radius_memo); outside a certificate every call computes, so the
+    figures and timings of ms_radius stay its own."""
+    import control_ncs as ncs
+    from control_ncs import stability
+    A = np.array([[[0.5, 0.2], [0.0, 0.3]], [[0.9, 0.1], [0.2, 0.4]]])
+    sys = jss(A, np.ones((2, 2, 1)), np.ones((2, 1, 2)),
+              np.full((2, 1, 1), 3.0),
+              transition=[[0.7, 0.3], [0.4, 0.6]])
+    calls = []
+    real = stability._bracket
+    monkeypatch.setattr(stability, "_bracket",
+                        lambda *a: calls.append(1) or real(*a))
+    res = ncs.passivity_certificate(sys, None, method="lmi")
+    assert res.certificate.verified and len(calls) == 1
+    assert res.certificate.ms_radius == ms_radius(sys)
+    ms_radius(sys)
+    assert len(calls) == 3 and stability._MEMO.get() is None

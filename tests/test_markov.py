@@ -569,7 +569,8 @@ def test_lumped_modes_give_the_figures_of_the_whole_chain(monkeypatch,
                                                           network,
                                                           controller, lumps):
     """The builder lumps Markov modes that share matrices and move alike;
-    the loop on the whole product chain (lumping switched off) has the
+    the loop on the whole product chain (lumping, and the drop of modes
+    nothing enters, switched off) has the
     same radius, H2 norm and moments, with at least as many modes."""
     from control_ncs import strategies
     A = np.array([[1.1, 0.3], [0.0, 0.8]])
@@ -582,7 +583,7 @@ def test_lumped_modes_give_the_figures_of_the_whole_chain(monkeypatch,
         kw["estimator_gain"] = np.array([[0.5, 0.0], [0.0, 0.5]])
     lumped = feedback(P, K, **kw)
     monkeypatch.setattr(strategies, "_lumped",
-                        lambda arr, p, T, nominal, observed:
+                        lambda arr, p, T, nominal, observed, **kw:
                         (arr, p, T, nominal, observed))
     whole = feedback(P, K, **kw)
     assert (whole.nmodes > lumped.nmodes) == lumps

@@ -449,9 +449,13 @@ def _refine(plant: JumpPlant, eta: float | None, decay: float,
 
     def result(cert: Any, stopped: str, message: str) -> RefineResult:
         ok = cert is not None and cert.verified
+        # a certificate of K carries the rate of its loop (certified
+        # bracket, computed independently of P): not measured again
+        rate = (cert.ms_radius if cert is not None else
+                exact_ms_radius(plant.close(K)))
         return RefineResult(
             K, ok, cert, float(cert.eta) if ok else float("nan"),
-            exact_ms_radius(plant.close(K)), start, math.exp(f0),
+            rate, start, math.exp(f0),
             eta_before, search.iterations, search.loop.evaluations, stopped,
             message, search.tried, time.perf_counter() - began)
 
