@@ -320,11 +320,9 @@ def lump_markov(mats: Sequence[np.ndarray], T: np.ndarray, p: np.ndarray,
     copy no mode moves into (probability 0)."""
     N = T.shape[0]
     G = max(int(lab.max()) + 1 for lab in labels)
-    first = []
-    for lab in labels:
-        _, f = np.unique(lab, return_index=True)
-        first.append(np.concatenate([f, np.full(G - f.size, f[0])]))
-    out = [np.stack([X[k, first[k]] for k in range(N)]) for X in mats]
+    first = _padded([np.unique(lab, return_index=True)[1] for lab in labels],
+                    G)
+    out = _picked(mats, first)
     TL = np.zeros((N, G, G))
     prob = np.zeros((N, G))
     for k in range(N):
@@ -333,6 +331,19 @@ def lump_markov(mats: Sequence[np.ndarray], T: np.ndarray, p: np.ndarray,
         np.add.at(TL[k].T, nxt, rows.T)
         np.add.at(prob[k], labels[k], p[k])
     return out, TL, prob
+
+
+def _padded(index: list[np.ndarray], G: int) -> list[np.ndarray]:
+    """Mode indices per phase, each padded to ``G`` by repeating its first
+    (a copy no mode moves into, probability 0)."""
+    return [np.concatenate([ix, np.full(G - ix.size, ix[0])])
+            for ix in index]
+
+
+def _picked(mats: Sequence[np.ndarray], index: list[np.ndarray]
+            ) -> list[np.ndarray]:
+    """Every ``X`` of ``mats`` with the modes ``index[k]`` at phase ``k``."""
+    return [np.stack([X[k, ix] for k, ix in enumerate(index)]) for X in mats]
 
 
 def entered_modes(T: np.ndarray, always: np.ndarray | None = None
@@ -371,11 +382,8 @@ def keep_modes(mats: Sequence[np.ndarray], T: np.ndarray, p: np.ndarray,
     :func:`lump_markov` pads."""
     N = T.shape[0]
     G = int(keep.sum(axis=1).max())
-    index = []
-    for k in range(N):
-        kept = np.flatnonzero(keep[k])
-        index.append(np.concatenate([kept, np.full(G - kept.size, kept[0])]))
-    out = [np.stack([X[k, index[k]] for k in range(N)]) for X in mats]
+    index = _padded([np.flatnonzero(keep[k]) for k in range(N)], G)
+    out = _picked(mats, index)
     TK = np.zeros((N, G, G))
     prob = np.zeros((N, G))
     for k in range(N):

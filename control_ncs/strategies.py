@@ -852,7 +852,7 @@ def require_state_measured(P: NetworkedStateSpace, controller: str,
     >>> P = ncs.nss([[2.0, 1.0], [0.0, 0.5]], [[0.0, 1.0], [1.0, 0.0]],
     ...         [[1.0, 0.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 0.0]],
     ...         nmeas=1, ncon=1)
-    >>> ncs.strategies.require_state_measured(P, "estimator")       # any C2 will do
+    >>> ncs.strategies.require_state_measured(P, "estimator")  # any C2
     """
     kinds = ("predictor",) if allow_static else ("static", "predictor")
     if controller in kinds and not _measures_state(P):

@@ -172,7 +172,7 @@ def dissipation_blocks(probabilities: np.ndarray, A: np.ndarray,
 
     >>> from control_ncs.verify import dissipation_blocks
     >>> A, B, C, D = (np.array([[[x]]]) for x in (0.5, 1.0, 1.0, 1.0))
-    >>> ncs.verify.dissipation_blocks([1.0], A, B, C, D, np.eye(1), np.eye(1), 0.0).tolist()
+    >>> dissipation_blocks([1.0], A, B, C, D, np.eye(1), np.eye(1), 0.0).tolist()
     [[-0.75, -0.5], [-0.5, -1.0]]
     """
     return supply_blocks(probabilities, A, B, C, D, P, P_next,
@@ -243,7 +243,7 @@ def ifp_supremum(theta0: np.ndarray, n: int) -> float:
     ``-1 - 0.25/(-0.75) = -2/3``, so ``η < 1/3``:
 
     >>> from control_ncs.verify import ifp_supremum
-    >>> round(ncs.verify.ifp_supremum(np.array([[-0.75, -0.5], [-0.5, -1.0]]), 1), 12)
+    >>> round(ifp_supremum(np.array([[-0.75, -0.5], [-0.5, -1.0]]), 1), 12)
     0.333333333333
     """
     M11, M12, M22 = theta0[:n, :n], theta0[:n, n:], theta0[n:, n:]
@@ -285,7 +285,7 @@ def feedthrough_bound(probabilities: np.ndarray, D: np.ndarray, *,
     A feedthrough ``D = 1`` lost with probability 0.1 (``D̄ = 0.9``):
 
     >>> from control_ncs.verify import feedthrough_bound
-    >>> ncs.verify.feedthrough_bound([0.9, 0.1], np.array([[[1.0]], [[0.0]]]))
+    >>> feedthrough_bound([0.9, 0.1], np.array([[[1.0]], [[0.0]]]))
     (0.9, 0)
     """
     p = np.asarray(probabilities, float).reshape(-1, D.shape[-3])
@@ -385,11 +385,11 @@ def supply_rows(modes: Modes) -> np.ndarray:
     >>> from control_ncs.verify import supply_rows
     >>> chain = ncs.jss([[[0.5]], [[2.0]]], [[1.0]], [[1.0]], [[1.0]],
     ...                    transition=[[0.9, 0.1], [0.25, 0.75]])
-    >>> ncs.verify.supply_rows(chain.modes).tolist()
+    >>> supply_rows(chain.modes).tolist()
     [[[0.9, 0.1], [0.25, 0.75]]]
     >>> p = chain.modes.probabilities
     >>> iid = ncs.jss(chain.modes.A, [[1.0]], [[1.0]], [[1.0]], p[0])
-    >>> ncs.verify.supply_rows(iid.modes).round(6).tolist()
+    >>> supply_rows(iid.modes).round(6).tolist()
     [[[0.714286, 0.285714]]]
     """
     if modes.is_iid:
@@ -420,7 +420,7 @@ def supply_feedthrough_bound(sys: JumpStateSpace, ofp_index: float = 0.0
     >>> from control_ncs.verify import supply_feedthrough_bound
     >>> G = ncs.jss([[[0.5]], [[0.5]]], [[1.0]], [[1.0]],
     ...                [[[1.0]], [[0.0]]], transition=[[0.9, 0.1], [0.5, 0.5]])
-    >>> ncs.verify.supply_feedthrough_bound(G)           # row ℓ = 1: D̄ = 0.5
+    >>> supply_feedthrough_bound(G)           # row ℓ = 1: D̄ = 0.5
     0.5
     """
     rows = supply_rows(sys.modes)

@@ -8,7 +8,7 @@ from scipy.sparse.linalg import eigs
 
 import control as ct
 from control_ncs import CertificationError, is_mss, jss, ms_radius
-from control_ncs.stability import second_moment_operator
+from control_ncs.stability import dense_monodromy, second_moment_operator
 
 from benchmarks.bench_stability import lightly_damped_loop
 from helpers import random_jump
@@ -114,6 +114,25 @@ def test_bracket_contains_the_dense_radius_and_is_narrow(seed, n, N, M,
     assert lo - err <= dense <= hi + err
     assert res.width <= 1e-10
     assert res.lower <= res.radius <= res.upper
+
+
+@SLOW
+@given(seed=seeds, n=st.integers(1, 4), N=st.integers(1, 3),
+       M=st.integers(1, 3), markov=st.booleans())
+def test_the_dense_monodromy_is_the_product_of_kronecker_matrices(
+        seed, n, N, M, markov):
+    """The package's dense monodromy (the period applied to every unit
+    matrix by batched products) equals the product of the phases'
+    Kronecker matrices written in this file."""
+    rng = np.random.default_rng(seed)
+    sys = random_jump(rng, n=n, N=N, M=M, radius=1.1)
+    if markov and M > 1:
+        T = rng.dirichlet(np.ones(M), size=(N, M))
+        sys = jss(sys.modes.A, sys.modes.B, sys.modes.C, sys.modes.D,
+                  transition=T)
+    ref = kronecker_monodromy(sys)
+    np.testing.assert_allclose(dense_monodromy(sys), ref,
+                               atol=1e-12 * max(1.0, np.abs(ref).max()))
 
 
 @pytest.mark.parametrize("offset, verdict", [(-1e-10, True), (1e-10, False)])

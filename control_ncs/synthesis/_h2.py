@@ -39,7 +39,8 @@ from scipy.sparse.linalg import LinearOperator, gmres
 
 from ..exceptions import NOT_FOUND, TIME_LIMIT, SynthesisError
 from ._local import Loop, bfgs
-from ..stability import DENSE_MAX_STATES, phase_adjoint, phase_map
+from ..stability import (DENSE_MAX_STATES, monodromy_matrix,
+                         phase_adjoint, phase_map)
 from ..stationary import phase_forcing
 
 __all__: list[str] = []
@@ -124,29 +125,6 @@ class H2Objective(StructuredLoop):
         kernel = phase_adjoint if adjoint else phase_map
         return kernel(Acl[k], self._law(k), X, self.markov)
 
-    def _monodromy(self, Acl: np.ndarray) -> np.ndarray:
-        """The period's map ``𝒯_{N-1} ⋯ 𝒯_0`` as a dense matrix on the
-        row-major ``vec`` (the stack of the ``M`` moments for Markov
-        modes): the period applied to every unit matrix at once, batched
-        products of ``n × n`` matrices (``2 M N n⁵`` flops against ``N
-        n⁶`` for the product of the phases' Kronecker matrices)."""
-        loop = self.loop
-        shape = loop._shape()
-        size = int(np.prod(shape))
-        X = np.eye(size).reshape((size,) + shape)
-        for k in range(loop.N):
-            A = Acl[k]
-            if loop.T is not None:
-                Y = A @ X @ A.transpose(0, 2, 1)          # (size, M, n, n)
-                X = np.einsum("ij,sinm->sjnm", loop.T[k], Y)
-            else:
-                w = self.pi[k]
-                out = np.zeros_like(X)
-                for i in np.flatnonzero(w > 0):
-                    out += w[i] * (A[i] @ X @ A[i].T)
-                X = out
-        return X.reshape(size, size).T
-
     def _periodic(self, Acl: np.ndarray, forcing: list,
                   G: list) -> tuple[np.ndarray, np.ndarray]:
         """The periodic fixed points ``Q_{k+1} = 𝒯_k(Q_k) + forcing_k``
@@ -166,7 +144,8 @@ class H2Objective(StructuredLoop):
                 acc = self.step(Acl, k, acc, adjoint) + rhs[k]
             answers.append((adjoint, order, acc.ravel()))
         if size <= DENSE_MAX_STATES ** 2:
-            Mono = self._monodromy(Acl)
+            Mono = monodromy_matrix(Acl, np.stack(
+                [self._law(k) for k in range(loop.N)]), self.markov)
             lu = scipy.linalg.lu_factor(np.eye(size) - Mono,
                                         check_finite=True)
             if np.any(np.diag(lu[0]) == 0):

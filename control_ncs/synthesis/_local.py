@@ -32,9 +32,10 @@ from scipy.sparse.linalg import (ArpackError, ArpackNoConvergence,
                                  LinearOperator, eigs)
 
 from ..exceptions import TIME_LIMIT, CertificationError
+from ..modes import entered_modes
 from ..openloop import JumpPlant
 from ..stability import ms_radius as exact_ms_radius
-from ..stability import phase_adjoint, phase_map, phase_matrix
+from ..stability import monodromy_matrix, phase_adjoint, phase_map
 
 __all__: list[str] = []
 
@@ -150,10 +151,8 @@ class Loop:
         shape = self._shape()
         size = int(np.prod(shape))
         if size <= DENSE_MAX_SIZE:
-            Mono = np.eye(size)
-            for k in range(self.N):
-                Mono = phase_matrix(Acl[k], self._law(k),
-                                    self.T is not None) @ Mono
+            Mono = monodromy_matrix(Acl, np.stack(
+                [self._law(k) for k in range(self.N)]), self.T is not None)
             w, vl, vr = scipy.linalg.eig(Mono, left=True, right=True)
             # the Perron root ρ is an eigenvalue and no other has a larger
             # real part; others of modulus ρ (a cyclic period structure)
@@ -546,7 +545,7 @@ def autonomous_rate(plant: JumpPlant, bound: float | None = None
         # after one step (a zero diagonal block of the operator), so the
         # rate is that of the others; dropped, as ARPACK and GMRES crawl on
         # the nilpotent part (minutes for a buffer of 5)
-        keep = np.flatnonzero(np.any(T > 0, axis=(0, 1)))
+        keep = np.flatnonzero(entered_modes(T).any(axis=0))
         A, T = A[:, keep], T[:, keep][:, :, keep]
     N, M = A.shape[:2]
     if bound is not None:

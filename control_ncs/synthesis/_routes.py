@@ -20,6 +20,7 @@ from control.exception import ControlDimension
 
 from .._checks import (positive_int, positive_real)
 from ..jump import JumpStateSpace
+from ..modes import entered_modes
 from ..stability import ms_radius
 from ..openloop import JumpPlant
 from ..driver import RETRIES, drive
@@ -381,11 +382,8 @@ def _open_loop_bound(plant: JumpPlant, decay: float,
     # at any phase) adds nothing to the second moments after the first
     # step: the operator is block triangular with a zero block there, and
     # the rate is the same without it
-    if plant.transition is None:
-        drawn = plant.probabilities > 0
-    else:
-        drawn = np.broadcast_to(np.any(plant.transition > 0, axis=(0, 1)),
-                                acts.shape)
+    drawn = plant.probabilities > 0 if plant.transition is None else \
+        entered_modes(plant.transition)
     A = np.where((acts | ~drawn)[:, :, None, None], 0.0, plant.A)
     if not np.any(A):
         # a gain acts in every mode drawn: the part is zero, its rate 0

@@ -391,8 +391,9 @@ PROJECTED_MAX = 4096
 #: Markov modes: the derivative-free stage 2 climbs from a gain only when
 #: its simplex (one certificate per free entry) fits this share of its
 #: evaluations and the loop's moments have at most PROJECTED_MAX unknowns
-#: (a certificate of a larger loop takes seconds: 8 s for the 58 states
-#: and 7 modes of a buffer of 5); otherwise the stable starts and ends of
+#: (a certificate of a larger loop takes seconds to minutes: about 20 s
+#: for the predictor's 96 states and 11 modes over a buffer of 5,
+#: docs/benchmarks.md); otherwise the stable starts and ends of
 #: stage 1 are certified as they are and the best one wins.
 SIMPLEX_SHARE = 0.25
 
